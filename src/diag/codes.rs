@@ -1,0 +1,99 @@
+//! The registry of diagnostic codes. A code, once released, keeps its meaning forever; add new
+//! codes rather than repurposing old ones. `docs/diagnostics.md` is checked against this list
+//! by a test, so every code is documented.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+use super::Severity;
+
+macro_rules! codes {
+    ($( $(#[$doc:meta])* $name:ident = $sev:ident, $summary:literal; )*) => {
+        /// A stable diagnostic code.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[allow(non_camel_case_types)]
+        pub enum Code { $( $(#[$doc])* $name, )* }
+
+        impl Code {
+            /// Every code, in registry order.
+            pub const ALL: &'static [Code] = &[ $( Code::$name, )* ];
+
+            pub fn as_str(self) -> &'static str {
+                match self { $( Code::$name => stringify!($name), )* }
+            }
+            pub fn default_severity(self) -> Severity {
+                match self { $( Code::$name => Severity::$sev, )* }
+            }
+            /// One line saying what the code means, for `--list-codes` and the docs.
+            pub fn summary(self) -> &'static str {
+                match self { $( Code::$name => $summary, )* }
+            }
+            pub fn parse(s: &str) -> Option<Code> {
+                match s { $( stringify!($name) => Some(Code::$name), )* _ => None }
+            }
+        }
+    };
+}
+
+codes! {
+    // --- input: the file could not be read as a level (exit 2) ---
+    IO_READ_FAILED = Error, "the input file could not be read";
+    INPUT_FORMAT_UNKNOWN = Error, "the file extension names no supported format";
+    INPUT_EMPTY = Error, "the input file is empty";
+    USD_UNSUPPORTED_BUILD = Error, "USD input needs a build with the `usd` feature";
+    GLB_INVALID = Error, "the GLB container is malformed or truncated";
+    GLTF_INVALID_JSON = Error, "the glTF JSON does not parse or does not follow the glTF schema";
+    GLTF_UNSUPPORTED_VERSION = Error, "the asset version is not glTF 2.x";
+    GLTF_REQUIRED_EXTENSION_UNSUPPORTED = Error, "the file requires an extension portcullis cannot read";
+    GLTF_BUFFER_MISSING = Error, "a buffer's data could not be loaded (missing file, bad data: URI)";
+    GLTF_BUFFER_TOO_SHORT = Error, "a buffer holds fewer bytes than its byteLength";
+    GLTF_BAD_INDEX = Error, "an index refers to an object that does not exist";
+    GLTF_ACCESSOR_OUT_OF_BOUNDS = Error, "an accessor reads past the end of its buffer view or buffer";
+    GLTF_ACCESSOR_INVALID = Error, "an accessor has a type or component type that cannot be used here";
+    GLTF_NODE_CYCLE = Error, "the node hierarchy contains a cycle or a node with two parents";
+    MESH_INDEX_OUT_OF_RANGE = Error, "a triangle index is not below the vertex count";
+    OBJ_NOT_TEXT = Error, "the .obj file is not a text file";
+    OBJ_BAD_STATEMENT = Error, "an OBJ statement cannot be parsed";
+    OBJ_BAD_INDEX = Error, "an OBJ face refers to a vertex that does not exist";
+    CONFIG_INVALID = Error, "the configuration file does not parse or does not follow its schema";
+    CONFIG_NOT_FOUND = Error, "the configuration file given with --config does not exist";
+    TAGS_PRESET_UNKNOWN = Error, "the tag preset named does not exist";
+    TAGS_RULE_INVALID = Error, "a tag rule has an invalid pattern";
+
+    // --- input: read, but with problems in the level (exit 1 for errors) ---
+    GEOM_NON_FINITE = Error, "a position is NaN or infinite; its triangles were dropped";
+    GEOM_DEGENERATE_TRIANGLES = Info, "zero-area triangles were dropped";
+    GLTF_NON_TRIANGLES_SKIPPED = Info, "point or line primitives were skipped (they bound nothing)";
+    GLTF_NO_SCENE = Warning, "the file has no scene; every root node was used";
+    GLTF_TRANSFORM_INVALID = Error, "a node transform is not finite or not invertible";
+    OBJ_MTL_MISSING = Warning, "a material library named by mtllib was not found";
+    OBJ_POLYGON_SELF_INTERSECTING = Warning, "a polygon face is self-intersecting; it was fan-triangulated";
+    OBJ_UNSUPPORTED_STATEMENT = Info, "OBJ statements that carry no level geometry were skipped";
+    EMPTY_SCENE = Warning, "the scene holds no triangles";
+
+    // --- tags ---
+    TAG_NEAR_MISS = Warning, "a name looks like a tag but does not match any rule";
+    TAG_UNKNOWN_TARGET = Error, "a portal names a target room that does not exist";
+    TAG_AMBIGUOUS_TARGET = Error, "a portal target matches more than one room";
+    TAG_DUPLICATE_ROOM = Error, "two rooms have the same name";
+    TAG_PORTAL_NO_SOURCE = Warning, "an authored portal is in no room and names no source room";
+    TAG_PORTAL_NO_MESH = Error, "a node tagged as a portal has no mesh to give its polygon";
+    TAG_BOUND_NO_ROOM = Error, "a bound volume is not inside a room and names none";
+    TAG_BOUND_NO_MESH = Error, "a node tagged as a bound volume has no mesh";
+    TAG_EXTRAS_INVALID = Warning, "a tag key in extras has a value of the wrong type";
+    TAG_TELEPORT_EXIT_UNKNOWN = Error, "a teleporter portal names an exit node that does not exist";
+    TAG_NO_ROOMS = Info, "no room was recognised; the whole level is one space";
+}
+
+impl fmt::Display for Code {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+impl Serialize for Code {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.as_str())
+    }
+}

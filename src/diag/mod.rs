@@ -1,0 +1,195 @@
+//! Diagnostics: what went wrong, where in the level, and how to fix it.
+//!
+//! Every stage reports through [`Diagnostic`] values rather than errors or log lines, so the
+//! same finding can be rendered for a person, a CI system (JSON) or a later SARIF/JUnit report.
+//! Codes are stable identifiers listed once in [`codes`]; their default severity lives there
+//! too, so a user override (`--severity CODE=LEVEL`) has a single place to act on.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use crate::scene::SourceRef;
+
+pub mod codes;
+
+pub use codes::Code;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    Info,
+    Warning,
+    Error,
+}
+
+impl fmt::Display for Severity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Severity::Info => "info",
+            Severity::Warning => "warning",
+            Severity::Error => "error",
+        })
+    }
+}
+
+/// A place in a level: the file, and as much of node path / JSON pointer / line / 3D point as
+/// is known.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Location {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node: Option<String>,
+    #[serde(flatten)]
+    pub source: SourceRef,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position: Option<[f64; 3]>,
+}
+
+impl Location {
+    pub fn file(file: impl Into<PathBuf>) -> Self {
+        Location {
+            file: Some(file.into()),
+            ..Default::default()
+        }
+    }
+    pub fn with_source(mut self, source: SourceRef) -> Self {
+        self.source = source;
+        self
+    }
+    pub fn with_pointer(mut self, pointer: impl Into<String>) -> Self {
+        self.source.pointer = Some(pointer.into());
+        self
+    }
+    pub fn with_line(mut self, line: usize) -> Self {
+        self.source.line = Some(line);
+        self
+    }
+    pub fn with_node(mut self, node: impl Into<String>) -> Self {
+        self.node = Some(node.into());
+        self
+    }
+    pub fn with_position(mut self, p: [f64; 3]) -> Self {
+        self.position = Some(p);
+        self
+    }
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut wrote = false;
+        if let Some(file) = &self.file {
+            write!(f, "{}", file.display())?;
+            wrote = true;
+        }
+        if let Some(line) = self.source.line {
+            write!(f, ":{line}")?;
+            wrote = true;
+        }
+        if let Some(p) = &self.source.pointer {
+            write!(f, "#{p}")?;
+            wrote = true;
+        }
+        if let Some(p) = &self.source.prim {
+            write!(f, "@{p}")?;
+            wrote = true;
+        }
+        if let Some(n) = &self.node {
+            write!(f, "{}node `{n}`", if wrote { " " } else { "" })?;
+            wrote = true;
+        }
+        if let Some([x, y, z]) = self.position {
+            write!(f, "{}at ({x:.4}, {y:.4}, {z:.4})", if wrote { " " } else { "" })?;
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Diagnostic {
+    pub code: Code,
+    pub severity: Severity,
+    pub message: String,
+    pub location: Location,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hint: Option<String>,
+}
+
+impl Diagnostic {
+    /// A diagnostic with the code's default severity.
+    pub fn new(code: Code, message: impl Into<String>, location: Location) -> Self {
+        Diagnostic {
+            code,
+            severity: code.default_severity(),
+            message: message.into(),
+            location,
+            hint: None,
+        }
+    }
+    pub fn hint(mut self, hint: impl Into<String>) -> Self {
+        self.hint = Some(hint.into());
+        self
+    }
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}[{}]: {}", self.severity, self.code, self.message)?;
+        let loc = self.location.to_string();
+        if !loc.is_empty() {
+            write!(f, " ({loc})")?;
+        }
+        if let Some(h) = &self.hint {
+            write!(f, "; hint: {h}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Diagnostic {}
+
+/// Diagnostics gathered by a stage, in the order found.
+#[derive(Debug, Clone, Default, Serialize)]
+#[serde(transparent)]
+pub struct Diagnostics(pub Vec<Diagnostic>);
+
+impl Diagnostics {
+    pub fn push(&mut self, d: Diagnostic) {
+        self.0.push(d);
+    }
+    pub fn extend(&mut self, other: impl IntoIterator<Item = Diagnostic>) {
+        self.0.extend(other);
+    }
+    pub fn iter(&self) -> std::slice::Iter<'_, Diagnostic> {
+        self.0.iter()
+    }
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+    pub fn count(&self, severity: Severity) -> usize {
+        self.0.iter().filter(|d| d.severity == severity).count()
+    }
+    pub fn has_errors(&self) -> bool {
+        self.0.iter().any(Diagnostic::is_error)
+    }
+    /// Whether any diagnostic carries `code`.
+    pub fn has(&self, code: Code) -> bool {
+        self.0.iter().any(|d| d.code == code)
+    }
+}
+
+impl IntoIterator for Diagnostics {
+    type Item = Diagnostic;
+    type IntoIter = std::vec::IntoIter<Diagnostic>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.into_iter()
+    }
+}

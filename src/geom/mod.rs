@@ -1,0 +1,4 @@
+//! f64 geometry primitives. Orientation decisions use exact predicates (`robust`).
+
+pub mod aabb;
+pub mod triangulate;

@@ -1,0 +1,1 @@
+//! Triangulation of simple planar polygons (OBJ n-gons, USD faces).

@@ -1,0 +1,132 @@
+//! Importers: turn a file into a [`Scene`]. One module per format; each returns either a scene
+//! plus the non-fatal diagnostics found while reading, or one fatal diagnostic that says why the
+//! file cannot be read at all (the CLI maps that to exit code 2).
+//!
+//! Importers never panic on hostile input: sizes claimed by a file are checked against the bytes
+//! actually present before anything is allocated.
+
+use std::path::{Path, PathBuf};
+
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::scene::{Format, Scene};
+
+pub mod gltf;
+pub mod obj;
+pub mod usd;
+
+/// Options shared by the importers.
+#[derive(Debug, Clone)]
+pub struct ImportOptions {
+    /// OBJ: treat `/` in object and group names as a hierarchy (`Level/room_a/Floor` becomes
+    /// nodes `Level` > `room_a` > `Floor`), as exporters that flatten a scene tree write them.
+    pub obj_split_paths: bool,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions {
+            obj_split_paths: true,
+        }
+    }
+}
+
+/// A successfully read scene and what was noticed while reading it.
+#[derive(Debug, Clone)]
+pub struct Imported {
+    pub scene: Scene,
+    pub diagnostics: Diagnostics,
+}
+
+/// The format implied by a path's extension.
+pub fn format_from_path(path: &Path) -> Option<Format> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "gltf" => Some(Format::Gltf),
+        "glb" => Some(Format::Glb),
+        "obj" => Some(Format::Obj),
+        "usd" | "usda" | "usdc" | "usdz" => Some(Format::Usd),
+        _ => None,
+    }
+}
+
+/// The format implied by the first bytes, for inputs without a telling extension (stdin).
+pub fn sniff_format(bytes: &[u8]) -> Option<Format> {
+    if bytes.starts_with(b"glTF") {
+        return Some(Format::Glb);
+    }
+    if bytes.starts_with(b"#usda") || bytes.starts_with(b"PXR-USDC") {
+        return Some(Format::Usd);
+    }
+    let head = &bytes[..bytes.len().min(64)];
+    let first = head.iter().find(|b| !b.is_ascii_whitespace());
+    if first == Some(&b'{') {
+        return Some(Format::Gltf);
+    }
+    None
+}
+
+/// Reads a level file from disk.
+pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic> {
+    let format = format_from_path(path).ok_or_else(|| {
+        Diagnostic::new(
+            Code::INPUT_FORMAT_UNKNOWN,
+            format!(
+                "cannot tell the format of `{}` from its extension",
+                path.display()
+            ),
+            Location::file(path),
+        )
+        .hint("use a .gltf, .glb, .obj, .usd, .usda, .usdc or .usdz file")
+    })?;
+    if format == Format::Usd {
+        return usd::import(path, opts);
+    }
+    let bytes = std::fs::read(path).map_err(|e| {
+        Diagnostic::new(
+            Code::IO_READ_FAILED,
+            format!("cannot read `{}`: {e}", path.display()),
+            Location::file(path),
+        )
+        .hint("check the path and the file's permissions")
+    })?;
+    let base_dir = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    import_bytes(&bytes, path, format, &base_dir, opts)
+}
+
+/// Reads a level from bytes already in memory; `path` is used for messages and `base_dir` to
+/// resolve external files (glTF buffers, OBJ material libraries).
+pub fn import_bytes(
+    bytes: &[u8],
+    path: &Path,
+    format: Format,
+    base_dir: &Path,
+    opts: &ImportOptions,
+) -> Result<Imported, Diagnostic> {
+    if bytes.is_empty() {
+        return Err(Diagnostic::new(
+            Code::INPUT_EMPTY,
+            format!("`{}` is empty (0 bytes)", path.display()),
+            Location::file(path),
+        )
+        .hint("the export may have failed; export the level again"));
+    }
+    let mut imported = match format {
+        Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir)?,
+        Format::Obj => obj::import(bytes, path, base_dir, opts)?,
+        Format::Usd => usd::import(path, opts)?,
+    };
+    if imported.scene.triangle_count() == 0 {
+        imported.diagnostics.push(
+            Diagnostic::new(
+                Code::EMPTY_SCENE,
+                "the scene holds no triangles",
+                Location::file(path),
+            )
+            .hint("check that the export included the level's meshes"),
+        );
+    }
+    Ok(imported)
+}

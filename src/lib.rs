@@ -1,0 +1,10 @@
+//! portcullis: cells and portals for game levels.
+//!
+//! The pipeline runs one way, each stage a module with one input and one output type plus
+//! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
+//! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
+
+pub mod diag;
+pub mod geom;
+pub mod import;
+pub mod scene;

@@ -1,0 +1,245 @@
+//! The neutral in-memory model every importer fills.
+//!
+//! Importers differ wildly (glTF node trees with instancing, flat OBJ object lists, USD prims);
+//! every later stage sees only this model, so it must be able to say where each item came from
+//! (for diagnostics) and must keep the original glTF so the exporter can write it back faithfully.
+//!
+//! Invariants kept by every importer:
+//! - all coordinates are f64, Y-up, in metres; `Node::world` maps mesh-local positions to world;
+//! - a mesh used by several nodes is stored once and referenced by each (instancing);
+//! - `Node::parent`/`Node::children` form a forest whose roots are `Scene::roots`, parents
+//!   before children in `Scene::nodes` order is *not* promised, use `roots` + `children`;
+//! - every triangle index is in range of its mesh's `positions`, and every position is finite
+//!   (non-finite input is reported and the offending triangles are dropped).
+
+use std::path::PathBuf;
+
+use glam::{DMat4, DVec3};
+use serde::Serialize;
+
+pub mod summary;
+
+/// Index into [`Scene::nodes`].
+pub type NodeId = usize;
+/// Index into [`Scene::meshes`].
+pub type MeshId = usize;
+/// Index into [`Scene::materials`].
+pub type MaterialId = usize;
+
+/// The file format a scene was read from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    Gltf,
+    Glb,
+    Obj,
+    Usd,
+}
+
+impl Format {
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Gltf => "gltf",
+            Format::Glb => "glb",
+            Format::Obj => "obj",
+            Format::Usd => "usd",
+        }
+    }
+}
+
+/// Where an item came from in its source file, so a diagnostic can point a designer at it.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct SourceRef {
+    /// JSON pointer into a glTF document (`/nodes/3`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pointer: Option<String>,
+    /// 1-based line in a text file (OBJ).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub line: Option<usize>,
+    /// USD prim path.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prim: Option<String>,
+}
+
+impl SourceRef {
+    pub fn pointer(p: impl Into<String>) -> Self {
+        SourceRef {
+            pointer: Some(p.into()),
+            ..Default::default()
+        }
+    }
+    pub fn line(l: usize) -> Self {
+        SourceRef {
+            line: Some(l),
+            ..Default::default()
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Node {
+    pub name: Option<String>,
+    pub parent: Option<NodeId>,
+    pub children: Vec<NodeId>,
+    /// Local-to-world transform (column vectors, glTF convention).
+    pub world: DMat4,
+    pub mesh: Option<MeshId>,
+    /// The item's extras (glTF `extras`, USD custom data/attributes) as parsed JSON.
+    pub extras: Option<serde_json::Value>,
+    pub source: SourceRef,
+}
+
+/// A run of triangles sharing one material (a glTF primitive, an OBJ `usemtl` span).
+#[derive(Debug, Clone)]
+pub struct Primitive {
+    pub material: Option<MaterialId>,
+    /// Range into [`Mesh::triangles`].
+    pub first_triangle: usize,
+    pub triangle_count: usize,
+    pub source: SourceRef,
+}
+
+#[derive(Debug, Clone)]
+pub struct Mesh {
+    pub name: Option<String>,
+    /// Mesh-local positions.
+    pub positions: Vec<DVec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub primitives: Vec<Primitive>,
+    pub extras: Option<serde_json::Value>,
+    pub source: SourceRef,
+}
+
+#[derive(Debug, Clone)]
+pub struct Material {
+    pub name: Option<String>,
+    pub extras: Option<serde_json::Value>,
+    pub source: SourceRef,
+}
+
+/// The original glTF, kept so the exporter can add its extension and change nothing else.
+#[derive(Debug, Clone)]
+pub struct GltfSource {
+    /// The document exactly as parsed (key order preserved).
+    pub json: serde_json::Value,
+    /// Resolved data of every buffer, in document order (GLB BIN chunk, data: URI or file).
+    pub buffers: Vec<Vec<u8>>,
+    /// The directory external URIs are relative to.
+    pub base_dir: PathBuf,
+}
+
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The file the scene was read from (`-` for standard input).
+    pub path: PathBuf,
+    pub format: Format,
+    pub nodes: Vec<Node>,
+    pub roots: Vec<NodeId>,
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub gltf: Option<GltfSource>,
+}
+
+impl Scene {
+    pub fn new(path: PathBuf, format: Format) -> Self {
+        Scene {
+            path,
+            format,
+            nodes: Vec::new(),
+            roots: Vec::new(),
+            meshes: Vec::new(),
+            materials: Vec::new(),
+            gltf: None,
+        }
+    }
+
+    /// Adds a node under `parent` (or as a root) and returns its id.
+    pub fn add_node(&mut self, mut node: Node) -> NodeId {
+        let id = self.nodes.len();
+        node.parent = node.parent.filter(|&p| p < id);
+        match node.parent {
+            Some(p) => self.nodes[p].children.push(id),
+            None => self.roots.push(id),
+        }
+        self.nodes.push(node);
+        id
+    }
+
+    /// The node's name, or a stable placeholder for unnamed nodes.
+    pub fn node_label(&self, id: NodeId) -> String {
+        match &self.nodes[id].name {
+            Some(n) if !n.is_empty() => n.clone(),
+            _ => format!("#{id}"),
+        }
+    }
+
+    /// Slash-separated names from the root down to `id`, the path designers see in their
+    /// outliner; used in every diagnostic that points at a node.
+    pub fn node_path(&self, id: NodeId) -> String {
+        let mut parts = vec![self.node_label(id)];
+        let mut cur = self.nodes[id].parent;
+        let mut guard = 0;
+        while let Some(p) = cur {
+            parts.push(self.node_label(p));
+            cur = self.nodes[p].parent;
+            guard += 1;
+            if guard > self.nodes.len() {
+                break;
+            }
+        }
+        parts.reverse();
+        parts.join("/")
+    }
+
+    /// Nodes in depth-first pre-order from the roots (each node once).
+    pub fn walk(&self) -> Vec<NodeId> {
+        let mut out = Vec::with_capacity(self.nodes.len());
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack: Vec<NodeId> = self.roots.iter().rev().copied().collect();
+        while let Some(n) = stack.pop() {
+            if std::mem::replace(&mut seen[n], true) {
+                continue;
+            }
+            out.push(n);
+            stack.extend(self.nodes[n].children.iter().rev().copied());
+        }
+        out
+    }
+
+    /// Distinct material names used by a mesh, in primitive order.
+    pub fn mesh_material_names(&self, mesh: MeshId) -> Vec<Option<&str>> {
+        let mut out: Vec<Option<&str>> = Vec::new();
+        for p in &self.meshes[mesh].primitives {
+            let n = p
+                .material
+                .and_then(|m| self.materials.get(m))
+                .and_then(|m| m.name.as_deref());
+            if !out.contains(&n) {
+                out.push(n);
+            }
+        }
+        out
+    }
+
+    /// World-space positions of one node's mesh (empty if it has none).
+    pub fn world_positions(&self, node: NodeId) -> Vec<DVec3> {
+        let n = &self.nodes[node];
+        match n.mesh {
+            Some(m) => self.meshes[m]
+                .positions
+                .iter()
+                .map(|p| n.world.transform_point3(*p))
+                .collect(),
+            None => Vec::new(),
+        }
+    }
+
+    /// Triangles drawn by the scene, counting each instance of a mesh.
+    pub fn triangle_count(&self) -> usize {
+        self.walk()
+            .into_iter()
+            .filter_map(|n| self.nodes[n].mesh)
+            .map(|m| self.meshes[m].triangles.len())
+            .sum()
+    }
+}

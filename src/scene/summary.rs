@@ -1,0 +1,1 @@
+//! A scene summary for `inspect`.
