@@ -4,7 +4,10 @@
 //! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
 
+pub mod config;
 pub mod diag;
 pub mod geom;
 pub mod import;
 pub mod scene;
+pub mod schema;
+pub mod tags;

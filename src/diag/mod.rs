@@ -101,7 +101,11 @@ impl fmt::Display for Location {
             wrote = true;
         }
         if let Some([x, y, z]) = self.position {
-            write!(f, "{}at ({x:.4}, {y:.4}, {z:.4})", if wrote { " " } else { "" })?;
+            write!(
+                f,
+                "{}at ({x:.4}, {y:.4}, {z:.4})",
+                if wrote { " " } else { "" }
+            )?;
         }
         Ok(())
     }

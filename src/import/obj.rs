@@ -11,5 +11,9 @@ pub fn import(
     _base_dir: &Path,
     _opts: &ImportOptions,
 ) -> Result<Imported, Diagnostic> {
-    Err(Diagnostic::new(Code::OBJ_BAD_STATEMENT, "OBJ import is not written yet", Location::file(path)))
+    Err(Diagnostic::new(
+        Code::OBJ_BAD_STATEMENT,
+        "OBJ import is not written yet",
+        Location::file(path),
+    ))
 }

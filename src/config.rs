@@ -1,0 +1,183 @@
+//! `portcullis.toml`: the project configuration. Found next to the input or given with
+//! `--config`; TOML, converted to JSON and validated against schemas/config.schema.json before
+//! it is used, so a typo in a key is an error with its path rather than a silently ignored
+//! setting.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::diag::{Code, Diagnostic, Location};
+use crate::schema::{self, Schema};
+use crate::tags::presets;
+use crate::tags::rules::{RuleSet, RuleSetSpec, RuleSpec};
+
+pub const FILE_NAME: &str = "portcullis.toml";
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    #[serde(default)]
+    pub tags: TagsConfig,
+    /// Where the configuration was read from (None: built-in defaults).
+    #[serde(skip)]
+    pub path: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TagsConfig {
+    pub preset: Option<String>,
+    pub case_sensitive: Option<bool>,
+    pub wildcard: Option<char>,
+    #[serde(default)]
+    pub replace: bool,
+    #[serde(default, rename = "rule")]
+    pub rules: Vec<RuleSpec>,
+}
+
+/// The configuration next to `input`, if there is one.
+pub fn discover(input: &Path) -> Option<PathBuf> {
+    let dir = input
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let p = dir.join(FILE_NAME);
+    p.is_file().then_some(p)
+}
+
+/// Reads and validates a configuration file.
+pub fn load(path: &Path) -> Result<Config, Diagnostic> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        let code = if e.kind() == std::io::ErrorKind::NotFound {
+            Code::CONFIG_NOT_FOUND
+        } else {
+            Code::IO_READ_FAILED
+        };
+        Diagnostic::new(
+            code,
+            format!("cannot read configuration `{}`: {e}", path.display()),
+            Location::file(path),
+        )
+        .hint("check the --config path")
+    })?;
+    parse(&text, path)
+}
+
+/// Parses configuration text; `path` is for messages.
+pub fn parse(text: &str, path: &Path) -> Result<Config, Diagnostic> {
+    let invalid = |msg: String, hint: &str| {
+        Diagnostic::new(Code::CONFIG_INVALID, msg, Location::file(path)).hint(hint.to_string())
+    };
+    let value: serde_json::Value = toml::from_str(text).map_err(|e| {
+        invalid(
+            format!("`{}` is not valid TOML: {}", path.display(), e.message()),
+            "fix the TOML syntax at the position given",
+        )
+    })?;
+    let errors = schema::validate(Schema::Config, &value);
+    if !errors.is_empty() {
+        return Err(invalid(
+            format!("`{}` does not follow the configuration schema:\n  {}", path.display(), errors.join("\n  ")),
+            "see schemas/config.schema.json (`portcullis schema config.schema.json`) for the keys and values allowed",
+        ));
+    }
+    let mut cfg: Config = serde_json::from_value(value).map_err(|e| {
+        invalid(
+            format!("`{}`: {e}", path.display()),
+            "see schemas/config.schema.json",
+        )
+    })?;
+    cfg.path = Some(path.to_path_buf());
+    Ok(cfg)
+}
+
+/// The effective tag rules: `cli_preset` (from `--tags`) wins over the config's preset; the
+/// config's rules come before the preset's (or replace them with `replace = true`).
+pub fn rule_set(cfg: &Config, cli_preset: Option<&str>) -> Result<RuleSet, Diagnostic> {
+    let name = cli_preset
+        .or(cfg.tags.preset.as_deref())
+        .unwrap_or("default");
+    let at = || cfg.path.clone().map(Location::file).unwrap_or_default();
+    let mut spec: RuleSetSpec = presets::spec(name).ok_or_else(|| {
+        Diagnostic::new(
+            Code::TAGS_PRESET_UNKNOWN,
+            format!("there is no tag preset called `{name}`"),
+            at(),
+        )
+        .hint(format!(
+            "choose one of: {}",
+            presets::names().collect::<Vec<_>>().join(", ")
+        ))
+    })?;
+    if let Some(cs) = cfg.tags.case_sensitive {
+        spec.case_sensitive = cs;
+    }
+    if let Some(w) = cfg.tags.wildcard {
+        spec.wildcard = Some(w);
+    }
+    if !cfg.tags.rules.is_empty() {
+        if cfg.tags.replace {
+            spec.rules = cfg.tags.rules.clone();
+        } else {
+            let mut rules = cfg.tags.rules.clone();
+            rules.append(&mut spec.rules);
+            spec.rules = rules;
+        }
+        spec.name = format!(
+            "{name}+{}",
+            cfg.path
+                .as_deref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_else(|| "config".into())
+        );
+    }
+    RuleSet::compile(&spec).map_err(|e| {
+        Diagnostic::new(Code::TAGS_RULE_INVALID, e, at())
+            .hint("fix the rule's pattern (Rust regex syntax) in the configuration")
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_rules_come_first_and_cli_preset_wins() {
+        let cfg = parse(
+            "[tags]\npreset = \"lportal\"\n[[tags.rule]]\nid = \"studio.room\"\nkind = \"room\"\npattern = '^RM_(?P<name>.+)$'\n",
+            Path::new("portcullis.toml"),
+        )
+        .unwrap();
+        let rs = rule_set(&cfg, None).unwrap();
+        assert_eq!(rs.rules[0].spec.id, "studio.room");
+        assert!(rs.rules.iter().any(|r| r.spec.id == "lportal.room"));
+        let rs = rule_set(&cfg, Some("godot")).unwrap();
+        assert!(rs.rules.iter().any(|r| r.spec.id == "godot.room"));
+        assert!(!rs.rules.iter().any(|r| r.spec.id == "lportal.room"));
+    }
+
+    #[test]
+    fn typos_and_bad_values_are_errors_with_paths() {
+        let e = parse("[tags]\npresett = \"godot\"\n", Path::new("p.toml")).unwrap_err();
+        assert_eq!(e.code, Code::CONFIG_INVALID);
+        assert!(e.message.contains("presett"), "{}", e.message);
+        let e = parse("[tags\n", Path::new("p.toml")).unwrap_err();
+        assert_eq!(e.code, Code::CONFIG_INVALID);
+        let cfg = parse(
+            "[[tags.rule]]\nid = \"x\"\nkind = \"room\"\npattern = '(('\n",
+            Path::new("p.toml"),
+        )
+        .unwrap();
+        assert_eq!(
+            rule_set(&cfg, None).unwrap_err().code,
+            Code::TAGS_RULE_INVALID
+        );
+        assert_eq!(
+            rule_set(&Config::default(), Some("unreal"))
+                .unwrap_err()
+                .code,
+            Code::TAGS_PRESET_UNKNOWN
+        );
+    }
+}

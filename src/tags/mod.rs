@@ -1,0 +1,761 @@
+//! Tags: turn the designer's names, materials and extras into rooms, authored portals, bound
+//! volumes, footprints and ignored/detail geometry.
+//!
+//! Precedence for one node is extras, then node name, then material name: the first source
+//! with a matching rule decides the node's kind; lower sources of the same kind may still fill
+//! in details the first left open (the Panda3D portals say "portal" in extras and carry their
+//! source and target cells in the name).
+//!
+//! Invariants of [`Tagging`]:
+//! - room names are unique (a duplicate is reported and merged into the first);
+//! - every mesh node is in exactly one of: a room's `structure`, a room's `detail`,
+//!   `portals`, `bounds`, `footprints`, `ignored`, `unassigned`;
+//! - a portal's `target_room`/`source_room` is set only when its name resolved to a room.
+
+use serde::Serialize;
+
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::scene::{NodeId, Scene};
+
+pub mod extras;
+pub mod near_miss;
+pub mod presets;
+pub mod rules;
+
+use extras::ExtrasValue;
+use rules::{MatchOn, PortalKind, RuleMatch, RuleSet, TagKind, VolumeHint};
+
+/// Index into [`Tagging::rooms`].
+pub type RoomId = usize;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct NodeRef {
+    pub node: NodeId,
+    pub path: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Room {
+    pub name: String,
+    /// The node that declared the room.
+    pub node: NodeId,
+    pub path: String,
+    /// The rule that recognised it.
+    pub rule: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub group: Option<usize>,
+    /// Where the room's volume comes from, as far as tags can tell.
+    pub volume: VolumeHint,
+    /// Higher wins where rooms nest (extras `priority`).
+    pub priority: i64,
+    /// Mesh nodes that bound the room and block sight.
+    pub structure: Vec<NodeId>,
+    /// Mesh nodes rendered by the room that bound nothing (props).
+    pub detail: Vec<NodeId>,
+    /// Bound-volume nodes of this room.
+    pub bounds: Vec<NodeId>,
+    /// Footprint nodes of this room.
+    pub footprints: Vec<NodeId>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RoomGroup {
+    pub name: String,
+    pub node: NodeId,
+    pub rooms: Vec<RoomId>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct AuthoredPortal {
+    pub node: NodeId,
+    pub path: String,
+    pub rule: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source_name: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source_room: Option<RoomId>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_name: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_room: Option<RoomId>,
+    pub kind: PortalKind,
+    pub one_way: bool,
+    pub closed: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub teleport_exit: Option<NodeId>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct VolumeNode {
+    pub node: NodeId,
+    pub path: String,
+    pub rule: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub room: Option<RoomId>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct NearMiss {
+    pub node: NodeId,
+    pub path: String,
+    pub name: String,
+    pub kind: TagKind,
+    pub rule: String,
+    pub suggestion: String,
+    pub slip: String,
+}
+
+/// Everything the tags said about a scene.
+#[derive(Debug, Clone, Serialize)]
+pub struct Tagging {
+    pub preset: String,
+    pub rooms: Vec<Room>,
+    pub room_groups: Vec<RoomGroup>,
+    pub portals: Vec<AuthoredPortal>,
+    pub bounds: Vec<VolumeNode>,
+    pub footprints: Vec<VolumeNode>,
+    pub ignored: Vec<NodeRef>,
+    pub detail: Vec<NodeRef>,
+    pub player_starts: Vec<NodeRef>,
+    /// Structural mesh nodes in no room (the cells stage places or reports them).
+    pub unassigned: Vec<NodeRef>,
+    pub near_misses: Vec<NearMiss>,
+    #[serde(skip)]
+    pub diagnostics: Diagnostics,
+}
+
+impl Tagging {
+    pub fn room_by_name(&self, rules: &RuleSet, name: &str) -> Option<RoomId> {
+        self.rooms
+            .iter()
+            .position(|r| rules.same_name(&r.name, name))
+    }
+}
+
+/// How one node was classified.
+#[derive(Debug, Clone)]
+struct Class {
+    kind: TagKind,
+    rule: usize,
+    m: RuleMatch,
+    /// Details from lower-precedence rules of the same kind.
+    extra: Vec<RuleMatch>,
+}
+
+impl Class {
+    fn first<T>(&self, f: impl Fn(&RuleMatch) -> Option<T>) -> Option<T> {
+        f(&self.m).or_else(|| self.extra.iter().find_map(&f))
+    }
+}
+
+/// Applies `rules` to `scene`.
+pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
+    let mut diags = Diagnostics::default();
+    let order = scene.walk();
+    let classes: Vec<Option<Class>> = (0..scene.nodes.len())
+        .map(|n| classify(scene, rules, n, &mut diags))
+        .collect();
+    let rule_id = |c: &Class| rules.rules[c.rule].spec.id.clone();
+    let loc = |n: NodeId| {
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n))
+    };
+
+    let mut t = Tagging {
+        preset: rules.name.clone(),
+        rooms: Vec::new(),
+        room_groups: Vec::new(),
+        portals: Vec::new(),
+        bounds: Vec::new(),
+        footprints: Vec::new(),
+        ignored: Vec::new(),
+        detail: Vec::new(),
+        player_starts: Vec::new(),
+        unassigned: Vec::new(),
+        near_misses: Vec::new(),
+        diagnostics: Diagnostics::default(),
+    };
+
+    // Pass 1: rooms and groups, so later references by name can resolve in any order.
+    let mut room_of_node: Vec<Option<RoomId>> = vec![None; scene.nodes.len()];
+    for &n in &order {
+        let Some(c) = &classes[n] else { continue };
+        match c.kind {
+            TagKind::Room => {
+                let name = c
+                    .first(|m| m.room.clone())
+                    .unwrap_or_else(|| scene.node_label(n));
+                let volume = rules.rules[c.rule].spec.volume.unwrap_or_default();
+                let id = add_room(
+                    scene,
+                    rules,
+                    &mut t,
+                    &mut diags,
+                    name,
+                    n,
+                    rule_id(c),
+                    volume,
+                );
+                room_of_node[n] = Some(id);
+                let r = &mut t.rooms[id];
+                if let Some(p) = extras::read_number(scene.nodes[n].extras.as_ref(), "priority") {
+                    r.priority = p as i64;
+                }
+            }
+            TagKind::Roomgroup => {
+                let name = c
+                    .first(|m| m.room.clone())
+                    .unwrap_or_else(|| scene.node_label(n));
+                t.room_groups.push(RoomGroup {
+                    name,
+                    node: n,
+                    rooms: Vec::new(),
+                });
+            }
+            _ => {}
+        }
+    }
+    // Standalone footprints and `-cell` bounds that name a room nobody declared declare it.
+    for &n in &order {
+        let Some(c) = &classes[n] else { continue };
+        if !matches!(c.kind, TagKind::Footprint | TagKind::Bound) {
+            continue;
+        }
+        let named = c.first(|m| m.room.clone());
+        let ancestor = ancestor_room(scene, &room_of_node, n);
+        if ancestor.is_some() {
+            continue;
+        }
+        let name = match (&named, c.kind) {
+            (Some(name), _) => name.clone(),
+            (None, TagKind::Footprint) => scene.node_label(n),
+            _ => continue,
+        };
+        if t.room_by_name(rules, &name).is_none() {
+            let volume = if c.kind == TagKind::Footprint {
+                VolumeHint::Footprint
+            } else {
+                VolumeHint::Bound
+            };
+            let id = add_room(
+                scene,
+                rules,
+                &mut t,
+                &mut diags,
+                name,
+                n,
+                rule_id(c),
+                volume,
+            );
+            room_of_node[n] = Some(id);
+        }
+    }
+
+    // Pass 2: membership, in pre-order so the nearest room ancestor is known.
+    let mut group_of_node: Vec<Option<usize>> = vec![None; scene.nodes.len()];
+    for (gi, g) in t.room_groups.iter().enumerate() {
+        group_of_node[g.node] = Some(gi);
+    }
+    for &n in &order {
+        let parent = scene.nodes[n].parent;
+        if room_of_node[n].is_none() {
+            room_of_node[n] = parent.and_then(|p| room_of_node[p]);
+        }
+        if group_of_node[n].is_none() {
+            group_of_node[n] = parent.and_then(|p| group_of_node[p]);
+        }
+        let has_mesh = scene.nodes[n].mesh.is_some();
+        let nref = || NodeRef {
+            node: n,
+            path: scene.node_path(n),
+        };
+        match classes[n].as_ref().map(|c| c.kind) {
+            Some(TagKind::Room) => {
+                let id = room_of_node[n].unwrap_or(0);
+                if let Some(g) = parent.and_then(|p| group_of_node[p]) {
+                    t.rooms[id].group = Some(g);
+                    if !t.room_groups[g].rooms.contains(&id) {
+                        t.room_groups[g].rooms.push(id);
+                    }
+                }
+                match t.rooms[id].volume {
+                    VolumeHint::Footprint if t.rooms[id].node == n && has_mesh => {
+                        t.rooms[id].footprints.push(n);
+                        t.footprints.push(VolumeNode {
+                            node: n,
+                            path: scene.node_path(n),
+                            rule: t.rooms[id].rule.clone(),
+                            room: Some(id),
+                        });
+                    }
+                    VolumeHint::Bound if t.rooms[id].node == n && has_mesh => {
+                        t.rooms[id].bounds.push(n);
+                        t.bounds.push(VolumeNode {
+                            node: n,
+                            path: scene.node_path(n),
+                            rule: t.rooms[id].rule.clone(),
+                            room: Some(id),
+                        });
+                    }
+                    _ if has_mesh => t.rooms[id].structure.push(n),
+                    _ => {}
+                }
+            }
+            Some(kind @ (TagKind::Bound | TagKind::Footprint)) => {
+                let Some(c) = &classes[n] else { continue };
+                let room = c
+                    .first(|m| m.room.clone())
+                    .and_then(|name| t.room_by_name(rules, &name))
+                    .or(room_of_node[n]);
+                if !has_mesh {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::TAG_BOUND_NO_MESH,
+                            format!(
+                                "`{}` is tagged as a {} but has no mesh",
+                                scene.node_label(n),
+                                kind.as_str()
+                            ),
+                            loc(n),
+                        )
+                        .hint("give the node a mesh, or remove the tag"),
+                    );
+                }
+                if room.is_none() {
+                    diags.push(
+                        Diagnostic::new(
+                            Code::TAG_BOUND_NO_ROOM,
+                            format!(
+                                "{} `{}` is in no room and names none",
+                                kind.as_str(),
+                                scene.node_label(n)
+                            ),
+                            loc(n),
+                        )
+                        .hint("make it a child of its room, or name the room (`kitchen-cell`, extras `\"bound\": \"kitchen\"`)"),
+                    );
+                }
+                let v = VolumeNode {
+                    node: n,
+                    path: scene.node_path(n),
+                    rule: rule_id(c),
+                    room,
+                };
+                if let Some(r) = room {
+                    if kind == TagKind::Bound {
+                        t.rooms[r].bounds.push(n);
+                        if t.rooms[r].volume == VolumeHint::Geometry {
+                            t.rooms[r].volume = VolumeHint::Bound;
+                        }
+                    } else {
+                        t.rooms[r].footprints.push(n);
+                        if t.rooms[r].volume == VolumeHint::Geometry {
+                            t.rooms[r].volume = VolumeHint::Footprint;
+                        }
+                    }
+                }
+                if kind == TagKind::Bound {
+                    t.bounds.push(v);
+                } else {
+                    t.footprints.push(v);
+                }
+            }
+            Some(TagKind::Portal) => {
+                let Some(c) = &classes[n] else { continue };
+                let p = make_portal(
+                    scene,
+                    rules,
+                    &t,
+                    c,
+                    n,
+                    rule_id(c),
+                    &room_of_node,
+                    &mut diags,
+                );
+                t.portals.push(p);
+            }
+            Some(TagKind::Ignore) => t.ignored.push(nref()),
+            Some(TagKind::Detail) => match room_of_node[n] {
+                Some(r) if has_mesh => t.rooms[r].detail.push(n),
+                _ => t.detail.push(nref()),
+            },
+            Some(TagKind::PlayerStart) => t.player_starts.push(nref()),
+            Some(TagKind::Roomgroup) => {}
+            None => {
+                if has_mesh {
+                    match room_of_node[n] {
+                        Some(r) => t.rooms[r].structure.push(n),
+                        None => t.unassigned.push(nref()),
+                    }
+                }
+                if let Some(name) = scene.nodes[n].name.as_deref() {
+                    if let Some(miss) = near_miss::check(rules, name) {
+                        let rule = &rules.rules[miss.rule].spec;
+                        let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
+                        diags.push(
+                            Diagnostic::new(
+                                Code::TAG_NEAR_MISS,
+                                format!(
+                                    "`{name}` looks like a {} tag but matches no rule ({}: rule `{}` accepts names like `{example}`)",
+                                    rule.kind.as_str(),
+                                    miss.slip,
+                                    rule.id
+                                ),
+                                loc(n),
+                            )
+                            .hint(format!(
+                                "rename it to `{}`, or add a rule for this spelling in portcullis.toml",
+                                miss.suggestion
+                            )),
+                        );
+                        t.near_misses.push(NearMiss {
+                            node: n,
+                            path: scene.node_path(n),
+                            name: name.to_string(),
+                            kind: rule.kind,
+                            rule: rule.id.clone(),
+                            suggestion: miss.suggestion,
+                            slip: miss.slip.to_string(),
+                        });
+                    }
+                }
+            }
+        }
+    }
+    if t.rooms.is_empty() {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_NO_ROOMS,
+                format!("no room was recognised with the `{}` tag rules", rules.name),
+                Location::file(&scene.path),
+            )
+            .hint("tag rooms (e.g. `kitchen-room`, `room_kitchen`, extras `\"room\": \"kitchen\"`) or choose a preset with --tags"),
+        );
+    }
+    t.diagnostics = diags;
+    t
+}
+
+#[allow(clippy::too_many_arguments)]
+fn add_room(
+    scene: &Scene,
+    rules: &RuleSet,
+    t: &mut Tagging,
+    diags: &mut Diagnostics,
+    name: String,
+    node: NodeId,
+    rule: String,
+    volume: VolumeHint,
+) -> RoomId {
+    if let Some(existing) = t.room_by_name(rules, &name) {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_DUPLICATE_ROOM,
+                format!(
+                    "room `{name}` is declared twice: by `{}` and by `{}`",
+                    t.rooms[existing].path,
+                    scene.node_path(node)
+                ),
+                Location::file(&scene.path)
+                    .with_source(scene.nodes[node].source.clone())
+                    .with_node(scene.node_path(node)),
+            )
+            .hint(
+                "give every room a unique name; the second declaration was merged into the first",
+            ),
+        );
+        return existing;
+    }
+    t.rooms.push(Room {
+        name,
+        node,
+        path: scene.node_path(node),
+        rule,
+        group: None,
+        volume,
+        priority: 0,
+        structure: Vec::new(),
+        detail: Vec::new(),
+        bounds: Vec::new(),
+        footprints: Vec::new(),
+    });
+    t.rooms.len() - 1
+}
+
+fn ancestor_room(scene: &Scene, room_of_node: &[Option<RoomId>], n: NodeId) -> Option<RoomId> {
+    let mut cur = scene.nodes[n].parent;
+    let mut guard = 0;
+    while let Some(p) = cur {
+        if let Some(r) = room_of_node[p] {
+            return Some(r);
+        }
+        cur = scene.nodes[p].parent;
+        guard += 1;
+        if guard > scene.nodes.len() {
+            break;
+        }
+    }
+    None
+}
+
+fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) -> Option<Class> {
+    let node = &scene.nodes[n];
+    let mut found: Vec<(TagKind, RuleMatch)> = Vec::new();
+    // Extras first.
+    for (i, r) in rules.rules.iter().enumerate() {
+        if r.spec.on != MatchOn::Extras {
+            continue;
+        }
+        let key = r.spec.key.as_deref().unwrap_or_default();
+        let named = match extras::read(node.extras.as_ref(), key) {
+            ExtrasValue::Off => continue,
+            ExtrasValue::On => None,
+            ExtrasValue::Named(s) => Some(s),
+            ExtrasValue::Invalid(why) => {
+                diags.push(
+                    Diagnostic::new(
+                        Code::TAG_EXTRAS_INVALID,
+                        format!("extras key `{key}` of `{}`: {why}", scene.node_label(n)),
+                        Location::file(&scene.path)
+                            .with_source(node.source.clone())
+                            .with_node(scene.node_path(n)),
+                    )
+                    .hint("use a string (a room name) or true"),
+                );
+                continue;
+            }
+        };
+        let mut m = RuleMatch {
+            rule: i,
+            ..Default::default()
+        };
+        if r.spec.kind == TagKind::Portal {
+            m.target = named;
+        } else {
+            m.room = named;
+        }
+        found.push((r.spec.kind, m));
+    }
+    if let Some(name) = node.name.as_deref() {
+        if let Some(m) = rules.match_text(MatchOn::Name, name) {
+            found.push((rules.rules[m.rule].spec.kind, m));
+        }
+    }
+    if let Some(mesh) = node.mesh {
+        let names = scene.mesh_material_names(mesh);
+        let mut all: Option<RuleMatch> = None;
+        for name in &names {
+            match name.and_then(|s| rules.match_text(MatchOn::Material, s)) {
+                Some(m) if all.as_ref().is_none_or(|a| a.rule == m.rule) => all = Some(m),
+                _ => {
+                    all = None;
+                    break;
+                }
+            }
+        }
+        if let Some(m) = all {
+            found.push((rules.rules[m.rule].spec.kind, m));
+        }
+    }
+    let mut it = found.into_iter();
+    let (kind, m) = it.next()?;
+    let extra = it.filter(|(k, _)| *k == kind).map(|(_, m)| m).collect();
+    Some(Class {
+        kind,
+        rule: m.rule,
+        m,
+        extra,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn make_portal(
+    scene: &Scene,
+    rules: &RuleSet,
+    t: &Tagging,
+    c: &Class,
+    n: NodeId,
+    rule: String,
+    room_of_node: &[Option<RoomId>],
+    diags: &mut Diagnostics,
+) -> AuthoredPortal {
+    let node = &scene.nodes[n];
+    let ex = node.extras.as_ref();
+    let loc = || {
+        Location::file(&scene.path)
+            .with_source(node.source.clone())
+            .with_node(scene.node_path(n))
+    };
+    let spec_flags = |f: fn(&rules::RuleSpec) -> bool| {
+        f(&rules.rules[c.rule].spec) || c.extra.iter().any(|m| f(&rules.rules[m.rule].spec))
+    };
+    let source_name =
+        extras::read_string(ex, "source_room").or_else(|| c.first(|m| m.source.clone()));
+    let target_name = c.first(|m| m.target.clone());
+    let mut resolve = |name: &Option<String>, what: &str| -> Option<RoomId> {
+        let name = name.as_ref()?;
+        let hits: Vec<RoomId> = (0..t.rooms.len())
+            .filter(|&r| rules.same_name(&t.rooms[r].name, name))
+            .collect();
+        match hits.as_slice() {
+            [one] => Some(*one),
+            [] => {
+                let hint = match closest(t.rooms.iter().map(|r| r.name.as_str()), name) {
+                    Some(s) => {
+                        format!("did you mean `{s}`? Rename the portal or the room so they agree")
+                    }
+                    None => {
+                        "name an existing room, or remove the name to link the portal by position"
+                            .to_string()
+                    }
+                };
+                diags.push(
+                    Diagnostic::new(
+                        Code::TAG_UNKNOWN_TARGET,
+                        format!(
+                            "portal `{}` names {what} room `{name}`, and no room has that name",
+                            scene.node_label(n)
+                        ),
+                        loc(),
+                    )
+                    .hint(hint),
+                );
+                None
+            }
+            _ => {
+                diags.push(
+                    Diagnostic::new(
+                        Code::TAG_AMBIGUOUS_TARGET,
+                        format!(
+                            "portal `{}` names {what} room `{name}`, which {} rooms match",
+                            scene.node_label(n),
+                            hits.len()
+                        ),
+                        loc(),
+                    )
+                    .hint("give the rooms distinct names"),
+                );
+                None
+            }
+        }
+    };
+    let source_room = match &source_name {
+        Some(_) => resolve(&source_name, "source"),
+        None => ancestor_room(scene, room_of_node, n).or(room_of_node[n]),
+    };
+    let target_room = resolve(&target_name, "target");
+    if node.mesh.is_none() {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_PORTAL_NO_MESH,
+                format!(
+                    "portal `{}` has no mesh, so it has no polygon",
+                    scene.node_label(n)
+                ),
+                loc(),
+            )
+            .hint("give the portal node a planar convex mesh (a quad), or remove the portal tag"),
+        );
+    }
+    if source_room.is_none() && source_name.is_none() {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_PORTAL_NO_SOURCE,
+                format!(
+                    "portal `{}` is in no room and names no source room; it will be linked by position",
+                    scene.node_label(n)
+                ),
+                loc(),
+            )
+            .hint("put the portal under the room it leads out of, or set extras `source_room`"),
+        );
+    }
+    let kind = match extras::read_string(ex, "portal_kind") {
+        Some(k) => PortalKind::parse(&k).unwrap_or_else(|| {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_EXTRAS_INVALID,
+                    format!("extras `portal_kind` of `{}` is `{k}`", scene.node_label(n)),
+                    loc(),
+                )
+                .hint("use `plain`, `mirror` or `teleporter`"),
+            );
+            PortalKind::Plain
+        }),
+        None => rules.rules[c.rule].spec.portal_kind.unwrap_or_default(),
+    };
+    let teleport_exit = extras::read_string(ex, "teleport_exit").and_then(|exit| {
+        let found = scene.walk().into_iter().find(|&m| {
+            scene.nodes[m].name.as_deref() == Some(exit.as_str()) || scene.node_path(m) == exit
+        });
+        if found.is_none() {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_TELEPORT_EXIT_UNKNOWN,
+                    format!(
+                        "teleporter `{}` names exit node `{exit}`, which does not exist",
+                        scene.node_label(n)
+                    ),
+                    loc(),
+                )
+                .hint("set extras `teleport_exit` to the name or path of the exit portal's node"),
+            );
+        }
+        found
+    });
+    AuthoredPortal {
+        node: n,
+        path: scene.node_path(n),
+        rule,
+        source_name,
+        source_room,
+        target_name,
+        target_room,
+        kind,
+        one_way: extras::read_bool(ex, "one_way").unwrap_or_else(|| spec_flags(|s| s.one_way)),
+        closed: extras::read_bool(ex, "closed").unwrap_or_else(|| spec_flags(|s| s.closed)),
+        teleport_exit,
+    }
+}
+
+/// The candidate closest to `name` by edit distance, if reasonably close.
+fn closest<'a>(candidates: impl Iterator<Item = &'a str>, name: &str) -> Option<&'a str> {
+    let lname = name.to_lowercase();
+    candidates
+        .map(|c| (edit_distance(&c.to_lowercase(), &lname), c))
+        .filter(|(d, c)| *d <= (c.len().max(name.len()) / 3).max(2))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            cur[j + 1] = (prev[j] + usize::from(ca != *cb))
+                .min(prev[j + 1] + 1)
+                .min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_and_closest() {
+        assert_eq!(edit_distance("kitchen", "kitchen"), 0);
+        assert_eq!(edit_distance("kitchen", "kitchn"), 1);
+        assert_eq!(
+            closest(["lounge", "kitchen"].into_iter(), "lounges"),
+            Some("lounge")
+        );
+        assert_eq!(closest(["lounge", "kitchen"].into_iter(), "attic"), None);
+    }
+}

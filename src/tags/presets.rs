@@ -1,0 +1,71 @@
+//! Built-in presets. They are data (TOML, embedded at build time) in the same format as the
+//! `[tags]` section of `portcullis.toml`, so a studio can copy one and edit it.
+
+use super::rules::{RuleSet, RuleSetSpec};
+
+/// (name, TOML text) of every preset.
+pub const PRESETS: &[(&str, &str)] = &[
+    ("default", include_str!("presets/default.toml")),
+    ("godot", include_str!("presets/godot.toml")),
+    ("lportal", include_str!("presets/lportal.toml")),
+    ("panda3d", include_str!("presets/panda3d.toml")),
+];
+
+pub fn names() -> impl Iterator<Item = &'static str> {
+    PRESETS.iter().map(|(n, _)| *n)
+}
+
+/// The spec of a preset, or `None` for an unknown name.
+pub fn spec(name: &str) -> Option<RuleSetSpec> {
+    let (_, text) = PRESETS.iter().find(|(n, _)| n.eq_ignore_ascii_case(name))?;
+    // The presets are ours and covered by tests; a parse failure is a build defect.
+    Some(toml::from_str(text).unwrap_or_else(|e| panic!("built-in preset {name} is invalid: {e}")))
+}
+
+/// A compiled preset.
+pub fn load(name: &str) -> Option<RuleSet> {
+    let spec = spec(name)?;
+    Some(RuleSet::compile(&spec).unwrap_or_else(|e| panic!("built-in preset {name}: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_preset_parses_compiles_and_follows_the_schema() {
+        for name in names() {
+            let spec = spec(name).unwrap();
+            assert_eq!(spec.name, name);
+            RuleSet::compile(&spec).unwrap();
+            let text = PRESETS.iter().find(|(n, _)| *n == name).unwrap().1;
+            let as_json: serde_json::Value = toml::from_str(text).unwrap();
+            let errs = crate::schema::validate(crate::schema::Schema::RuleSet, &as_json);
+            assert!(errs.is_empty(), "{name}: {errs:?}");
+        }
+    }
+
+    #[test]
+    fn every_rule_accepts_its_own_example() {
+        for name in names() {
+            let rs = load(name).unwrap();
+            for (i, r) in rs.rules.iter().enumerate() {
+                if let Some(ex) = &r.spec.example {
+                    let m = rs.match_text(r.spec.on, ex);
+                    assert!(
+                        m.is_some(),
+                        "{name}: rule {} rejects its example {ex}",
+                        r.spec.id
+                    );
+                    // An earlier rule may legitimately win (ordering is precedence), but the
+                    // example must not be claimed by a rule of another kind.
+                    let m = m.unwrap();
+                    assert_eq!(
+                        rs.rules[m.rule].spec.kind, r.spec.kind,
+                        "{name}: {ex} ({i})"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! Tag rules as data: what a rule file says (serde) and the compiled form that matches names.
+//!
+//! A rule recognises one kind of thing (room, portal, …) from one source (extras key, node name
+//! or material name). Name and material rules are regular expressions whose named groups carry
+//! the parts of the name that matter (`name`, `target`, `source`); templates such as
+//! `cell${target}` turn those parts into room names, which is how `portal_3to5_1` (Panda3D)
+//! comes to link room `cell3` to room `cell5`.
+
+use regex::{Regex, RegexBuilder};
+use serde::{Deserialize, Serialize};
+
+/// What a rule recognises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TagKind {
+    /// A room: the node and its subtree are one room.
+    Room,
+    /// A group of rooms (Godot's RoomGroup): no volume of its own.
+    Roomgroup,
+    /// An authored portal polygon.
+    Portal,
+    /// A convex mesh giving a room's volume instead of its geometry's hull.
+    Bound,
+    /// A floor polygon extruded upward into a room's volume.
+    Footprint,
+    /// Geometry that neither bounds cells nor blocks sight and is not rendered by cells.
+    Ignore,
+    /// Props: rendered by the cell containing them, never bounding a cell or blocking sight.
+    Detail,
+    /// A player start: the seed for leak searches.
+    PlayerStart,
+}
+
+impl TagKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TagKind::Room => "room",
+            TagKind::Roomgroup => "roomgroup",
+            TagKind::Portal => "portal",
+            TagKind::Bound => "bound",
+            TagKind::Footprint => "footprint",
+            TagKind::Ignore => "ignore",
+            TagKind::Detail => "detail",
+            TagKind::PlayerStart => "player_start",
+        }
+    }
+}
+
+/// Where a rule looks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MatchOn {
+    #[default]
+    Name,
+    Material,
+    Extras,
+}
+
+/// How a room's volume is found when the rule does not say otherwise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VolumeHint {
+    /// Convex hull of the room's structural geometry, unless a bound or footprint is found.
+    #[default]
+    Geometry,
+    /// The room node's own mesh is a floor footprint (Panda3D `cellN`).
+    Footprint,
+    /// The room node's own mesh is its bound volume.
+    Bound,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PortalKind {
+    #[default]
+    Plain,
+    Mirror,
+    Teleporter,
+}
+
+impl PortalKind {
+    pub fn parse(s: &str) -> Option<PortalKind> {
+        match s.to_ascii_lowercase().as_str() {
+            "plain" | "portal" | "door" | "window" => Some(PortalKind::Plain),
+            "mirror" => Some(PortalKind::Mirror),
+            "teleporter" | "teleport" => Some(PortalKind::Teleporter),
+            _ => None,
+        }
+    }
+}
+
+/// One rule as written in a preset or in `portcullis.toml` (`[[tags.rule]]`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RuleSpec {
+    /// Stable identifier shown in reports, e.g. `godot.room`.
+    pub id: String,
+    pub kind: TagKind,
+    #[serde(default)]
+    pub on: MatchOn,
+    /// Regular expression for `on = "name"` / `"material"`; named groups `name`, `target`,
+    /// `source` feed the templates below.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern: Option<String>,
+    /// Extras key for `on = "extras"`; dots descend into objects (`egg_scalars.portal`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub key: Option<String>,
+    /// Template for the room this rule names (rooms, bounds, footprints), e.g. `cell${name}`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub room: Option<String>,
+    /// Template for a portal's source room (else the room the portal sits in).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// Template for a portal's target room.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub one_way: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub closed: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub portal_kind: Option<PortalKind>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume: Option<VolumeHint>,
+    /// A name this rule accepts, shown in near-miss hints.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub example: Option<String>,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// A preset or a config's rule list.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RuleSetSpec {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Names compare case-sensitively (default: no, as Godot).
+    #[serde(default)]
+    pub case_sensitive: bool,
+    /// Godot's wildcard: in a name, everything from this character up to the tag suffix is
+    /// ignored (`kitchen*2-portal` is `kitchen-portal`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wildcard: Option<char>,
+    #[serde(default, rename = "rule")]
+    pub rules: Vec<RuleSpec>,
+}
+
+/// A rule ready to match.
+#[derive(Debug, Clone)]
+pub struct Rule {
+    pub spec: RuleSpec,
+    pub regex: Option<Regex>,
+}
+
+/// A compiled rule set.
+#[derive(Debug, Clone)]
+pub struct RuleSet {
+    pub name: String,
+    pub case_sensitive: bool,
+    pub wildcard: Option<char>,
+    pub rules: Vec<Rule>,
+}
+
+/// The parts a rule pulled out of a name or extras value.
+#[derive(Debug, Clone, Default)]
+pub struct RuleMatch {
+    pub rule: usize,
+    pub room: Option<String>,
+    pub source: Option<String>,
+    pub target: Option<String>,
+}
+
+impl RuleSet {
+    /// Compiles a spec; an invalid pattern or a rule missing its pattern/key is an error
+    /// message naming the rule.
+    pub fn compile(spec: &RuleSetSpec) -> Result<RuleSet, String> {
+        let mut rules = Vec::with_capacity(spec.rules.len());
+        for r in &spec.rules {
+            let regex = match r.on {
+                MatchOn::Extras => {
+                    if r.key.as_deref().unwrap_or("").is_empty() {
+                        return Err(format!(
+                            "rule `{}` matches on extras but has no `key`",
+                            r.id
+                        ));
+                    }
+                    None
+                }
+                MatchOn::Name | MatchOn::Material => {
+                    let p = r.pattern.as_deref().ok_or_else(|| {
+                        format!("rule `{}` matches on {:?} but has no `pattern`", r.id, r.on)
+                    })?;
+                    let re = RegexBuilder::new(p)
+                        .case_insensitive(!spec.case_sensitive)
+                        .size_limit(1 << 20)
+                        .build()
+                        .map_err(|e| format!("rule `{}` has an invalid pattern: {e}", r.id))?;
+                    Some(re)
+                }
+            };
+            rules.push(Rule {
+                spec: r.clone(),
+                regex,
+            });
+        }
+        Ok(RuleSet {
+            name: spec.name.clone(),
+            case_sensitive: spec.case_sensitive,
+            wildcard: spec.wildcard,
+            rules,
+        })
+    }
+
+    /// Removes the wildcard part of a name: from the wildcard character up to the last `-`
+    /// after it (the tag suffix), or to the end when no suffix follows.
+    pub fn strip_wildcard<'a>(&self, name: &'a str) -> std::borrow::Cow<'a, str> {
+        let Some(w) = self.wildcard else {
+            return name.into();
+        };
+        let Some(star) = name.find(w) else {
+            return name.into();
+        };
+        let rest = &name[star..];
+        match rest.rfind('-') {
+            Some(dash) => format!("{}{}", &name[..star], &rest[dash..]).into(),
+            None => name[..star].to_string().into(),
+        }
+    }
+
+    /// The first rule of `on` that accepts `text`, with its captures expanded.
+    pub fn match_text(&self, on: MatchOn, text: &str) -> Option<RuleMatch> {
+        let text = self.strip_wildcard(text);
+        self.rules
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.spec.on == on)
+            .find_map(|(i, r)| {
+                let caps = r.regex.as_ref()?.captures(&text)?;
+                let get = |g: &str| caps.name(g).map(|m| m.as_str().to_string());
+                let expand = |tpl: &Option<String>, group: &str| -> Option<String> {
+                    match tpl {
+                        Some(t) => {
+                            let mut out = String::new();
+                            caps.expand(t, &mut out);
+                            Some(out)
+                        }
+                        None => get(group),
+                    }
+                    .filter(|s| !s.is_empty())
+                };
+                Some(RuleMatch {
+                    rule: i,
+                    room: expand(&r.spec.room, "name"),
+                    source: expand(&r.spec.source, "source"),
+                    target: expand(&r.spec.target, "target"),
+                })
+            })
+    }
+
+    /// Whether two room names are the same under this rule set's case rule.
+    pub fn same_name(&self, a: &str, b: &str) -> bool {
+        if self.case_sensitive {
+            a == b
+        } else {
+            a.to_lowercase() == b.to_lowercase()
+        }
+    }
+}
