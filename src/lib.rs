@@ -11,3 +11,5 @@ pub mod import;
 pub mod scene;
 pub mod schema;
 pub mod tags;
+pub mod pipeline;
+pub mod report;

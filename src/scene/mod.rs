@@ -234,6 +234,28 @@ impl Scene {
         }
     }
 
+    /// World-space positions of the vertices a node's triangles use (bounds ignore vertices
+    /// no triangle references, as renderers do).
+    pub fn world_positions_used(&self, node: NodeId) -> Vec<DVec3> {
+        let n = &self.nodes[node];
+        let Some(m) = n.mesh else { return Vec::new() };
+        let mesh = &self.meshes[m];
+        let mut used = vec![false; mesh.positions.len()];
+        for t in &mesh.triangles {
+            for &i in t {
+                if let Some(u) = used.get_mut(i as usize) {
+                    *u = true;
+                }
+            }
+        }
+        mesh.positions
+            .iter()
+            .zip(used)
+            .filter(|(_, u)| *u)
+            .map(|(p, _)| n.world.transform_point3(*p))
+            .collect()
+    }
+
     /// Triangles drawn by the scene, counting each instance of a mesh.
     pub fn triangle_count(&self) -> usize {
         self.walk()

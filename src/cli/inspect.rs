@@ -1,0 +1,394 @@
+//! `portcullis inspect FILE...`: what portcullis sees in each level.
+
+use std::fmt::Write;
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+
+use portcullis::diag::Diagnostic;
+use portcullis::pipeline::{self, Tagged};
+use portcullis::report::{human, style::Style, Totals};
+use portcullis::scene::summary::{summarize, SceneSummary};
+use portcullis::tags::rules::{PortalKind, TagKind, VolumeHint};
+
+use super::{Format, LevelArgs};
+
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    /// Level files: .gltf, .glb, .obj (and .usd/.usda/.usdc/.usdz with the `usd` feature).
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+
+    /// Output format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: Format,
+
+    /// Exit with 1 when there are warnings, not only errors.
+    #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
+    pub deny: Option<String>,
+
+    #[command(flatten)]
+    pub level: LevelArgs,
+}
+
+/// The JSON view of one file.
+#[derive(Debug, Serialize)]
+struct FileReport {
+    path: PathBuf,
+    /// False when the file could not be read at all.
+    ok: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    config: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    scene: Option<SceneSummary>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tags: Option<TagsView>,
+    diagnostics: Vec<Diagnostic>,
+}
+
+#[derive(Debug, Serialize)]
+struct TagsView {
+    preset: String,
+    rooms: Vec<RoomView>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    room_groups: Vec<GroupView>,
+    portals: Vec<PortalView>,
+    bounds: Vec<VolumeView>,
+    footprints: Vec<VolumeView>,
+    ignored: Vec<String>,
+    detail: Vec<String>,
+    player_starts: Vec<String>,
+    /// Mesh nodes in no room.
+    unassigned: Vec<String>,
+    near_misses: Vec<NearMissView>,
+}
+
+#[derive(Debug, Serialize)]
+struct RoomView {
+    name: String,
+    node: String,
+    rule: String,
+    volume: VolumeHint,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    group: Option<String>,
+    structure: Vec<String>,
+    detail: Vec<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct GroupView {
+    name: String,
+    node: String,
+    rooms: Vec<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct PortalView {
+    node: String,
+    rule: String,
+    /// The room the portal leads out of (resolved), if known.
+    source: Option<String>,
+    /// The room the portal leads into (resolved), if known.
+    target: Option<String>,
+    /// The target as written in the name or extras, resolved or not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    target_name: Option<String>,
+    kind: PortalKind,
+    one_way: bool,
+    closed: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    teleport_exit: Option<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct VolumeView {
+    node: String,
+    rule: String,
+    room: Option<String>,
+}
+
+#[derive(Debug, Serialize)]
+struct NearMissView {
+    node: String,
+    name: String,
+    kind: TagKind,
+    rule: String,
+    suggestion: String,
+    slip: String,
+}
+
+fn tags_view(t: &Tagged) -> TagsView {
+    let g = &t.tagging;
+    let s = &t.scene;
+    let room = |r: Option<usize>| r.map(|r| g.rooms[r].name.clone());
+    let paths = |v: &[usize]| v.iter().map(|&n| s.node_path(n)).collect::<Vec<_>>();
+    TagsView {
+        preset: g.preset.clone(),
+        rooms: g
+            .rooms
+            .iter()
+            .map(|r| RoomView {
+                name: r.name.clone(),
+                node: r.path.clone(),
+                rule: r.rule.clone(),
+                volume: r.volume,
+                group: r.group.map(|i| g.room_groups[i].name.clone()),
+                structure: paths(&r.structure),
+                detail: paths(&r.detail),
+            })
+            .collect(),
+        room_groups: g
+            .room_groups
+            .iter()
+            .map(|gr| GroupView {
+                name: gr.name.clone(),
+                node: s.node_path(gr.node),
+                rooms: gr.rooms.iter().map(|&r| g.rooms[r].name.clone()).collect(),
+            })
+            .collect(),
+        portals: g
+            .portals
+            .iter()
+            .map(|p| PortalView {
+                node: p.path.clone(),
+                rule: p.rule.clone(),
+                source: room(p.source_room),
+                target: room(p.target_room),
+                target_name: p.target_name.clone(),
+                kind: p.kind,
+                one_way: p.one_way,
+                closed: p.closed,
+                teleport_exit: p.teleport_exit.map(|n| s.node_path(n)),
+            })
+            .collect(),
+        bounds: g
+            .bounds
+            .iter()
+            .map(|b| VolumeView {
+                node: b.path.clone(),
+                rule: b.rule.clone(),
+                room: room(b.room),
+            })
+            .collect(),
+        footprints: g
+            .footprints
+            .iter()
+            .map(|b| VolumeView {
+                node: b.path.clone(),
+                rule: b.rule.clone(),
+                room: room(b.room),
+            })
+            .collect(),
+        ignored: g.ignored.iter().map(|n| n.path.clone()).collect(),
+        detail: g.detail.iter().map(|n| n.path.clone()).collect(),
+        player_starts: g.player_starts.iter().map(|n| n.path.clone()).collect(),
+        unassigned: g.unassigned.iter().map(|n| n.path.clone()).collect(),
+        near_misses: g
+            .near_misses
+            .iter()
+            .map(|m| NearMissView {
+                node: m.path.clone(),
+                name: m.name.clone(),
+                kind: m.kind,
+                rule: m.rule.clone(),
+                suggestion: m.suggestion.clone(),
+                slip: m.slip.clone(),
+            })
+            .collect(),
+    }
+}
+
+pub fn run(a: &InspectArgs, style: &Style) -> i32 {
+    let opts = a.level.load_options();
+    let mut totals = Totals::default();
+    let mut reports = Vec::new();
+    for path in &a.files {
+        totals.files += 1;
+        let report = match pipeline::load_tagged(path, &opts) {
+            Ok(t) => {
+                totals.add(t.diagnostics.iter());
+                FileReport {
+                    path: path.clone(),
+                    ok: true,
+                    config: t.config.path.clone(),
+                    scene: Some(summarize(&t.scene)),
+                    tags: Some(tags_view(&t)),
+                    diagnostics: t.diagnostics.0.clone(),
+                }
+            }
+            Err(d) => {
+                totals.failed += 1;
+                totals.add([&d]);
+                FileReport {
+                    path: path.clone(),
+                    ok: false,
+                    config: None,
+                    scene: None,
+                    tags: None,
+                    diagnostics: vec![d],
+                }
+            }
+        };
+        if a.format == Format::Human {
+            print!("{}", render_human(&report, style));
+        }
+        reports.push(report);
+    }
+    match a.format {
+        Format::Human => println!("{}", style.bold(&totals.line())),
+        Format::Json => {
+            let doc = serde_json::json!({
+                "tool": {"name": "portcullis", "version": env!("CARGO_PKG_VERSION")},
+                "files": reports,
+                "summary": totals,
+            });
+            match serde_json::to_string_pretty(&doc) {
+                Ok(s) => println!("{s}"),
+                Err(e) => {
+                    eprintln!("error: cannot write the JSON report: {e}");
+                    return 2;
+                }
+            }
+        }
+    }
+    totals.exit_code(a.deny.is_some())
+}
+
+fn list(out: &mut String, title: &str, items: &[String], style: &Style) {
+    if items.is_empty() {
+        let _ = writeln!(out, "    {title}: {}", style.dim("none"));
+    } else {
+        let _ = writeln!(out, "    {title} ({}):", items.len());
+        for i in items {
+            let _ = writeln!(out, "      {i}");
+        }
+    }
+}
+
+fn fmt3(v: [f64; 3]) -> String {
+    let f = |x: f64| {
+        let s = format!("{x:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.').to_string();
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s
+        }
+    };
+    format!("[{}, {}, {}]", f(v[0]), f(v[1]), f(v[2]))
+}
+
+fn render_human(r: &FileReport, style: &Style) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{}", style.bold(&r.path.display().to_string()));
+    if let Some(s) = &r.scene {
+        let _ = writeln!(
+            out,
+            "  scene ({}): {} nodes ({} with meshes), {} meshes, {} triangles, {} materials",
+            s.format.name(),
+            s.nodes,
+            s.mesh_nodes,
+            s.meshes,
+            s.triangles,
+            s.materials.len()
+        );
+        if let Some(b) = &s.bounds {
+            let _ = writeln!(out, "  bounds: {} .. {} (size {})", fmt3(b.min), fmt3(b.max), fmt3(b.size));
+        }
+        if !s.materials.is_empty() {
+            let _ = writeln!(out, "  materials: {}", s.materials.join(", "));
+        }
+    }
+    if let Some(c) = &r.config {
+        let _ = writeln!(out, "  config: {}", c.display());
+    }
+    if let Some(t) = &r.tags {
+        let _ = writeln!(out, "  tags (preset {}):", t.preset);
+        let rooms: Vec<String> = t
+            .rooms
+            .iter()
+            .map(|rm| {
+                let vol = match rm.volume {
+                    VolumeHint::Geometry => String::new(),
+                    v => format!(", volume from {}", serde_json::to_value(v).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()),
+                };
+                format!(
+                    "{}  `{}` ({}; {} structure, {} detail{vol}{})",
+                    rm.name,
+                    rm.node,
+                    rm.rule,
+                    rm.structure.len(),
+                    rm.detail.len(),
+                    rm.group.as_ref().map(|g| format!(", group {g}")).unwrap_or_default()
+                )
+            })
+            .collect();
+        list(&mut out, "rooms", &rooms, style);
+        let portals: Vec<String> = t
+            .portals
+            .iter()
+            .map(|p| {
+                let side = |r: &Option<String>, n: Option<&String>| match (r, n) {
+                    (Some(r), _) => r.clone(),
+                    (None, Some(n)) => format!("{n}?"),
+                    (None, None) => "?".to_string(),
+                };
+                let mut flags = Vec::new();
+                if p.kind != PortalKind::Plain {
+                    flags.push(format!("{:?}", p.kind).to_lowercase());
+                }
+                if p.one_way {
+                    flags.push("one-way".to_string());
+                }
+                if p.closed {
+                    flags.push("closed".to_string());
+                }
+                let flags = if flags.is_empty() { String::new() } else { format!(", {}", flags.join(", ")) };
+                format!(
+                    "`{}`  {} -> {} ({}{flags})",
+                    p.node,
+                    side(&p.source, None),
+                    side(&p.target, p.target_name.as_ref()),
+                    p.rule
+                )
+            })
+            .collect();
+        list(&mut out, "portals", &portals, style);
+        let vol = |v: &[VolumeView]| -> Vec<String> {
+            v.iter()
+                .map(|b| format!("`{}` room {} ({})", b.node, b.room.as_deref().unwrap_or("?"), b.rule))
+                .collect()
+        };
+        list(&mut out, "bounds", &vol(&t.bounds), style);
+        list(&mut out, "footprints", &vol(&t.footprints), style);
+        if !t.room_groups.is_empty() {
+            let groups: Vec<String> = t
+                .room_groups
+                .iter()
+                .map(|g| format!("{} `{}`: {}", g.name, g.node, g.rooms.join(", ")))
+                .collect();
+            list(&mut out, "room groups", &groups, style);
+        }
+        list(&mut out, "ignored", &t.ignored, style);
+        list(&mut out, "detail (outside rooms)", &t.detail, style);
+        if !t.player_starts.is_empty() {
+            list(&mut out, "player starts", &t.player_starts, style);
+        }
+        list(&mut out, "mesh nodes in no room", &t.unassigned, style);
+        let misses: Vec<String> = t
+            .near_misses
+            .iter()
+            .map(|m| format!("`{}` almost matches {} ({}); `{}` would", m.node, m.rule, m.slip, m.suggestion))
+            .collect();
+        list(&mut out, "near misses", &misses, style);
+    }
+    if !r.diagnostics.is_empty() {
+        for d in &r.diagnostics {
+            for line in human::diagnostic(d, style).lines() {
+                let _ = writeln!(out, "  {line}");
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,77 @@
+//! Command-line definitions. Each subcommand lives in its own file and returns an exit code;
+//! flags are documented where they are defined, and `--help` shows those docs.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+pub mod inspect;
+pub mod schema;
+
+/// Cells and portals for game levels: import glTF / OBJ / USD, recognise rooms and portals from
+/// the designer's tags, check them, and write an annotated glTF.
+#[derive(Debug, Parser)]
+#[command(name = "portcullis", version, about, long_about = None)]
+pub struct Cli {
+    /// When to colour output: auto (only on a terminal, and not with NO_COLOR), always, never.
+    #[arg(long, global = true, default_value = "auto", value_parser = ["auto", "always", "never"])]
+    pub color: String,
+
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Show what portcullis sees in each level: the scene (nodes, meshes, triangles, bounds,
+    /// materials) and what the tags recognised (rooms, portals, bounds, footprints, ignored and
+    /// detail nodes), with every near-miss name.
+    Inspect(inspect::InspectArgs),
+    /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
+    Schema(schema::SchemaArgs),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// Text for people, with colour on a terminal.
+    Human,
+    /// One JSON document on stdout, for scripts and CI.
+    Json,
+}
+
+/// Options every level-reading subcommand shares.
+#[derive(Debug, Clone, Args)]
+pub struct LevelArgs {
+    /// Tag preset: default, godot, lportal, panda3d. Wins over the preset in portcullis.toml.
+    #[arg(long = "tags", value_name = "PRESET")]
+    pub tags: Option<String>,
+
+    /// Configuration file. Without it, `portcullis.toml` next to each input is used if present.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// OBJ: do not treat `/` in object names as a node hierarchy.
+    #[arg(long)]
+    pub obj_flat_names: bool,
+}
+
+impl LevelArgs {
+    pub fn load_options(&self) -> portcullis::pipeline::LoadOptions {
+        portcullis::pipeline::LoadOptions {
+            preset: self.tags.clone(),
+            config: self.config.clone(),
+            import: portcullis::import::ImportOptions {
+                obj_split_paths: !self.obj_flat_names,
+            },
+        }
+    }
+}
+
+/// Runs the parsed command line; returns the process exit code.
+pub fn run(cli: Cli) -> i32 {
+    let style = portcullis::report::style::Style::for_stdout(&cli.color);
+    match cli.command {
+        Command::Inspect(a) => inspect::run(&a, &style),
+        Command::Schema(a) => schema::run(&a),
+    }
+}

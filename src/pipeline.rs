@@ -1,0 +1,59 @@
+//! The stages chained for one input file, as every subcommand runs them. Library users call
+//! this too, or the stages one by one.
+
+use std::path::{Path, PathBuf};
+
+use crate::config::{self, Config};
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::import::{self, ImportOptions};
+use crate::scene::Scene;
+use crate::tags::{self, rules::RuleSet, Tagging};
+
+/// What the user chose on the command line (or a library caller set).
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// `--tags PRESET`: wins over the configuration's preset.
+    pub preset: Option<String>,
+    /// `--config FILE`: else `portcullis.toml` next to the input, else built-in defaults.
+    pub config: Option<PathBuf>,
+    pub import: ImportOptions,
+}
+
+/// A level read and tagged.
+#[derive(Debug, Clone)]
+pub struct Tagged {
+    pub scene: Scene,
+    pub config: Config,
+    pub rules: RuleSet,
+    pub tagging: Tagging,
+    /// Everything reported so far (import, then tags), in stage order.
+    pub diagnostics: Diagnostics,
+}
+
+/// The configuration that applies to `input`.
+pub fn config_for(input: &Path, opts: &LoadOptions) -> Result<Config, Diagnostic> {
+    match opts.config.as_deref() {
+        Some(p) => config::load(p),
+        None => match config::discover(input) {
+            Some(p) => config::load(&p),
+            None => Ok(Config::default()),
+        },
+    }
+}
+
+/// Imports and tags one file. `Err` means the file could not be processed at all.
+pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnostic> {
+    let config = config_for(input, opts)?;
+    let rules = config::rule_set(&config, opts.preset.as_deref())?;
+    let imported = import::import_path(input, &opts.import)?;
+    let tagging = tags::recognise(&imported.scene, &rules);
+    let mut diagnostics = imported.diagnostics;
+    diagnostics.extend(tagging.diagnostics.iter().cloned());
+    Ok(Tagged {
+        scene: imported.scene,
+        config,
+        rules,
+        tagging,
+        diagnostics,
+    })
+}

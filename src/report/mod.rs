@@ -1,0 +1,57 @@
+//! Rendering diagnostics for people and machines. Stages only produce [`Diagnostic`] values;
+//! how they look is decided here, once.
+
+pub mod human;
+pub mod style;
+
+use serde::Serialize;
+
+use crate::diag::{Diagnostic, Severity};
+
+/// Counts over a run, for the closing summary line and the exit code.
+#[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
+pub struct Totals {
+    pub files: usize,
+    /// Files that could not be processed at all.
+    pub failed: usize,
+    pub errors: usize,
+    pub warnings: usize,
+    pub infos: usize,
+}
+
+impl Totals {
+    pub fn add<'a>(&mut self, diags: impl IntoIterator<Item = &'a Diagnostic>) {
+        for d in diags {
+            match d.severity {
+                Severity::Error => self.errors += 1,
+                Severity::Warning => self.warnings += 1,
+                Severity::Info => self.infos += 1,
+            }
+        }
+    }
+
+    /// 0 clean, 1 the level has errors (or warnings when denied), 2 the tool could not run.
+    pub fn exit_code(&self, deny_warnings: bool) -> i32 {
+        if self.failed > 0 {
+            2
+        } else if self.errors > 0 || (deny_warnings && self.warnings > 0) {
+            1
+        } else {
+            0
+        }
+    }
+
+    pub fn line(&self) -> String {
+        let plural = |n: usize, w: &str| format!("{n} {w}{}", if n == 1 { "" } else { "s" });
+        let mut s = format!(
+            "{}, {}, {}",
+            plural(self.files, "file"),
+            plural(self.errors, "error"),
+            plural(self.warnings, "warning")
+        );
+        if self.failed > 0 {
+            s.push_str(&format!(", {} could not be read", self.failed));
+        }
+        s
+    }
+}
