@@ -294,7 +294,13 @@ fn render_human(r: &FileReport, style: &Style) -> String {
             s.materials.len()
         );
         if let Some(b) = &s.bounds {
-            let _ = writeln!(out, "  bounds: {} .. {} (size {})", fmt3(b.min), fmt3(b.max), fmt3(b.size));
+            let _ = writeln!(
+                out,
+                "  bounds: {} .. {} (size {})",
+                fmt3(b.min),
+                fmt3(b.max),
+                fmt3(b.size)
+            );
         }
         if !s.materials.is_empty() {
             let _ = writeln!(out, "  materials: {}", s.materials.join(", "));
@@ -311,7 +317,13 @@ fn render_human(r: &FileReport, style: &Style) -> String {
             .map(|rm| {
                 let vol = match rm.volume {
                     VolumeHint::Geometry => String::new(),
-                    v => format!(", volume from {}", serde_json::to_value(v).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()),
+                    v => format!(
+                        ", volume from {}",
+                        serde_json::to_value(v)
+                            .ok()
+                            .and_then(|v| v.as_str().map(str::to_string))
+                            .unwrap_or_default()
+                    ),
                 };
                 format!(
                     "{}  `{}` ({}; {} structure, {} detail{vol}{})",
@@ -320,7 +332,10 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                     rm.rule,
                     rm.structure.len(),
                     rm.detail.len(),
-                    rm.group.as_ref().map(|g| format!(", group {g}")).unwrap_or_default()
+                    rm.group
+                        .as_ref()
+                        .map(|g| format!(", group {g}"))
+                        .unwrap_or_default()
                 )
             })
             .collect();
@@ -344,7 +359,11 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                 if p.closed {
                     flags.push("closed".to_string());
                 }
-                let flags = if flags.is_empty() { String::new() } else { format!(", {}", flags.join(", ")) };
+                let flags = if flags.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {}", flags.join(", "))
+                };
                 format!(
                     "`{}`  {} -> {} ({}{flags})",
                     p.node,
@@ -357,7 +376,14 @@ fn render_human(r: &FileReport, style: &Style) -> String {
         list(&mut out, "portals", &portals, style);
         let vol = |v: &[VolumeView]| -> Vec<String> {
             v.iter()
-                .map(|b| format!("`{}` room {} ({})", b.node, b.room.as_deref().unwrap_or("?"), b.rule))
+                .map(|b| {
+                    format!(
+                        "`{}` room {} ({})",
+                        b.node,
+                        b.room.as_deref().unwrap_or("?"),
+                        b.rule
+                    )
+                })
                 .collect()
         };
         list(&mut out, "bounds", &vol(&t.bounds), style);
@@ -379,7 +405,12 @@ fn render_human(r: &FileReport, style: &Style) -> String {
         let misses: Vec<String> = t
             .near_misses
             .iter()
-            .map(|m| format!("`{}` almost matches {} ({}); `{}` would", m.node, m.rule, m.slip, m.suggestion))
+            .map(|m| {
+                format!(
+                    "`{}` almost matches {} ({}); `{}` would",
+                    m.node, m.rule, m.slip, m.suggestion
+                )
+            })
             .collect();
         list(&mut out, "near misses", &misses, style);
     }

@@ -26,7 +26,10 @@ pub fn run(a: &SchemaArgs) -> i32 {
         return 0;
     };
     let text = match name.strip_prefix("preset:") {
-        Some(p) => PRESETS.iter().find(|(n, _)| n.eq_ignore_ascii_case(p)).map(|(_, t)| *t),
+        Some(p) => PRESETS
+            .iter()
+            .find(|(n, _)| n.eq_ignore_ascii_case(p))
+            .map(|(_, t)| *t),
         None => FILES
             .iter()
             .find(|(n, _)| *n == name || n.trim_end_matches(".schema.json") == name)
@@ -38,7 +41,9 @@ pub fn run(a: &SchemaArgs) -> i32 {
             0
         }
         None => {
-            eprintln!("error: no schema or preset called `{name}`; run `portcullis schema` for the list");
+            eprintln!(
+                "error: no schema or preset called `{name}`; run `portcullis schema` for the list"
+            );
             2
         }
     }

@@ -31,5 +31,7 @@ pub fn diagnostic(d: &Diagnostic, style: &Style) -> String {
 }
 
 pub fn diagnostics<'a>(ds: impl IntoIterator<Item = &'a Diagnostic>, style: &Style) -> String {
-    ds.into_iter().map(|d| diagnostic(d, style) + "\n").collect()
+    ds.into_iter()
+        .map(|d| diagnostic(d, style) + "\n")
+        .collect()
 }

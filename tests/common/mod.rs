@@ -1,0 +1,136 @@
+//! Helpers shared by the integration tests: tiny glTF levels built in code, so each test says
+//! exactly which names, extras and materials it is about.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine;
+use serde_json::{json, Value};
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn fixture(name: &str) -> PathBuf {
+    root().join("tests/fixtures/third_party").join(name)
+}
+
+pub fn sample(name: &str) -> PathBuf {
+    root().join("samples").join(name)
+}
+
+/// One node of a test level.
+#[derive(Clone, Debug)]
+pub struct N {
+    pub name: &'static str,
+    pub parent: Option<usize>,
+    /// Give the node a unit quad mesh.
+    pub mesh: bool,
+    pub material: Option<&'static str>,
+    pub extras: Option<Value>,
+}
+
+pub fn n(name: &'static str, parent: Option<usize>, mesh: bool) -> N {
+    N {
+        name,
+        parent,
+        mesh,
+        material: None,
+        extras: None,
+    }
+}
+
+impl N {
+    pub fn material(mut self, m: &'static str) -> N {
+        self.material = Some(m);
+        self
+    }
+    pub fn extras(mut self, e: Value) -> N {
+        self.extras = Some(e);
+        self
+    }
+}
+
+/// A glTF document (JSON text with an embedded buffer) whose mesh nodes each draw one quad.
+pub fn gltf(nodes: &[N]) -> String {
+    let mut blob = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
+        for c in p {
+            blob.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        blob.extend_from_slice(&i.to_le_bytes());
+    }
+    let mut materials: Vec<&str> = Vec::new();
+    let mut meshes = Vec::new();
+    let mut jnodes: Vec<Value> = Vec::new();
+    for nd in nodes {
+        let mut o = json!({"name": nd.name});
+        if nd.mesh {
+            let mut prim = json!({"attributes": {"POSITION": 0}, "indices": 1});
+            if let Some(m) = nd.material {
+                if !materials.contains(&m) {
+                    materials.push(m);
+                }
+                prim["material"] = json!(materials.iter().position(|x| *x == m).unwrap());
+            }
+            meshes.push(json!({"primitives": [prim]}));
+            o["mesh"] = json!(meshes.len() - 1);
+        }
+        if let Some(e) = &nd.extras {
+            o["extras"] = e.clone();
+        }
+        jnodes.push(o);
+    }
+    let mut roots = Vec::new();
+    for (i, nd) in nodes.iter().enumerate() {
+        match nd.parent {
+            Some(p) => {
+                let kids = jnodes[p]
+                    .as_object_mut()
+                    .unwrap()
+                    .entry("children")
+                    .or_insert_with(|| json!([]));
+                kids.as_array_mut().unwrap().push(json!(i));
+            }
+            None => roots.push(i),
+        }
+    }
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&blob)
+    );
+    let mut doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": roots}],
+        "nodes": jnodes,
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 12}
+        ],
+        "buffers": [{"byteLength": blob.len(), "uri": uri}]
+    });
+    if !meshes.is_empty() {
+        doc["meshes"] = json!(meshes);
+    }
+    if !materials.is_empty() {
+        doc["materials"] = json!(materials
+            .iter()
+            .map(|m| json!({"name": m}))
+            .collect::<Vec<_>>());
+    }
+    serde_json::to_string_pretty(&doc).unwrap()
+}
+
+/// Writes `text` as `name` into `dir` and returns the path.
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
