@@ -67,6 +67,7 @@ codes! {
     GLTF_NON_TRIANGLES_SKIPPED = Info, "point or line primitives were skipped (they bound nothing)";
     GLTF_NO_SCENE = Warning, "the file has no scene; every root node was used";
     GLTF_TRANSFORM_INVALID = Error, "a node transform is not finite or not invertible";
+    GLTF_EXTENSION_IGNORED = Warning, "an optional extension that adds geometry (EXT_mesh_gpu_instancing) was not applied";
     OBJ_MTL_MISSING = Warning, "a material library named by mtllib was not found";
     OBJ_POLYGON_SELF_INTERSECTING = Warning, "a polygon face is self-intersecting; it was fan-triangulated";
     OBJ_UNSUPPORTED_STATEMENT = Info, "OBJ statements that carry no level geometry were skipped";

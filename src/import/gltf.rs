@@ -1,14 +1,330 @@
 //! glTF 2.0 import (.gltf and .glb).
+//!
+//! The container is detected from the bytes, not the extension, because levels arrive through
+//! stdin and renamed files. The JSON is kept untouched (with every buffer's bytes) in
+//! [`GltfSource`] so the exporter can write the same file back with only our extension added;
+//! everything the pipeline needs is read from it with the lenient structs in [`schema`] and our
+//! own accessor reader, which checks every size the file claims against the bytes present before
+//! allocating anything.
 
-use std::path::Path;
+// The importer interface returns `Result<_, Diagnostic>` by design, and a failed import is a
+// once-per-run cold path, so the size of the error variant does not matter here.
+#![allow(clippy::result_large_err)]
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
 
 use super::Imported;
-use crate::diag::{Code, Diagnostic, Location};
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::scene::{Format, GltfSource, Material, Scene, SourceRef};
 
-pub fn import(_bytes: &[u8], path: &Path, _base_dir: &Path) -> Result<Imported, Diagnostic> {
-    Err(Diagnostic::new(
-        Code::GLTF_INVALID_JSON,
-        "glTF import is not written yet",
-        Location::file(path),
-    ))
+mod accessor;
+mod buffers;
+mod graph;
+mod mesh;
+mod schema;
+
+/// What every diagnostic of one import shares: the file it is about.
+pub(crate) struct Ctx {
+    path: PathBuf,
+    /// Short name put in messages, so a message read without its location still says which file.
+    name: String,
+}
+
+impl Ctx {
+    fn new(path: &Path) -> Ctx {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| path.display().to_string());
+        Ctx {
+            path: path.to_path_buf(),
+            name,
+        }
+    }
+
+    fn location(&self) -> Location {
+        Location::file(&self.path)
+    }
+
+    /// A diagnostic about the item at JSON `pointer`.
+    fn diag(&self, code: Code, pointer: impl Into<String>, msg: impl AsRef<str>) -> Diagnostic {
+        Diagnostic::new(
+            code,
+            format!("{}: {}", self.name, msg.as_ref()),
+            self.location().with_pointer(pointer),
+        )
+    }
+
+    /// A diagnostic about the file as a whole (container, JSON syntax).
+    fn file_diag(&self, code: Code, msg: impl AsRef<str>) -> Diagnostic {
+        Diagnostic::new(
+            code,
+            format!("{}: {}", self.name, msg.as_ref()),
+            self.location(),
+        )
+    }
+}
+
+const VALIDATOR_HINT: &str =
+    "the exporter wrote an invalid glTF; check it with the Khronos glTF validator and re-export";
+
+pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Diagnostic> {
+    let ctx = Ctx::new(path);
+    if bytes.is_empty() {
+        return Err(ctx
+            .file_diag(Code::INPUT_EMPTY, "the file is empty (0 bytes)")
+            .hint("the export may have failed; export the level again"));
+    }
+    let (format, json_bytes, bin) = if bytes.starts_with(b"glTF") {
+        let (json, bin) = split_glb(&ctx, bytes)?;
+        (Format::Glb, json, bin)
+    } else {
+        (Format::Gltf, bytes, None)
+    };
+    let json = parse_json(&ctx, json_bytes)?;
+    let Some(root) = json.as_object() else {
+        return Err(ctx
+            .diag(
+                Code::GLTF_INVALID_JSON,
+                "",
+                "the top level of a glTF document must be a JSON object",
+            )
+            .hint(VALIDATOR_HINT));
+    };
+    check_version(&ctx, root)?;
+    check_required_extensions(&ctx, root)?;
+    let doc = schema::Doc::from_value(&ctx, root)?;
+    let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
+
+    let mut scene = Scene::new(path.to_path_buf(), format);
+    let mut diagnostics = Diagnostics::default();
+    scene.materials = doc
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| Material {
+            name: m.name.clone(),
+            extras: m.extras.clone(),
+            source: SourceRef::pointer(format!("/materials/{i}")),
+        })
+        .collect();
+    {
+        let reader = accessor::Reader::new(&ctx, &doc, &buffers);
+        let mut meshes = mesh::Builder::new(&ctx, &doc, reader);
+        graph::build(&ctx, &doc, &mut scene, &mut meshes, &mut diagnostics)?;
+        meshes.finish(&mut diagnostics);
+    }
+    scene.gltf = Some(GltfSource {
+        json,
+        buffers,
+        base_dir: base_dir.to_path_buf(),
+    });
+    Ok(Imported { scene, diagnostics })
+}
+
+/// Splits a GLB into its JSON and BIN chunks.
+///
+/// The header is checked here first because `Glb::from_slice` subtracts the header size from the
+/// claimed length without checking, which would overflow on a hostile header.
+fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), Diagnostic> {
+    const HINT: &str = "the .glb is damaged or was cut off while copying; export it again";
+    let word = |at: usize| -> Option<u32> {
+        let b: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
+        Some(u32::from_le_bytes(b))
+    };
+    let (Some(version), Some(length)) = (word(4), word(8)) else {
+        return Err(ctx
+            .file_diag(
+                Code::GLB_INVALID,
+                format!(
+                    "truncated GLB: {} bytes, shorter than the 12-byte header",
+                    bytes.len()
+                ),
+            )
+            .hint(HINT));
+    };
+    if version != 2 {
+        return Err(ctx
+            .file_diag(
+                Code::GLTF_UNSUPPORTED_VERSION,
+                format!("GLB container version {version}; only version 2 (glTF 2.0) is read"),
+            )
+            .hint("convert the file to glTF 2.0 (e.g. open and re-export it in Blender)"));
+    }
+    let length = length as usize;
+    if length < 20 {
+        return Err(ctx
+            .file_diag(
+                Code::GLB_INVALID,
+                format!("the GLB header claims a total length of {length} bytes, too short to hold a JSON chunk"),
+            )
+            .hint(HINT));
+    }
+    let Some(data) = bytes.get(..length) else {
+        return Err(ctx
+            .file_diag(
+                Code::GLB_INVALID,
+                format!(
+                    "truncated GLB: the header says {length} bytes but the file has {}",
+                    bytes.len()
+                ),
+            )
+            .hint(HINT));
+    };
+    let glb = gltf::binary::Glb::from_slice(data).map_err(|e| {
+        use gltf::binary::Error as B;
+        let what = match e {
+            gltf::Error::Binary(B::ChunkLength {
+                ty,
+                length,
+                length_read,
+            }) => format!(
+                "truncated GLB: the {ty:?} chunk claims {length} bytes but only {length_read} follow"
+            ),
+            gltf::Error::Binary(B::Io(_)) => {
+                "truncated GLB: a chunk header is cut off".to_string()
+            }
+            gltf::Error::Binary(B::ChunkType(ty)) => {
+                format!("unexpected {ty:?} chunk (the first chunk must be JSON, the second BIN)")
+            }
+            gltf::Error::Binary(B::UnknownChunkType(t)) => {
+                format!("unknown GLB chunk type {:?}", String::from_utf8_lossy(&t))
+            }
+            other => format!("malformed GLB container: {other}"),
+        };
+        ctx.file_diag(Code::GLB_INVALID, what).hint(HINT)
+    })?;
+    // `from_slice` borrows from `data`, so the chunks can be re-sliced without copying.
+    let json_len = glb.json.len();
+    let json = data.get(20..20 + json_len).unwrap_or_default();
+    let bin = match &glb.bin {
+        Some(b) => {
+            let start = (20 + json_len + 8).min(data.len());
+            data.get(start..start + b.len())
+        }
+        None => None,
+    };
+    Ok((json, bin))
+}
+
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
+    // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
+    // padding at the end of a GLB JSON chunk.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let end = bytes
+        .iter()
+        .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
+        .map_or(0, |p| p + 1);
+    let bytes = bytes.get(..end).unwrap_or(bytes);
+    serde_json::from_slice(bytes).map_err(|e| {
+        let line = e.line();
+        Diagnostic::new(
+            Code::GLTF_INVALID_JSON,
+            // serde_json's message already ends with "at line L column C".
+            format!("{}: invalid JSON: {e}", ctx.name),
+            ctx.location().with_line(line.max(1)),
+        )
+        .hint("the file is not valid JSON; it may be truncated or not a glTF file at all")
+    })
+}
+
+fn check_version(ctx: &Ctx, root: &serde_json::Map<String, Value>) -> Result<(), Diagnostic> {
+    let Some(asset) = root.get("asset") else {
+        return Err(ctx
+            .diag(
+                Code::GLTF_INVALID_JSON,
+                "/asset",
+                "the required `asset` object is missing",
+            )
+            .hint(VALIDATOR_HINT));
+    };
+    let asset: schema::Asset = serde_json::from_value(asset.clone()).map_err(|e| {
+        ctx.diag(
+            Code::GLTF_INVALID_JSON,
+            "/asset",
+            format!("`asset` does not follow the glTF schema: {e}"),
+        )
+        .hint(VALIDATOR_HINT)
+    })?;
+    let Some(version) = asset.version else {
+        return Err(ctx
+            .diag(
+                Code::GLTF_INVALID_JSON,
+                "/asset/version",
+                "the required `asset.version` is missing",
+            )
+            .hint(VALIDATOR_HINT));
+    };
+    if version.split('.').next() != Some("2") {
+        return Err(ctx
+            .diag(
+                Code::GLTF_UNSUPPORTED_VERSION,
+                "/asset/version",
+                format!("asset version is \"{version}\"; only glTF 2.x is read"),
+            )
+            .hint("convert the file to glTF 2.0 (e.g. open and re-export it in Blender)"));
+    }
+    Ok(())
+}
+
+/// Required extensions known not to change where triangles are: materials, textures, lights,
+/// metadata, animation. Anything else that is *required* could change positions or hide
+/// geometry we would then silently miss, so it is refused.
+fn is_readable_required_extension(name: &str) -> bool {
+    const KNOWN: &[&str] = &[
+        "KHR_mesh_quantization",
+        "KHR_texture_transform",
+        "KHR_lights_punctual",
+        "KHR_texture_basisu",
+        "KHR_xmp_json_ld",
+        "KHR_animation_pointer",
+        "KHR_techniques_webgl",
+        "EXT_texture_webp",
+        "EXT_texture_avif",
+        "EXT_lights_image_based",
+        "MSFT_texture_dds",
+        "MSFT_packing_normalRoughnessMetallic",
+        "MSFT_packing_occlusionRoughnessMetallic",
+    ];
+    KNOWN.contains(&name) || name.starts_with("KHR_materials_")
+}
+
+fn check_required_extensions(
+    ctx: &Ctx,
+    root: &serde_json::Map<String, Value>,
+) -> Result<(), Diagnostic> {
+    let required: Vec<String> = schema::array(ctx, root, "extensionsRequired")?;
+    for (i, name) in required.iter().enumerate() {
+        if is_readable_required_extension(name) {
+            continue;
+        }
+        let (why, hint) = match name.as_str() {
+            "KHR_draco_mesh_compression" => (
+                "its meshes are Draco-compressed",
+                "re-export without Draco compression, or decompress with `gltf-transform cp in.glb out.glb`",
+            ),
+            "EXT_meshopt_compression" | "KHR_meshopt_compression" => (
+                "its buffers are meshopt-compressed",
+                "re-export without meshopt compression, or decompress with `gltf-transform cp in.glb out.glb`",
+            ),
+            "EXT_mesh_gpu_instancing" => (
+                "it places mesh instances with GPU instancing, which would be missed",
+                "re-export with instances realised as separate nodes (or make the extension optional)",
+            ),
+            _ => (
+                "portcullis does not know whether it changes the geometry",
+                "re-export without this extension, or ask for it to be supported",
+            ),
+        };
+        return Err(ctx
+            .diag(
+                Code::GLTF_REQUIRED_EXTENSION_UNSUPPORTED,
+                format!("/extensionsRequired/{i}"),
+                format!("the file requires extension {name}, which cannot be read: {why}"),
+            )
+            .hint(hint));
+    }
+    Ok(())
 }

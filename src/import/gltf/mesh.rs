@@ -1,0 +1,322 @@
+//! glTF meshes to scene meshes: every triangle primitive's positions concatenated, its triangles
+//! listed in a [`Primitive`] run.
+//!
+//! Problems in the geometry itself (non-finite positions, degenerate triangles, point and line
+//! primitives) do not stop the import: the level is still worth checking, so the offending
+//! triangles are dropped and reported. Structural problems (an index past the vertex count)
+//! mean the file cannot be trusted and are fatal.
+
+use super::accessor::Reader;
+use super::schema::{index, Doc};
+use super::Ctx;
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::scene::{Mesh, Primitive, SourceRef};
+
+/// One POSITION accessor's vertices as stored in the mesh: glTF vertex index to mesh index,
+/// `None` for a dropped non-finite vertex.
+struct Vertices {
+    remap: Vec<Option<u32>>,
+    bad: usize,
+    first_bad: Option<(usize, glam::DVec3)>,
+}
+
+pub struct Builder<'a> {
+    ctx: &'a Ctx,
+    doc: &'a Doc,
+    reader: Reader<'a>,
+    found: Vec<Diagnostic>,
+    non_triangles: usize,
+    first_non_triangles: Option<String>,
+    degenerate: usize,
+    first_degenerate: Option<String>,
+}
+
+impl<'a> Builder<'a> {
+    pub fn new(ctx: &'a Ctx, doc: &'a Doc, reader: Reader<'a>) -> Self {
+        Builder {
+            ctx,
+            doc,
+            reader,
+            found: Vec::new(),
+            non_triangles: 0,
+            first_non_triangles: None,
+            degenerate: 0,
+            first_degenerate: None,
+        }
+    }
+
+    /// Builds the scene mesh of glTF mesh `m`, which the caller has checked exists.
+    pub fn build(&mut self, m: usize) -> Result<Mesh, Diagnostic> {
+        let mp = format!("/meshes/{m}");
+        let Some(mesh) = self.doc.meshes.get(m) else {
+            return Err(self.ctx.diag(
+                Code::GLTF_BAD_INDEX,
+                mp,
+                format!("mesh {m} does not exist"),
+            ));
+        };
+        let label = match &mesh.name {
+            Some(n) => format!("mesh `{n}` ({mp})"),
+            None => format!("mesh {mp}"),
+        };
+        let Some(prims) = &mesh.primitives else {
+            return Err(self
+                .ctx
+                .diag(
+                    Code::GLTF_INVALID_JSON,
+                    format!("{mp}/primitives"),
+                    format!("{label} has no `primitives`"),
+                )
+                .hint(super::VALIDATOR_HINT));
+        };
+        let mut shared: Vec<(u64, Vertices)> = Vec::new();
+        let mut out = Mesh {
+            name: mesh.name.clone(),
+            positions: Vec::new(),
+            triangles: Vec::new(),
+            primitives: Vec::new(),
+            extras: mesh.extras.clone(),
+            source: SourceRef::pointer(mp.clone()),
+        };
+        for (p, prim) in prims.iter().enumerate() {
+            let pp = format!("{mp}/primitives/{p}");
+            let mode = prim.mode.unwrap_or(4);
+            match mode {
+                0..=3 => {
+                    self.non_triangles += 1;
+                    self.first_non_triangles.get_or_insert(pp);
+                    continue;
+                }
+                4..=6 => {}
+                _ => {
+                    return Err(self
+                        .ctx
+                        .diag(
+                            Code::GLTF_INVALID_JSON,
+                            format!("{pp}/mode"),
+                            format!("primitive {p} of {label} has mode {mode}, which is not a glTF primitive mode (0-6)"),
+                        )
+                        .hint(super::VALIDATOR_HINT));
+                }
+            }
+            let material = match prim.material {
+                None => None,
+                Some(x) => Some(index(x, self.doc.materials.len()).ok_or_else(|| {
+                    self.ctx
+                        .diag(
+                            Code::GLTF_BAD_INDEX,
+                            format!("{pp}/material"),
+                            format!(
+                                "material {x} does not exist (the file has {})",
+                                self.doc.materials.len()
+                            ),
+                        )
+                        .hint(super::VALIDATOR_HINT)
+                })?),
+            };
+            let Some(attributes) = &prim.attributes else {
+                return Err(self
+                    .ctx
+                    .diag(
+                        Code::GLTF_INVALID_JSON,
+                        format!("{pp}/attributes"),
+                        format!("primitive {p} of {label} has no `attributes`"),
+                    )
+                    .hint(super::VALIDATOR_HINT));
+            };
+            // glTF lets a primitive omit POSITION (an extension may supply it); without it there
+            // is nothing to bound space with, so it is passed over like a renderer would.
+            let Some(&pos_acc) = attributes.get("POSITION") else {
+                continue;
+            };
+            // Primitives of one mesh often share their POSITION accessor (one per material);
+            // its vertices are stored once and each primitive indexes into them.
+            if !shared.iter().any(|(a, _)| *a == pos_acc) {
+                let positions = self
+                    .reader
+                    .positions(pos_acc, &format!("{pp}/attributes/POSITION"))?;
+                // Non-finite vertices are left out of the mesh so every stored position is finite.
+                let mut vertices = Vertices {
+                    remap: Vec::with_capacity(positions.len()),
+                    bad: 0,
+                    first_bad: None,
+                };
+                for (i, v) in positions.iter().enumerate() {
+                    if v.is_finite() {
+                        let id =
+                            u32::try_from(out.positions.len()).map_err(|_| self.too_many(&pp))?;
+                        vertices.remap.push(Some(id));
+                        out.positions.push(*v);
+                    } else {
+                        vertices.remap.push(None);
+                        vertices.bad += 1;
+                        vertices.first_bad.get_or_insert((i, *v));
+                    }
+                }
+                shared.push((pos_acc, vertices));
+            }
+            let Some((_, vertices)) = shared.iter().find(|(a, _)| *a == pos_acc) else {
+                continue;
+            };
+            let n = vertices.remap.len();
+            let indices = match prim.indices {
+                Some(a) => {
+                    let idx = self.reader.indices(a, &format!("{pp}/indices"))?;
+                    if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
+                        return Err(self
+                            .ctx
+                            .diag(
+                                Code::MESH_INDEX_OUT_OF_RANGE,
+                                pp,
+                                format!("primitive {p} of {label}: index {v} (element {k} of accessor /accessors/{a}) is not below its vertex count {n}"),
+                            )
+                            .hint("the file is damaged or the exporter is buggy; export it again"));
+                    }
+                    idx
+                }
+                None => {
+                    let n = u32::try_from(n).map_err(|_| self.too_many(&pp))?;
+                    (0..n).collect()
+                }
+            };
+            let first_triangle = out.triangles.len();
+            let mut dropped = 0usize;
+            let mut degenerate = 0usize;
+            for [a, b, c] in assemble(mode, &indices) {
+                if a == b || b == c || a == c {
+                    degenerate += 1;
+                    continue;
+                }
+                let r = |i: u32| vertices.remap.get(i as usize).copied().flatten();
+                match (r(a), r(b), r(c)) {
+                    (Some(a), Some(b), Some(c)) => out.triangles.push([a, b, c]),
+                    _ => dropped += 1,
+                }
+            }
+            if degenerate > 0 {
+                self.degenerate += degenerate;
+                self.first_degenerate.get_or_insert_with(|| pp.clone());
+            }
+            if let Some((i, v)) = vertices.first_bad {
+                let bad = vertices.bad;
+                self.found.push(
+                    self.ctx
+                        .diag(
+                            Code::GEOM_NON_FINITE,
+                            format!("/accessors/{pos_acc}"),
+                            format!(
+                                "{bad} POSITION value(s) of accessor /accessors/{pos_acc} used by primitive {p} of {label} are NaN or infinite (first: vertex {i} = {v}); the {dropped} triangle(s) using them were dropped"
+                            ),
+                        )
+                        .hint("fix or delete those vertices in the modelling tool and export again"),
+                );
+            }
+            out.primitives.push(Primitive {
+                material,
+                first_triangle,
+                triangle_count: out.triangles.len() - first_triangle,
+                source: SourceRef::pointer(pp),
+            });
+        }
+        Ok(out)
+    }
+
+    fn too_many(&self, pp: &str) -> Diagnostic {
+        self.ctx.diag(
+            Code::GLTF_ACCESSOR_INVALID,
+            pp,
+            "the mesh has more than 2^32 vertices, more than a glTF index can address",
+        )
+    }
+
+    /// Reports what was dropped across the whole file, once per kind, so a level with thousands
+    /// of line primitives does not drown the other findings.
+    pub fn finish(self, diagnostics: &mut Diagnostics) {
+        diagnostics.extend(self.found);
+        if let Some(first) = self.first_non_triangles {
+            diagnostics.push(
+                self.ctx
+                    .diag(
+                        Code::GLTF_NON_TRIANGLES_SKIPPED,
+                        first,
+                        format!(
+                            "{} point or line primitive(s) were skipped (first shown); they bound no space",
+                            self.non_triangles
+                        ),
+                    )
+                    .hint("nothing to do unless those primitives were meant to be surfaces"),
+            );
+        }
+        if let Some(first) = self.first_degenerate {
+            diagnostics.push(
+                self.ctx
+                    .diag(
+                        Code::GEOM_DEGENERATE_TRIANGLES,
+                        first,
+                        format!(
+                            "{} degenerate triangle(s) (a vertex index repeated) were dropped (first primitive shown)",
+                            self.degenerate
+                        ),
+                    )
+                    .hint("harmless; Blender's Mesh > Clean Up > Delete Loose/Degenerate removes them at the source"),
+            );
+        }
+    }
+}
+
+/// Triangles of an index list in `mode` 4 (list), 5 (strip) or 6 (fan), following the vertex
+/// order the glTF 2.0 specification gives (§3.7.2.1), so every triangle keeps its facing.
+pub fn assemble(mode: u64, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        5 => idx
+            .windows(3)
+            .enumerate()
+            .filter_map(|(i, w)| match *w {
+                [a, b, c] if i % 2 == 0 => Some([a, b, c]),
+                [a, b, c] => Some([a, c, b]),
+                _ => None,
+            })
+            .collect(),
+        6 => match idx.split_first() {
+            Some((&v0, rest)) => rest
+                .windows(2)
+                .filter_map(|w| match *w {
+                    [b, c] => Some([b, c, v0]),
+                    _ => None,
+                })
+                .collect(),
+            None => Vec::new(),
+        },
+        _ => idx
+            .chunks_exact(3)
+            .filter_map(|c| match *c {
+                [a, b, c] => Some([a, b, c]),
+                _ => None,
+            })
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::assemble;
+
+    #[test]
+    fn strip_alternates_winding() {
+        assert_eq!(
+            assemble(5, &[0, 1, 2, 3, 4]),
+            vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]
+        );
+    }
+
+    #[test]
+    fn fan_keeps_first_vertex() {
+        assert_eq!(assemble(6, &[0, 1, 2, 3]), vec![[1, 2, 0], [2, 3, 0]]);
+        assert!(assemble(6, &[]).is_empty());
+    }
+
+    #[test]
+    fn list_ignores_trailing_indices() {
+        assert_eq!(assemble(4, &[0, 1, 2, 3]), vec![[0, 1, 2]]);
+    }
+}

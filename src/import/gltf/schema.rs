@@ -1,0 +1,194 @@
+//! The few parts of the glTF schema the importer reads, as lenient serde structs.
+//!
+//! gltf-json's own validation rejects files we can read (KHR_mesh_quantization positions, unknown
+//! required extensions we want to name ourselves), so the document is kept as a
+//! `serde_json::Value` and each object is deserialized on its own: a malformed item is then
+//! reported with its JSON pointer instead of one error for the whole file. Required fields are
+//! `Option`s so their absence is reported by whoever needs them, with the pointer to the field.
+
+use std::collections::BTreeMap;
+
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+use super::Ctx;
+use crate::diag::{Code, Diagnostic};
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Asset {
+    pub version: Option<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SceneDef {
+    pub nodes: Vec<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Node {
+    pub name: Option<String>,
+    pub children: Vec<u64>,
+    pub mesh: Option<u64>,
+    pub matrix: Option<Vec<f64>>,
+    pub translation: Option<Vec<f64>>,
+    pub rotation: Option<Vec<f64>>,
+    pub scale: Option<Vec<f64>>,
+    pub extras: Option<Value>,
+    pub extensions: Option<Map<String, Value>>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Mesh {
+    pub name: Option<String>,
+    pub primitives: Option<Vec<Primitive>>,
+    pub extras: Option<Value>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Primitive {
+    pub attributes: Option<BTreeMap<String, u64>>,
+    pub indices: Option<u64>,
+    pub material: Option<u64>,
+    pub mode: Option<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Accessor {
+    pub buffer_view: Option<u64>,
+    pub byte_offset: u64,
+    pub component_type: Option<u64>,
+    pub normalized: bool,
+    pub count: Option<u64>,
+    #[serde(rename = "type")]
+    pub kind: Option<String>,
+    pub sparse: Option<Sparse>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Sparse {
+    pub count: Option<u64>,
+    pub indices: Option<SparseIndices>,
+    pub values: Option<SparseValues>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SparseIndices {
+    pub buffer_view: Option<u64>,
+    pub byte_offset: u64,
+    pub component_type: Option<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct SparseValues {
+    pub buffer_view: Option<u64>,
+    pub byte_offset: u64,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct BufferView {
+    pub buffer: Option<u64>,
+    pub byte_offset: u64,
+    pub byte_length: Option<u64>,
+    pub byte_stride: Option<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Buffer {
+    pub uri: Option<String>,
+    pub byte_length: Option<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, rename_all = "camelCase")]
+pub struct Material {
+    pub name: Option<String>,
+    pub extras: Option<Value>,
+}
+
+/// The typed view of the document the importer works from.
+#[derive(Debug, Default)]
+pub struct Doc {
+    pub scene: Option<u64>,
+    pub scenes: Vec<SceneDef>,
+    pub nodes: Vec<Node>,
+    pub meshes: Vec<Mesh>,
+    pub accessors: Vec<Accessor>,
+    pub buffer_views: Vec<BufferView>,
+    pub buffers: Vec<Buffer>,
+    pub materials: Vec<Material>,
+}
+
+impl Doc {
+    pub fn from_value(ctx: &Ctx, root: &Map<String, Value>) -> Result<Doc, Diagnostic> {
+        let scene = match root.get("scene") {
+            None => None,
+            Some(v) => Some(v.as_u64().ok_or_else(|| {
+                ctx.diag(
+                    Code::GLTF_INVALID_JSON,
+                    "/scene",
+                    format!("`scene` must be a non-negative integer, found {v}"),
+                )
+            })?),
+        };
+        Ok(Doc {
+            scene,
+            scenes: array(ctx, root, "scenes")?,
+            nodes: array(ctx, root, "nodes")?,
+            meshes: array(ctx, root, "meshes")?,
+            accessors: array(ctx, root, "accessors")?,
+            buffer_views: array(ctx, root, "bufferViews")?,
+            buffers: array(ctx, root, "buffers")?,
+            materials: array(ctx, root, "materials")?,
+        })
+    }
+}
+
+/// Deserializes the top-level array `key` item by item so an error names the item.
+pub fn array<T: DeserializeOwned>(
+    ctx: &Ctx,
+    root: &Map<String, Value>,
+    key: &str,
+) -> Result<Vec<T>, Diagnostic> {
+    let Some(v) = root.get(key) else {
+        return Ok(Vec::new());
+    };
+    let Some(items) = v.as_array() else {
+        return Err(ctx
+            .diag(
+                Code::GLTF_INVALID_JSON,
+                format!("/{key}"),
+                format!("`{key}` must be an array"),
+            )
+            .hint("the exporter wrote an invalid glTF; check it with the Khronos glTF validator"));
+    };
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let t = T::deserialize(item).map_err(|e| {
+            ctx.diag(
+                Code::GLTF_INVALID_JSON,
+                format!("/{key}/{i}"),
+                format!("{key}[{i}] does not follow the glTF schema: {e}"),
+            )
+            .hint("the exporter wrote an invalid glTF; check it with the Khronos glTF validator")
+        })?;
+        out.push(t);
+    }
+    Ok(out)
+}
+
+/// `i` as an index into a list of `len` items, if it is one.
+pub fn index(i: u64, len: usize) -> Option<usize> {
+    usize::try_from(i).ok().filter(|&i| i < len)
+}
