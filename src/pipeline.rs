@@ -43,9 +43,9 @@ pub fn config_for(input: &Path, opts: &LoadOptions) -> Result<Config, Diagnostic
 
 /// Imports and tags one file. `Err` means the file could not be processed at all.
 pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnostic> {
+    let imported = import::import_path(input, &opts.import)?;
     let config = config_for(input, opts)?;
     let rules = config::rule_set(&config, opts.preset.as_deref())?;
-    let imported = import::import_path(input, &opts.import)?;
     let tagging = tags::recognise(&imported.scene, &rules);
     let mut diagnostics = imported.diagnostics;
     diagnostics.extend(tagging.diagnostics.iter().cloned());
