@@ -4,10 +4,6 @@
 //! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
 
-// A fatal `Diagnostic` is the error type of every stage; it is large (a location with several
-// optional parts) but only ever returned once per failed file, so boxing it buys nothing.
-#![allow(clippy::result_large_err)]
-
 pub mod config;
 pub mod diag;
 pub mod geom;

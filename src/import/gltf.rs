@@ -7,10 +7,6 @@
 //! own accessor reader, which checks every size the file claims against the bytes present before
 //! allocating anything.
 
-// The importer interface returns `Result<_, Diagnostic>` by design, and a failed import is a
-// once-per-run cold path, so the size of the error variant does not matter here.
-#![allow(clippy::result_large_err)]
-
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
