@@ -98,3 +98,21 @@ impl Serialize for Code {
         s.serialize_str(self.as_str())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_code_is_documented_and_round_trips() {
+        let doc = include_str!("../../docs/diagnostics.md");
+        for c in Code::ALL {
+            assert!(
+                doc.contains(&format!("`{c}`")),
+                "docs/diagnostics.md lacks {c}"
+            );
+            assert_eq!(Code::parse(c.as_str()), Some(*c));
+            assert!(!c.summary().is_empty());
+        }
+    }
+}
