@@ -1,4 +1,9 @@
-//! f64 geometry primitives. Orientation decisions use exact predicates (`robust`).
+//! f64 geometry primitives. Orientation decisions use exact predicates (`robust`); distances
+//! are judged with the one tolerance policy in [`tolerance`].
 
 pub mod aabb;
+pub mod hull;
+pub mod plane;
+pub mod polyhedron;
+pub mod tolerance;
 pub mod triangulate;

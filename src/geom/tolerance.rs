@@ -1,0 +1,101 @@
+//! The one tolerance policy every geometric decision uses.
+//!
+//! A distance epsilon must never be finer than the input can express (an f32 position 10 km from
+//! the origin is only good to about a millimetre, so two walls "1e-5 m apart" there are the
+//! same wall) and never coarser than the user allows (`[cells] max_tolerance`, 1 mm by
+//! default), or doors would silently close. Between those bounds we take the input precision
+//! with a safety factor, and a floor of 1e-9 of the level's extent so f64 arithmetic noise of
+//! the geometry itself is always absorbed. Angles are judged separately (normals within
+//! `angle` radians are parallel) because a distance test alone over-trusts huge faces.
+
+use serde::Serialize;
+
+/// Default cap on the distance tolerance, metres.
+pub const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
+/// Default angle tolerance, radians.
+pub const DEFAULT_ANGLE: f64 = 1e-5;
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Tolerance {
+    /// Points closer than this are the same point; a point closer than this to a plane is on it.
+    pub distance: f64,
+    /// Normals closer than this (radians) are parallel.
+    pub angle: f64,
+    /// What the input's own precision asked for (before the cap), for reporting.
+    pub input_precision: f64,
+    /// True when the input was coarser than the cap allows (results may merge close features).
+    pub capped: bool,
+}
+
+impl Tolerance {
+    /// `extent`: the level's bounding-box diagonal; `max_abs`: the largest absolute coordinate
+    /// as stored in the file (before recentring: that is where the file lost precision);
+    /// `single_precision`: positions were stored as f32 (glTF) rather than decimal text.
+    pub fn derive(
+        extent: f64,
+        max_abs: f64,
+        single_precision: bool,
+        max_distance: f64,
+    ) -> Tolerance {
+        let unit = if single_precision {
+            f32::EPSILON as f64
+        } else {
+            f64::EPSILON * 16.0
+        };
+        // Four ulps of the largest coordinate: one for storage, the rest for the transforms
+        // the exporter applied before storing.
+        let input_precision = 4.0 * unit * max_abs.max(0.0);
+        let floor = 1e-9 * extent.max(0.0);
+        let wanted = input_precision.max(floor).max(1e-12);
+        let capped = wanted > max_distance;
+        Tolerance {
+            distance: wanted.min(max_distance),
+            angle: DEFAULT_ANGLE,
+            input_precision,
+            capped,
+        }
+    }
+
+    /// A fixed tolerance, for tests and for callers that know their data.
+    pub fn fixed(distance: f64) -> Tolerance {
+        Tolerance {
+            distance,
+            angle: DEFAULT_ANGLE,
+            input_precision: 0.0,
+            capped: false,
+        }
+    }
+
+    /// Volumes below this are empty: a slab of tolerance thickness over the extent squared.
+    pub fn volume(&self, extent: f64) -> f64 {
+        self.distance * extent.max(1e-9).powi(2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f32_far_from_origin_is_coarse_and_capped() {
+        // 10 km out, f32: about 1 mm per ulp.
+        let t = Tolerance::derive(100.0, 10_000.0, true, DEFAULT_MAX_DISTANCE);
+        assert!(t.input_precision > 1e-3);
+        assert!(t.capped);
+        assert_eq!(t.distance, DEFAULT_MAX_DISTANCE);
+        // A room near the origin keeps a fine tolerance.
+        let t = Tolerance::derive(20.0, 10.0, true, DEFAULT_MAX_DISTANCE);
+        assert!(t.distance < 1e-5 && t.distance > 1e-7, "{}", t.distance);
+        assert!(!t.capped);
+        // Decimal input is much finer.
+        let t = Tolerance::derive(20.0, 10.0, false, DEFAULT_MAX_DISTANCE);
+        assert!(t.distance < 1e-7);
+    }
+
+    #[test]
+    fn scales_with_the_level() {
+        let a = Tolerance::derive(10.0, 10.0, true, 1.0);
+        let b = Tolerance::derive(10_000.0, 10_000.0, true, 1.0);
+        assert!((b.distance / a.distance - 1000.0).abs() < 1e-6);
+    }
+}
