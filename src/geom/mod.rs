@@ -1,4 +1,5 @@
 //! f64 geometry primitives. Orientation decisions use exact predicates (`robust`).
 
 pub mod aabb;
+pub mod partition;
 pub mod triangulate;
