@@ -87,6 +87,136 @@ def two_rooms():
     }
 
 
+def grid_cells(outer, minus=()):
+    """Rectangle decomposition of a rectilinear footprint in (x, z): the cells of the grid of
+    all its corner coordinates inside `outer` and outside every rectangle of `minus`. A grid
+    (rather than fewest rectangles) keeps the mesh conforming: every cell edge meets whole
+    edges of its neighbours and of the walls, so the shell closes edge for edge."""
+    rects = [outer, *minus]
+    xs = sorted({r[k] for r in rects for k in (0, 2)})
+    zs = sorted({r[k] for r in rects for k in (1, 3)})
+
+    def inside(x, z, r):
+        return r[0] < x < r[2] and r[1] < z < r[3]
+
+    cells = []
+    for xa, xb in zip(xs, xs[1:]):
+        for za, zb in zip(zs, zs[1:]):
+            cx, cz = (xa + xb) / 2, (za + zb) / 2
+            if inside(cx, cz, outer) and not any(inside(cx, cz, m) for m in minus):
+                cells.append((xa, za, xb, zb))
+    return cells
+
+
+def shell(cells, top=lambda x, z: H):
+    """Inward-facing closed shell over a footprint: floor at y = 0 facing up, ceiling at
+    y = top(x, z) (a plane) facing down, walls along the footprint boundary facing into the
+    room. Returns floor, ceiling, walls triangles."""
+    floor, ceiling, walls = [], [], []
+    for x0, z0, x1, z1 in cells:
+        floor += quad((x0, 0, z0), (x0, 0, z1), (x1, 0, z1), (x1, 0, z0))
+        ceiling += quad((x0, top(x0, z0), z0), (x1, top(x1, z0), z0),
+                        (x1, top(x1, z1), z1), (x0, top(x0, z1), z1))
+    # Boundary: cell edges that no other cell has (reversed); interior is the cell's side.
+    edges = []
+    for x0, z0, x1, z1 in cells:
+        # Counter-clockwise seen from above (+y), so the cell is to the left of each edge.
+        loop = [(x0, z0), (x0, z1), (x1, z1), (x1, z0)]
+        edges += [(loop[k], loop[(k + 1) % 4]) for k in range(4)]
+    eset = set(edges)
+    for p, q in edges:
+        if (q, p) in eset:
+            continue
+        (xa, za), (xb, zb) = p, q
+        # The wall is the cell edge p -> q raised; its floor edge must run q -> p.
+        walls += quad((xb, 0, zb), (xa, 0, za), (xa, top(xa, za), za), (xb, top(xb, zb), zb))
+    return floor, ceiling, walls
+
+
+def room_node(name, floor, ceiling, walls):
+    return {"name": name, "children": [
+        {"name": "Floor", "tris": floor, "material": "floor"},
+        {"name": "Walls", "tris": walls, "material": "wall"},
+        {"name": "Ceiling", "tris": ceiling, "material": "wall"},
+    ]}
+
+
+def level(*children):
+    return {"name": "Level", "children": list(children)}
+
+
+def l_room():
+    return level(room_node("hall-room", *shell(grid_cells((0, 0, 6, 6), [(3, 3, 6, 6)]))))
+
+
+def u_room():
+    return level(room_node("hall-room", *shell(grid_cells((0, 0, 9, 6), [(3, 3, 6, 6)]))))
+
+
+def pillar_room():
+    return level(room_node("hall-room", *shell(grid_cells((0, 0, 6, 6), [(2.5, 2.5, 3.5, 3.5)]))))
+
+
+def sloped_hall():
+    cells = grid_cells((0, 0, 8, 6))
+    return level(room_node("atrium-room", *shell(cells, top=lambda x, z: 6 + x / 4)))
+
+
+def bound_boxes():
+    two = two_rooms()
+    building = []
+    for _, t in flatten(two):
+        # The authored portal quad is a marker, not a surface: merged in, it would close the door.
+        if "tris" in t and not t["name"].endswith("-portal"):
+            building += t["tris"]
+    return level(
+        {"name": "building", "tris": building, "material": "wall"},
+        {"name": "kitchen-cell", "tris": box(0.0, 0.0, 0.0, 4.0, H, 4.0), "material": "bound"},
+        {"name": "lounge-cell", "tris": box(4.0, 0.0, 0.0, 8.0, H, 4.0), "material": "bound"},
+    )
+
+
+def check_shell(tris, volume, what):
+    """Closed and consistently oriented (every directed edge once, its reverse once) with the
+    given signed volume (divergence theorem: outward shells positive, inward negative)."""
+    directed = {}
+    for a, b, c in tris:
+        for e in ((a, b), (b, c), (c, a)):
+            directed[e] = directed.get(e, 0) + 1
+    bad = [e for e, n in directed.items() if n != 1 or directed.get((e[1], e[0])) != 1]
+    assert not bad, f"{what}: open or inconsistent edges {bad[:4]}"
+
+    def det(a, b, c):
+        return (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+
+    v = sum(det(a, b, c) for a, b, c in tris) / 6.0
+    assert abs(v - volume) < 1e-9, f"{what}: signed volume {v}, expected {volume}"
+
+
+def self_check(samples):
+    known = {"l_room": 81.0, "u_room": 135.0, "pillar_room": 105.0, "sloped_hall": 336.0}
+    for name, tree in samples.items():
+        if name in known:
+            room = tree["children"][0]
+            tris = [t for c in room["children"] for t in c["tris"]]
+            check_shell(tris, -known[name], name)
+            floor = room["children"][0]["tris"]
+            assert all(normal(t)[1] > 0 for t in floor), f"{name}: floor not facing up"
+            ceiling = room["children"][2]["tris"]
+            assert all(normal(t)[1] < 0 for t in ceiling), f"{name}: ceiling not facing down"
+        elif name == "bound_boxes":
+            for node in tree["children"][1:]:
+                check_shell(node["tris"], 48.0, f"{name}/{node['name']}")
+
+
+def normal(t):
+    a, b, c = t
+    u = [b[k] - a[k] for k in range(3)]
+    w = [c[k] - a[k] for k in range(3)]
+    return (u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0])
+
+
 def flatten(tree, prefix=""):
     path = f"{prefix}/{tree['name']}" if prefix else tree["name"]
     yield path, tree
@@ -189,3 +319,10 @@ if __name__ == "__main__":
     write_gltf(t, OUT / "two_rooms.gltf")
     write_obj(t, OUT / "two_rooms.obj")
     print("wrote", OUT / "two_rooms.gltf", OUT / "two_rooms.obj")
+    samples = {"l_room": l_room(), "u_room": u_room(), "pillar_room": pillar_room(),
+               "sloped_hall": sloped_hall(), "bound_boxes": bound_boxes()}
+    self_check(samples)
+    for name, tree in samples.items():
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
+    print("self-check passed: every room shell is closed, inward-facing, with its known volume")

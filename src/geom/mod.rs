@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod hull;
+pub mod partition;
 pub mod plane;
 pub mod polyhedron;
 pub mod tolerance;
