@@ -19,6 +19,8 @@ pub const FILE_NAME: &str = "portcullis.toml";
 pub struct Config {
     #[serde(default)]
     pub tags: TagsConfig,
+    #[serde(default)]
+    pub cells: CellsConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -34,6 +36,42 @@ pub struct TagsConfig {
     pub replace: bool,
     #[serde(default, rename = "rule")]
     pub rules: Vec<RuleSpec>,
+}
+
+/// `[cells]`: how rooms become convex cells.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CellsConfig {
+    /// A cell with more planes than this is reported (engines test every plane per frame).
+    pub max_planes: usize,
+    /// Cells of different rooms overlapping by more than this volume (m³) are reported.
+    pub overlap_volume: f64,
+    /// Extrusion height of footprints (m). Unset: up to the geometry above each footprint
+    /// vertex, else `default_height`.
+    pub footprint_height: Option<f64>,
+    /// Height used where nothing is above a footprint and the level's top is too close.
+    pub default_height: f64,
+    /// The largest distance tolerance allowed (m); see ARCHITECTURE.md, Numerics.
+    pub max_tolerance: f64,
+    /// Treat small meshes of a room that touch fewer than two sides of the rest of the room
+    /// as props: they are rendered by the cell containing them but do not shape it.
+    pub detect_props: bool,
+    /// The level's up direction (glTF and portcullis's importers use +Y).
+    pub up: [f64; 3],
+}
+
+impl Default for CellsConfig {
+    fn default() -> Self {
+        CellsConfig {
+            max_planes: 32,
+            overlap_volume: 1e-3,
+            footprint_height: None,
+            default_height: 3.0,
+            max_tolerance: crate::geom::tolerance::DEFAULT_MAX_DISTANCE,
+            detect_props: true,
+            up: [0.0, 1.0, 0.0],
+        }
+    }
 }
 
 /// The configuration next to `input`, if there is one.

@@ -4,6 +4,7 @@
 //! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
 
+pub mod cells;
 pub mod config;
 pub mod diag;
 pub mod geom;

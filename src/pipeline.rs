@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::cells::{self, CellSet};
 use crate::config::{self, Config};
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::import::{self, ImportOptions};
@@ -56,4 +57,11 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
         tagging,
         diagnostics,
     })
+}
+
+/// The cells of a tagged level; their diagnostics are appended to `tagged.diagnostics`.
+pub fn build_cells(tagged: &mut Tagged) -> CellSet {
+    let set = cells::build(&tagged.scene, &tagged.tagging, &tagged.config.cells);
+    tagged.diagnostics.extend(set.diagnostics.iter().cloned());
+    set
 }

@@ -6,10 +6,11 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
+use portcullis::cells::{CellSet, CellSource};
 use portcullis::diag::Diagnostic;
 use portcullis::pipeline::{self, Tagged};
 use portcullis::report::{human, style::Style, Totals};
-use portcullis::scene::summary::{summarize, SceneSummary};
+use portcullis::scene::summary::{summarize, Bounds, SceneSummary};
 use portcullis::tags::rules::{PortalKind, TagKind, VolumeHint};
 
 use super::{Format, LevelArgs};
@@ -44,7 +45,40 @@ struct FileReport {
     scene: Option<SceneSummary>,
     #[serde(skip_serializing_if = "Option::is_none")]
     tags: Option<TagsView>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cells: Option<Vec<CellView>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tolerance: Option<f64>,
     diagnostics: Vec<Diagnostic>,
+}
+
+#[derive(Debug, Serialize)]
+struct CellView {
+    room: String,
+    source: CellSource,
+    volume: f64,
+    planes: usize,
+    bounds: Bounds,
+    /// Nodes the cell renders.
+    nodes: Vec<String>,
+}
+
+fn cells_view(t: &Tagged, set: &CellSet) -> Vec<CellView> {
+    set.cells
+        .iter()
+        .map(|c| CellView {
+            room: t.tagging.rooms[c.room].name.clone(),
+            source: c.source,
+            volume: c.volume,
+            planes: c.poly.faces.len(),
+            bounds: Bounds {
+                min: c.bounds.min.to_array(),
+                max: c.bounds.max.to_array(),
+                size: c.bounds.size().to_array(),
+            },
+            nodes: c.nodes.iter().map(|&n| t.scene.node_path(n)).collect(),
+        })
+        .collect()
 }
 
 #[derive(Debug, Serialize)]
@@ -206,7 +240,8 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     for path in &a.files {
         totals.files += 1;
         let report = match pipeline::load_tagged(path, &opts) {
-            Ok(t) => {
+            Ok(mut t) => {
+                let cells = pipeline::build_cells(&mut t);
                 totals.add(t.diagnostics.iter());
                 FileReport {
                     path: path.clone(),
@@ -214,6 +249,8 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     config: t.config.path.clone(),
                     scene: Some(summarize(&t.scene)),
                     tags: Some(tags_view(&t)),
+                    cells: Some(cells_view(&t, &cells)),
+                    tolerance: Some(cells.tolerance.distance),
                     diagnostics: t.diagnostics.0.clone(),
                 }
             }
@@ -226,6 +263,8 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     config: None,
                     scene: None,
                     tags: None,
+                    cells: None,
+                    tolerance: None,
                     diagnostics: vec![d],
                 }
             }
@@ -413,6 +452,32 @@ fn render_human(r: &FileReport, style: &Style) -> String {
             })
             .collect();
         list(&mut out, "near misses", &misses, style);
+    }
+    if let Some(cells) = &r.cells {
+        let rows: Vec<String> = cells
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let src = serde_json::to_value(c.source)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default();
+                format!(
+                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, renders {} nodes",
+                    c.room,
+                    c.volume,
+                    c.planes,
+                    fmt3(c.bounds.min),
+                    fmt3(c.bounds.max),
+                    c.nodes.len()
+                )
+            })
+            .collect();
+        let mut title = "cells".to_string();
+        if let Some(t) = r.tolerance {
+            title = format!("cells (tolerance {t:.1e} m)");
+        }
+        list(&mut out, &title, &rows, style);
     }
     if !r.diagnostics.is_empty() {
         for d in &r.diagnostics {

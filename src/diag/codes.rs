@@ -85,6 +85,16 @@ codes! {
     TAG_EXTRAS_INVALID = Warning, "a tag key in extras has a value of the wrong type";
     TAG_TELEPORT_EXIT_UNKNOWN = Error, "a teleporter portal names an exit node that does not exist";
     TAG_NO_ROOMS = Info, "no room was recognised; the whole level is one space";
+
+    // --- cells ---
+    TOLERANCE_CAPPED = Warning, "the input's precision is coarser than the largest tolerance allowed";
+    CELL_ROOM_FROM_FLOOR = Info, "a room made only of floor was extruded upward like a footprint";
+    CELL_ROOM_EMPTY = Error, "a room has no geometry, bound or footprint to give it a volume";
+    CELL_ROOM_DEGENERATE = Error, "a room's geometry has no volume (flat, a line or a point)";
+    CELL_BOUND_NOT_CONVEX = Warning, "a bound mesh is not convex; its convex hull was used";
+    CELL_TOO_MANY_PLANES = Warning, "a cell has more planes than configured";
+    CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap";
+    CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
 }
 
 impl fmt::Display for Code {

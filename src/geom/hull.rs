@@ -92,6 +92,7 @@ pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
     }
     let bounds = Aabb::from_points(points.iter());
     ConvexPolyhedron::from_planes(&planes, &bounds, eps)
+        .map(|p| p.simplified(eps))
         .ok_or_else(|| HullError::Failed("the hull planes do not enclose a volume".into()))
 }
 

@@ -54,9 +54,12 @@ impl Plane {
         }
     }
 
-    /// Same plane and orientation, within the distance tolerance over `extent` and `angle`.
+    /// Same plane and orientation: normals within `angle` radians, offsets within `dist`.
+    /// (The chord between unit normals is compared, not the dot product, whose rounding near
+    /// 1 would make tiny angles meaningless.)
     pub fn same_as(&self, o: &Plane, dist: f64, angle: f64) -> bool {
-        self.normal.dot(o.normal) >= angle.cos() && (self.d - o.d).abs() <= dist
+        let chord = angle.max(1e-12);
+        (self.normal - o.normal).length_squared() <= chord * chord && (self.d - o.d).abs() <= dist
     }
 
     /// Two unit vectors spanning the plane, with `u × v = normal`.

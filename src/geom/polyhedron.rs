@@ -241,6 +241,56 @@ impl ConvexPolyhedron {
         (p.faces.len() >= 4 && p.volume() > eps * eps * eps).then_some(p)
     }
 
+    /// Removes sliver faces: faces so thin that dropping their plane moves no vertex more than
+    /// `eps` out of it. Float noise in the input (f32 positions through rotation matrices) makes
+    /// hulls with such facets; a cell should not carry planes its shape does not need.
+    pub fn simplified(&self, eps: f64) -> ConvexPolyhedron {
+        let mut current = self.clone();
+        loop {
+            let bounds = current.bounds();
+            let mut candidates: Vec<(f64, usize)> = current
+                .faces
+                .iter()
+                .enumerate()
+                .filter_map(|(i, f)| {
+                    let area = polygon_area(&f.points, f.plane.normal);
+                    let perimeter: f64 = (0..f.points.len())
+                        .map(|k| f.points[k].distance(f.points[(k + 1) % f.points.len()]))
+                        .sum();
+                    // Every face is tried on small cells; big ones only try slivers.
+                    (current.faces.len() <= 64 || area <= 100.0 * eps * perimeter)
+                        .then_some((area, i))
+                })
+                .collect();
+            candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut changed = false;
+            for (_, i) in candidates {
+                let others: Vec<Plane> = current
+                    .faces
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(_, f)| f.plane)
+                    .collect();
+                let gone = current.faces[i].plane;
+                if let Some(p) = ConvexPolyhedron::from_planes(&others, &bounds, eps) {
+                    if p.faces
+                        .iter()
+                        .flat_map(|f| f.points.iter())
+                        .all(|v| gone.distance(*v) <= eps)
+                    {
+                        current = p;
+                        changed = true;
+                        break;
+                    }
+                }
+            }
+            if !changed {
+                return current;
+            }
+        }
+    }
+
     /// The parts behind and in front of `plane`.
     pub fn split(
         &self,

@@ -1,0 +1,138 @@
+//! Which nodes each cell renders. Structure goes to every cell of its room it reaches into;
+//! props go to the cell containing their centre; geometry outside every room goes to every
+//! cell it reaches into, and geometry in no cell at all is reported.
+
+use glam::DVec3;
+
+use super::{node_triangles, CellSet};
+use crate::diag::{Code, Diagnostic, Location};
+use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
+use crate::scene::{NodeId, Scene};
+use crate::tags::Tagging;
+
+/// Whether a meaningful part of the triangle (not a sliver along a shared face) is in the cell.
+fn triangle_in_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let area = 0.5 * n.length();
+    let Some(normal) = n.try_normalize() else {
+        return false;
+    };
+    let mut poly: Vec<DVec3> = t.to_vec();
+    for f in &cell.faces {
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for i in 0..poly.len() {
+            let a = poly[i];
+            let b = poly[(i + 1) % poly.len()];
+            let (da, db) = (f.plane.distance(a) - eps, f.plane.distance(b) - eps);
+            if da <= 0.0 {
+                out.push(a);
+            }
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                out.push(a + (b - a) * (da / (da - db)));
+            }
+        }
+        poly = out;
+        if poly.len() < 3 {
+            return false;
+        }
+    }
+    polygon_area(&poly, normal) > 1e-3 * area
+}
+
+fn node_in_cell(tris: &[[DVec3; 3]], cell: &ConvexPolyhedron, eps: f64) -> bool {
+    let b = cell.bounds();
+    tris.iter().any(|t| {
+        let outside = (0..3).any(|k| {
+            t.iter().all(|p| p[k] < b.min[k] - eps) || t.iter().all(|p| p[k] > b.max[k] + eps)
+        });
+        !outside && triangle_in_cell(t, cell, eps)
+    })
+}
+
+pub(crate) fn assign(scene: &Scene, tagging: &Tagging, set: &mut CellSet) {
+    let eps = set.tolerance.distance;
+    let loc = |n: NodeId| {
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n))
+    };
+    let mut lists: Vec<Vec<NodeId>> = vec![Vec::new(); set.cells.len()];
+    let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
+        prefer
+            .iter()
+            .copied()
+            .find(|&c| set.cells[c].poly.contains(p, eps))
+            .or_else(|| (0..set.cells.len()).find(|&c| set.cells[c].poly.contains(p, eps)))
+    };
+    let mut outside = Vec::new();
+    let place_prop =
+        |n: NodeId, prefer: &[usize], lists: &mut Vec<Vec<NodeId>>, outside: &mut Vec<NodeId>| {
+            let pts = scene.world_positions_used(n);
+            if pts.is_empty() {
+                return;
+            }
+            let b = crate::geom::aabb::Aabb::from_points(pts.iter());
+            match containing((b.min + b.max) * 0.5, prefer) {
+                Some(c) => lists[c].push(n),
+                None => outside.push(n),
+            }
+        };
+    for (ri, room) in tagging.rooms.iter().enumerate() {
+        let mine = &set.room_cells[ri];
+        for &n in &room.structure {
+            if set.props.contains(&n) {
+                continue;
+            }
+            let tris = node_triangles(scene, &[n], DVec3::ZERO);
+            let hit: Vec<usize> = mine
+                .iter()
+                .copied()
+                .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
+                .collect();
+            match (hit.is_empty(), mine.first()) {
+                (false, _) => hit.into_iter().for_each(|c| lists[c].push(n)),
+                (true, Some(&c)) => lists[c].push(n),
+                (true, None) => {}
+            }
+        }
+        for &n in room
+            .detail
+            .iter()
+            .chain(room.structure.iter().filter(|n| set.props.contains(n)))
+        {
+            place_prop(n, mine, &mut lists, &mut outside);
+        }
+    }
+    for d in &tagging.detail {
+        place_prop(d.node, &[], &mut lists, &mut outside);
+    }
+    if !set.cells.is_empty() {
+        for u in &tagging.unassigned {
+            let tris = node_triangles(scene, &[u.node], DVec3::ZERO);
+            let hit: Vec<usize> = (0..set.cells.len())
+                .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
+                .collect();
+            if hit.is_empty() {
+                outside.push(u.node);
+            }
+            hit.into_iter().for_each(|c| lists[c].push(u.node));
+        }
+    }
+    for n in outside {
+        let pts = scene.world_positions_used(n);
+        let b = crate::geom::aabb::Aabb::from_points(pts.iter());
+        set.diagnostics.push(
+            Diagnostic::new(
+                Code::CELL_GEOMETRY_OUTSIDE,
+                format!("`{}` lies in no cell, so no cell renders it", scene.node_label(n)),
+                loc(n).with_position(((b.min + b.max) * 0.5).to_array()),
+            )
+            .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`"),
+        );
+    }
+    for (c, mut l) in lists.into_iter().enumerate() {
+        l.sort_unstable();
+        l.dedup();
+        set.cells[c].nodes = l;
+    }
+}

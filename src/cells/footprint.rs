@@ -1,0 +1,169 @@
+//! Footprints: floor polygons (flat or sloped, Panda3D style) extruded upward into cells.
+//!
+//! Each planar part of a footprint is partitioned into convex pieces; every piece vertex rises
+//! to the geometry above it (a ray cast against the level, footprints and portals excluded),
+//! so a ground-floor cell ends under the next storey's floor and an outdoor cell rises to the
+//! top of the level. The cell is the hull of the piece and its raised copy: its bottom is
+//! exactly the footprint piece, which is what "cells cover the footprint" means.
+
+use std::collections::HashSet;
+
+use glam::{DVec2, DVec3};
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+
+use super::{node_triangles, plan_pieces, Frame};
+use crate::config::CellsConfig;
+use crate::geom::hull::hull;
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::scene::{NodeId, Scene};
+
+pub(crate) struct Context<'a> {
+    scene: &'a Scene,
+    origin: DVec3,
+    cfg: &'a CellsConfig,
+    eps: f64,
+    /// The level's top, recentred.
+    top: f64,
+    frame: Frame,
+    obstacles: Option<TriMesh>,
+}
+
+impl<'a> Context<'a> {
+    /// `skip`: nodes that are not obstacles (footprints themselves, portals, bounds, ignored).
+    /// `needed`: whether any footprint will be extruded (else no ray mesh is built).
+    pub fn new(
+        scene: &'a Scene,
+        skip: &HashSet<NodeId>,
+        needed: bool,
+        origin: DVec3,
+        cfg: &'a CellsConfig,
+        eps: f64,
+        frame_top: (Frame, f64),
+    ) -> Self {
+        let (frame, top) = frame_top;
+        let obstacles = if needed && cfg.footprint_height.is_none() {
+            let nodes: Vec<NodeId> = scene
+                .walk()
+                .into_iter()
+                .filter(|n| !skip.contains(n))
+                .collect();
+            let tris = node_triangles(scene, &nodes, origin);
+            let verts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+            let idx: Vec<[u32; 3]> = (0..tris.len() as u32)
+                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                .collect();
+            if idx.is_empty() {
+                None
+            } else {
+                std::panic::catch_unwind(move || TriMesh::new(verts, idx).ok())
+                    .ok()
+                    .flatten()
+            }
+        } else {
+            None
+        };
+        Context {
+            scene,
+            origin,
+            cfg,
+            eps,
+            top,
+            frame,
+            obstacles,
+        }
+    }
+
+    /// Clearance above `p` (recentred), if anything is above it.
+    fn clearance(&self, p: DVec3) -> Option<f64> {
+        let mesh = self.obstacles.as_ref()?;
+        let ray = Ray::new(p, self.frame.up);
+        mesh.cast_local_ray(&ray, f64::MAX, false)
+    }
+
+    fn height_at(&self, p: DVec3) -> Option<f64> {
+        if let Some(h) = self.cfg.footprint_height {
+            return Some(h);
+        }
+        let lift = (self.eps * 1000.0).max(1e-4);
+        let up = self.frame.up;
+        match self.clearance(p + up * lift) {
+            Some(t) if t + lift > 0.1 * self.cfg.default_height => Some(t + lift),
+            Some(_) => None,
+            None if self.top - p.dot(up) > 0.1 * self.cfg.default_height => {
+                Some(self.top - p.dot(up))
+            }
+            None => Some(self.cfg.default_height),
+        }
+    }
+
+    /// The cells of one footprint node.
+    pub fn extrude(&self, node: NodeId) -> Result<Vec<ConvexPolyhedron>, String> {
+        let tris = node_triangles(self.scene, &[node], self.origin);
+        // Group the triangles by plane (normals made to face up).
+        let mut groups: Vec<(Plane, Vec<[DVec2; 3]>)> = Vec::new();
+        for t in &tris {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            let len = n.length();
+            let up = self.frame.up;
+            if len <= 0.0 || (n.dot(up) / len).abs() < 0.05 {
+                continue;
+            }
+            let n = if n.dot(up) < 0.0 { -n } else { n };
+            let Some(pl) = Plane::from_point_normal(t[0], n) else {
+                continue;
+            };
+            let flat = t.map(|p| self.frame.plan(p));
+            match groups
+                .iter_mut()
+                .find(|(g, _)| g.same_as(&pl, self.eps * 10.0, 1e-6))
+            {
+                Some((_, v)) => v.push(flat),
+                None => groups.push((pl, vec![flat])),
+            }
+        }
+        if groups.is_empty() {
+            return Err("it has no non-vertical triangles".into());
+        }
+        let extent = tris
+            .iter()
+            .flatten()
+            .fold(crate::geom::aabb::Aabb::EMPTY, |mut a, p| {
+                a.add(*p);
+                a
+            })
+            .size()
+            .length();
+        let grid = (self.eps * 0.5).max(extent * 1e-9);
+        let mut out = Vec::new();
+        for (pl, flat) in &groups {
+            // The point of the footprint plane above ground-plane point q.
+            let f = self.frame;
+            let lift = |q: DVec2| {
+                let g = f.lift(q);
+                let h = (pl.d - pl.normal.dot(g)) / pl.normal.dot(f.up);
+                g + f.up * h
+            };
+            for piece in plan_pieces(flat, grid, self.eps)? {
+                let centre = piece.iter().copied().sum::<DVec2>() / piece.len() as f64;
+                let centre_h = self
+                    .height_at(lift(centre))
+                    .unwrap_or(self.cfg.default_height);
+                let mut pts = Vec::with_capacity(piece.len() * 2);
+                for q in &piece {
+                    let bottom = lift(*q);
+                    let probe = lift(*q + (centre - *q) * 0.02);
+                    let h = self.height_at(probe).unwrap_or(centre_h);
+                    pts.push(bottom);
+                    pts.push(bottom + self.frame.up * h);
+                }
+                match hull(&pts, self.eps) {
+                    Ok(h) => out.push(h),
+                    Err(e) => return Err(e.to_string()),
+                }
+            }
+        }
+        Ok(out)
+    }
+}

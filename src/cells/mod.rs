@@ -1,0 +1,705 @@
+//! Cells: tagged rooms become convex polyhedra.
+//!
+//! A room's volume comes from, in order: its bound meshes (each one cell, their convex hull);
+//! its footprints (floor polygons extruded upward); the convex hull of its structural geometry,
+//! split into convex pieces when the room's plan is not convex.
+//!
+//! The split works on the room's plan: every non-vertical structural triangle (floors,
+//! ceilings, wall tops) projected onto the ground plane and unioned. A convex plan means the
+//! hull is the room. Otherwise the plan is partitioned into convex polygons (CDT + merge, in
+//! [`crate::geom::partition`]), and each piece's vertical prism clips the hull: an L-shaped
+//! room gives 2 cells, a U 3, a ring around a pillar 4, and the notch of the L is never part of
+//! any cell. This treats rooms as prisms over their plan, which is what walls standing on a
+//! floor are; a room whose shape changes with height (a gallery over a hall) keeps its plan's
+//! cells over its full height.
+//!
+//! All geometry is computed about the level's centre (recentred) and moved back at the end, so
+//! a level 100 km from the origin gets the same cells as one at the origin.
+//!
+//! Invariants of [`CellSet`]: every cell is convex with outward planes and at least four faces;
+//! the cells of one room do not overlap; `room_cells[r]` lists room `r`'s cells in order.
+
+use glam::{DVec2, DVec3};
+use serde::Serialize;
+
+use crate::config::CellsConfig;
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::geom::aabb::Aabb;
+use crate::geom::hull::{hull, HullError};
+use crate::geom::partition::{convex_partition, union_triangles, Polygon2};
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::geom::tolerance::Tolerance;
+use crate::scene::{Format, NodeId, Scene};
+use crate::tags::rules::VolumeHint;
+use crate::tags::{RoomId, Tagging};
+
+mod assign;
+mod footprint;
+mod overlap;
+
+/// Where a cell's volume came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CellSource {
+    /// The convex hull of the room's structure (the room is convex).
+    Hull,
+    /// A convex piece of a non-convex room's hull.
+    Split,
+    /// A bound mesh.
+    Bound,
+    /// An extruded footprint.
+    Footprint,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Cell {
+    pub room: RoomId,
+    pub source: CellSource,
+    /// World coordinates.
+    pub poly: ConvexPolyhedron,
+    pub volume: f64,
+    pub bounds: Aabb,
+    /// Nodes this cell renders: structure that intersects it, props and loose geometry inside.
+    pub nodes: Vec<NodeId>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CellSet {
+    pub cells: Vec<Cell>,
+    /// For each room of the tagging, its cells.
+    pub room_cells: Vec<Vec<usize>>,
+    pub tolerance: Tolerance,
+    /// Room meshes recognised as props (they do not shape cells).
+    pub props: Vec<NodeId>,
+    #[serde(skip)]
+    pub diagnostics: Diagnostics,
+}
+
+/// World-space triangles of a set of nodes, recentred by `-origin`.
+pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> Vec<[DVec3; 3]> {
+    let mut out = Vec::new();
+    for &n in nodes {
+        let node = &scene.nodes[n];
+        let Some(m) = node.mesh else { continue };
+        let mesh = &scene.meshes[m];
+        let world: Vec<DVec3> = mesh
+            .positions
+            .iter()
+            .map(|p| node.world.transform_point3(*p) - origin)
+            .collect();
+        for t in &mesh.triangles {
+            if let (Some(a), Some(b), Some(c)) = (
+                world.get(t[0] as usize),
+                world.get(t[1] as usize),
+                world.get(t[2] as usize),
+            ) {
+                out.push([*a, *b, *c]);
+            }
+        }
+    }
+    out
+}
+
+fn node_bounds(scene: &Scene, n: NodeId, origin: DVec3) -> Aabb {
+    Aabb::from_points(
+        scene
+            .world_positions_used(n)
+            .iter()
+            .map(|p| *p - origin)
+            .collect::<Vec<_>>()
+            .iter(),
+    )
+}
+
+fn level_corners(b: &Aabb) -> [DVec3; 8] {
+    let mut out = [DVec3::ZERO; 8];
+    for (i, c) in out.iter_mut().enumerate() {
+        *c = DVec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        );
+    }
+    out
+}
+
+/// The level's extent, centre and largest stored coordinate, for the tolerance policy.
+fn level_frame(scene: &Scene) -> (Aabb, f64) {
+    let mut b = Aabb::EMPTY;
+    let mut max_abs: f64 = 0.0;
+    for n in scene.walk() {
+        for p in scene.world_positions_used(n) {
+            b.add(p);
+        }
+        if let Some(m) = scene.nodes[n].mesh {
+            for p in &scene.meshes[m].positions {
+                max_abs = max_abs.max(p.abs().max_element());
+            }
+        }
+        max_abs = max_abs.max(scene.nodes[n].world.w_axis.truncate().abs().max_element());
+    }
+    (b, max_abs)
+}
+
+/// Builds the cells of every tagged room.
+pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
+    let (level, max_abs) = level_frame(scene);
+    let extent = level.size().length();
+    let single = matches!(scene.format, Format::Gltf | Format::Glb);
+    let tol = Tolerance::derive(extent, max_abs, single, cfg.max_tolerance);
+    let origin = if level.is_empty() {
+        DVec3::ZERO
+    } else {
+        (level.min + level.max) * 0.5
+    };
+    let eps = tol.distance;
+    let mut diags = Diagnostics::default();
+    if tol.capped {
+        diags.push(
+            Diagnostic::new(
+                Code::TOLERANCE_CAPPED,
+                format!(
+                    "the input's precision ({:.3e} m at coordinates up to {:.0} m) is coarser than the largest tolerance allowed ({:.3e} m)",
+                    tol.input_precision, max_abs, cfg.max_tolerance
+                ),
+                Location::file(&scene.path),
+            )
+            .hint("move the level closer to the origin before export, or raise [cells] max_tolerance"),
+        );
+    }
+    let loc = |n: NodeId| {
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n))
+    };
+    let mut cells: Vec<Cell> = Vec::new();
+    let mut room_cells = vec![Vec::new(); tagging.rooms.len()];
+    let mut props = Vec::new();
+    let frame = Frame::new(cfg.up);
+    let top = level_corners(&level)
+        .iter()
+        .map(|c| (*c - origin).dot(frame.up))
+        .fold(f64::NEG_INFINITY, f64::max);
+    // Structure of rooms made only of floor: extruded like footprints (see `floor_only`).
+    let floors: Vec<NodeId> = tagging
+        .rooms
+        .iter()
+        .filter(|r| r.bounds.is_empty() && r.footprints.is_empty())
+        .filter(|r| floor_only(&node_triangles(scene, &r.structure, origin), frame.up))
+        .flat_map(|r| r.structure.iter().copied())
+        .collect();
+    // Footprints (tagged, or rooms made only of floor) are where cells start, not what they
+    // rise to; portals, bounds and ignored nodes block nothing.
+    let skip: std::collections::HashSet<NodeId> = tagging
+        .footprints
+        .iter()
+        .map(|f| f.node)
+        .chain(floors.iter().copied())
+        .chain(tagging.portals.iter().map(|p| p.node))
+        .chain(tagging.bounds.iter().map(|b| b.node))
+        .chain(tagging.ignored.iter().map(|n| n.node))
+        .collect();
+    let needed = !floors.is_empty() || !tagging.footprints.is_empty();
+    let ctx = footprint::Context::new(scene, &skip, needed, origin, cfg, eps, (frame, top));
+    for (ri, room) in tagging.rooms.iter().enumerate() {
+        let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
+        if !room.bounds.is_empty() {
+            for &b in &room.bounds {
+                let tris = node_triangles(scene, &[b], origin);
+                let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+                match hull(&pts, eps) {
+                    Ok(h) => {
+                        if let Some(bad) = tris
+                            .iter()
+                            .position(|t| !on_hull_boundary(&h, t, eps * 10.0))
+                        {
+                            let c = (tris[bad][0] + tris[bad][1] + tris[bad][2]) / 3.0 + origin;
+                            diags.push(
+                                Diagnostic::new(
+                                    Code::CELL_BOUND_NOT_CONVEX,
+                                    format!(
+                                        "bound mesh `{}` of room `{}` is not convex; its convex hull is used",
+                                        scene.node_label(b),
+                                        room.name
+                                    ),
+                                    loc(b).with_position(c.to_array()),
+                                )
+                                .hint("model the bound as a convex mesh, or split it into several convex bound meshes"),
+                            );
+                        }
+                        polys.push((h, CellSource::Bound));
+                    }
+                    Err(e) => diags.push(degenerate(scene, room.name.as_str(), b, &e, &loc)),
+                }
+            }
+        } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
+            for &f in &room.footprints {
+                match ctx.extrude(f) {
+                    Ok(ps) => polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint))),
+                    Err(msg) => diags.push(
+                        Diagnostic::new(
+                            Code::CELL_ROOM_DEGENERATE,
+                            format!(
+                                "footprint `{}` of room `{}`: {msg}",
+                                scene.node_label(f),
+                                room.name
+                            ),
+                            loc(f),
+                        )
+                        .hint("a footprint must be a floor polygon with area, not vertical"),
+                    ),
+                }
+            }
+        } else {
+            let mut structure: Vec<NodeId> = room.structure.clone();
+            if cfg.detect_props && structure.len() >= 2 {
+                let found = detect_props(scene, &structure, origin, extent);
+                structure.retain(|n| !found.contains(n));
+                props.extend(found);
+            }
+            if structure.is_empty() {
+                diags.push(
+                    Diagnostic::new(
+                        Code::CELL_ROOM_EMPTY,
+                        format!("room `{}` has no geometry, bound or footprint to give it a volume", room.name),
+                        loc(room.node),
+                    )
+                    .hint("put the room's floor, walls and ceiling under the room node, or add a bound mesh"),
+                );
+            } else {
+                let tris = node_triangles(scene, &structure, origin);
+                if floor_only(&tris, frame.up) {
+                    // Only floor (no wall, no ceiling): the room is its footprint, as Panda3D's
+                    // `cellN` meshes are even without the panda3d preset.
+                    diags.push(
+                        Diagnostic::new(
+                            Code::CELL_ROOM_FROM_FLOOR,
+                            format!(
+                                "room `{}` has only upward-facing geometry; it was extruded upward as a footprint",
+                                room.name
+                            ),
+                            loc(room.node),
+                        )
+                        .hint("tag the floor as a footprint (extras `\"footprint\"`, or --tags panda3d for cellN) to say so"),
+                    );
+                    for &f in &structure {
+                        match ctx.extrude(f) {
+                            Ok(ps) => {
+                                polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint)))
+                            }
+                            Err(msg) => diags.push(
+                                Diagnostic::new(
+                                    Code::CELL_ROOM_DEGENERATE,
+                                    format!(
+                                        "floor `{}` of room `{}`: {msg}",
+                                        scene.node_label(f),
+                                        room.name
+                                    ),
+                                    loc(f),
+                                )
+                                .hint(
+                                    "a footprint must be a floor polygon with area, not vertical",
+                                ),
+                            ),
+                        }
+                    }
+                } else {
+                    let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+                    match hull(&pts, eps) {
+                        Ok(h) => polys.extend(split_by_plan(&h, &tris, eps, extent, &frame)),
+                        Err(e) => {
+                            diags.push(degenerate(scene, room.name.as_str(), room.node, &e, &loc))
+                        }
+                    }
+                }
+            }
+        }
+        for (p, source) in polys {
+            let world = p.translated(origin);
+            let volume = world.volume();
+            if world.faces.len() > cfg.max_planes {
+                diags.push(
+                    Diagnostic::new(
+                        Code::CELL_TOO_MANY_PLANES,
+                        format!(
+                            "a cell of room `{}` has {} planes (more than {})",
+                            room.name,
+                            world.faces.len(),
+                            cfg.max_planes
+                        ),
+                        loc(room.node).with_position(world.interior_point().to_array()),
+                    )
+                    .hint("simplify the room's outline or give it a simpler bound mesh; raise [cells] max_planes if the engine copes"),
+                );
+            }
+            room_cells[ri].push(cells.len());
+            cells.push(Cell {
+                room: ri,
+                source,
+                bounds: world.bounds(),
+                poly: world,
+                volume,
+                nodes: Vec::new(),
+            });
+        }
+    }
+    let mut set = CellSet {
+        cells,
+        room_cells,
+        tolerance: tol,
+        props,
+        diagnostics: diags,
+    };
+    overlap::check(scene, tagging, cfg, &mut set);
+    assign::assign(scene, tagging, &mut set);
+    set
+}
+
+fn degenerate(
+    scene: &Scene,
+    room: &str,
+    node: NodeId,
+    e: &HullError,
+    loc: &dyn Fn(NodeId) -> Location,
+) -> Diagnostic {
+    Diagnostic::new(
+        Code::CELL_ROOM_DEGENERATE,
+        format!("room `{room}` (`{}`) has no volume: {e}", scene.node_label(node)),
+        loc(node),
+    )
+    .hint("a room needs geometry in three dimensions (walls, not only a floor); tag flat floors as footprints")
+}
+
+/// Whether every triangle with area faces up: a floor, a ramp or stairs treads, no walls.
+fn floor_only(tris: &[[DVec3; 3]], up: DVec3) -> bool {
+    let mut any = false;
+    for t in tris {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let len = n.length();
+        if len <= 0.0 {
+            continue;
+        }
+        if n.dot(up) / len < 0.05 {
+            return false;
+        }
+        any = true;
+    }
+    any
+}
+
+/// Whether a triangle lies on one face of the hull.
+fn on_hull_boundary(h: &ConvexPolyhedron, t: &[DVec3; 3], eps: f64) -> bool {
+    h.faces
+        .iter()
+        .any(|f| t.iter().all(|p| f.plane.distance(*p).abs() <= eps))
+}
+
+/// Room meshes that touch fewer than two sides of the box around the rest of the room: a
+/// crate on the floor touches one, a lamp none, a wall at least two.
+fn detect_props(scene: &Scene, structure: &[NodeId], origin: DVec3, extent: f64) -> Vec<NodeId> {
+    let boxes: Vec<Aabb> = structure
+        .iter()
+        .map(|&n| node_bounds(scene, n, origin))
+        .collect();
+    let touch = 1e-4 * extent.max(1e-3);
+    let mut props = Vec::new();
+    for (i, &n) in structure.iter().enumerate() {
+        let others = boxes
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .fold(Aabb::EMPTY, |a, (_, b)| a.union(b));
+        let b = &boxes[i];
+        if others.is_empty() || b.is_empty() {
+            continue;
+        }
+        let sides = [
+            b.min.x <= others.min.x + touch,
+            b.max.x >= others.max.x - touch,
+            b.min.y <= others.min.y + touch,
+            b.max.y >= others.max.y - touch,
+            b.min.z <= others.min.z + touch,
+            b.max.z >= others.max.z - touch,
+        ];
+        if sides.iter().filter(|s| **s).count() < 2 {
+            props.push(n);
+        }
+    }
+    // Never call everything a prop.
+    if props.len() == structure.len() {
+        props.clear();
+    }
+    props
+}
+
+/// The up direction and a ground-plane basis: plans are coordinates on (u, v).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Frame {
+    pub up: DVec3,
+    pub u: DVec3,
+    pub v: DVec3,
+}
+
+impl Frame {
+    pub fn new(up: [f64; 3]) -> Frame {
+        let up = DVec3::from_array(up).try_normalize().unwrap_or(DVec3::Y);
+        if (up - DVec3::Y).length() < 1e-12 {
+            // Keep (x, z) exactly for the usual case.
+            return Frame {
+                up,
+                u: DVec3::X,
+                v: DVec3::Z,
+            };
+        }
+        // Same handedness as (x, z) under +Y (u × v = -up), so a turned level's plan is the
+        // turned plan, not its mirror image.
+        let (a, b) = Plane { normal: up, d: 0.0 }.basis();
+        Frame { up, u: b, v: a }
+    }
+    pub fn plan(&self, p: DVec3) -> DVec2 {
+        DVec2::new(p.dot(self.u), p.dot(self.v))
+    }
+    /// A ground-plane vector back in 3D.
+    pub fn lift(&self, q: DVec2) -> DVec3 {
+        self.u * q.x + self.v * q.y
+    }
+}
+
+/// The 2D booleans snap to a grid; the pieces they return are made of input vertices, so we
+/// put the exact input coordinates back (volumes then add up to f64 precision, not to the grid).
+pub(crate) struct ExactVertices {
+    grid: f64,
+    map: std::collections::HashMap<(i64, i64), (usize, DVec2)>,
+}
+
+impl ExactVertices {
+    pub fn new(points: impl Iterator<Item = DVec2>, grid: f64) -> Self {
+        let mut map = std::collections::HashMap::new();
+        for (i, p) in points.enumerate() {
+            map.entry(Self::key(p, grid)).or_insert((i, p));
+        }
+        ExactVertices { grid, map }
+    }
+    /// The input order of the vertex at `p` (the earliest input vertex there).
+    pub fn index_of(&self, p: DVec2) -> Option<usize> {
+        self.nearest(p).map(|(i, _)| i)
+    }
+    fn nearest(&self, p: DVec2) -> Option<(usize, DVec2)> {
+        let (kx, ky) = Self::key(p, self.grid);
+        let mut best: Option<(f64, (usize, DVec2))> = None;
+        for dx in -2..=2 {
+            for dy in -2..=2 {
+                if let Some(&(i, q)) = self.map.get(&(kx + dx, ky + dy)) {
+                    let d = q.distance_squared(p);
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, (i, q)));
+                    }
+                }
+            }
+        }
+        best.map(|(_, v)| v)
+    }
+    fn key(p: DVec2, grid: f64) -> (i64, i64) {
+        ((p.x / grid).round() as i64, (p.y / grid).round() as i64)
+    }
+    /// The input vertex nearest to `p` within two grid steps, else `p`.
+    pub fn restore(&self, piece: Vec<DVec2>) -> Vec<DVec2> {
+        piece
+            .into_iter()
+            .map(|p| self.nearest(p).map(|(_, q)| q).unwrap_or(p))
+            .collect()
+    }
+}
+
+/// The convex pieces of the union of plan triangles.
+///
+/// The union is taken where the triangles are (snapping to the grid there merges the f32 noise
+/// of walls that should line up). Each resulting polygon is then partitioned in a frame fixed
+/// to the polygon itself (its longest boundary edge, ties broken by input order), with
+/// coordinates rounded to the grid, so a level that was moved, turned or scaled gets the same
+/// pieces: a rectangle's corners are exactly cocircular there again and every tie is broken
+/// the same way. The pieces are mapped back and given the exact input coordinates.
+pub(crate) fn plan_pieces(
+    flat: &[[DVec2; 3]],
+    grid: f64,
+    eps: f64,
+) -> Result<Vec<Vec<DVec2>>, String> {
+    let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
+    let mut pieces = Vec::new();
+    for poly in union_triangles(&split_t_junctions(flat, eps.max(grid)), grid) {
+        let outer = simplify_ring(&poly.outer, eps);
+        let holes: Vec<Vec<DVec2>> = poly.holes.iter().map(|h| simplify_ring(h, eps)).collect();
+        if outer.len() < 3 {
+            continue;
+        }
+        // The frame: the longest outer edge, ties (within 1e-9) to the earliest input vertex.
+        let len = |i: usize| outer[i].distance(outer[(i + 1) % outer.len()]);
+        let longest = (0..outer.len()).map(len).fold(0.0, f64::max);
+        let start = (0..outer.len())
+            .filter(|&i| len(i) >= longest * (1.0 - 1e-9))
+            .min_by_key(|&i| exact.index_of(outer[i]).unwrap_or(usize::MAX))
+            .unwrap_or(0);
+        let o = outer[start];
+        let Some(dir) = (outer[(start + 1) % outer.len()] - o).try_normalize() else {
+            continue;
+        };
+        let perp = dir.perp();
+        let to = |q: &DVec2| {
+            let d = *q - o;
+            DVec2::new(
+                (d.dot(dir) / grid).round() * grid,
+                (d.dot(perp) / grid).round() * grid,
+            )
+        };
+        let back = |c: DVec2| o + dir * c.x + perp * c.y;
+        let local = Polygon2 {
+            outer: outer.iter().map(to).collect(),
+            holes: holes.iter().map(|h| h.iter().map(to).collect()).collect(),
+        };
+        let ps = convex_partition(&local).map_err(|e| format!("cannot partition it: {e}"))?;
+        let mut keyed: Vec<(Vec<usize>, Vec<DVec2>)> = ps
+            .into_iter()
+            .map(|p| {
+                let piece = exact.restore(p.into_iter().map(back).collect());
+                let mut key: Vec<usize> = piece
+                    .iter()
+                    .map(|q| exact.index_of(*q).unwrap_or(usize::MAX))
+                    .collect();
+                key.sort_unstable();
+                (key, piece)
+            })
+            .collect();
+        // Input order, not position, orders the pieces: the same for a moved level.
+        keyed.sort_by(|a, b| a.0.cmp(&b.0));
+        pieces.extend(keyed.into_iter().map(|(_, p)| p));
+    }
+    Ok(pieces)
+}
+
+/// Inserts every vertex that lies on another triangle's edge (a T-junction, as where a floor
+/// tile meets the middle of a longer one) into that edge. Without it, rounding a turned
+/// level's coordinates can open hairline gaps along such edges and the union falls apart.
+fn split_t_junctions(flat: &[[DVec2; 3]], tol: f64) -> Vec<[DVec2; 3]> {
+    let mut verts: Vec<DVec2> = flat.iter().flatten().copied().collect();
+    verts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    verts.dedup_by(|a, b| a.distance_squared(*b) <= tol * tol);
+    let mut out = Vec::with_capacity(flat.len());
+    for t in flat {
+        let mut ring: Vec<DVec2> = Vec::with_capacity(3);
+        let mut split = false;
+        for k in 0..3 {
+            let (p, q) = (t[k], t[(k + 1) % 3]);
+            ring.push(p);
+            let d = q - p;
+            let len2 = d.length_squared();
+            if len2 <= tol * tol {
+                continue;
+            }
+            let (lo, hi) = (p.x.min(q.x) - tol, p.x.max(q.x) + tol);
+            let first = verts.partition_point(|v| v.x < lo);
+            let mut on: Vec<(f64, DVec2)> = verts[first..]
+                .iter()
+                .take_while(|v| v.x <= hi)
+                .filter_map(|v| {
+                    let s = (*v - p).dot(d) / len2;
+                    let off = (*v - p).perp_dot(d).abs() / len2.sqrt();
+                    let inner = s * len2.sqrt() > tol && (1.0 - s) * len2.sqrt() > tol;
+                    (inner && off <= tol).then_some((s, *v))
+                })
+                .collect();
+            if !on.is_empty() {
+                split = true;
+                on.sort_by(|a, b| a.0.total_cmp(&b.0));
+                ring.extend(on.into_iter().map(|(_, v)| v));
+            }
+        }
+        if split {
+            // A fan from the first corner covers the triangle; triangles that come out flat
+            // (points on the corner's own edges) carry no area and are ignored by the union.
+            for w in ring[1..].windows(2) {
+                out.push([ring[0], w[0], w[1]]);
+            }
+        } else {
+            out.push(*t);
+        }
+    }
+    out
+}
+
+/// Drops ring vertices within `eps` of the line through their neighbours (walls that f32
+/// noise bent by less than the tolerance are straight).
+fn simplify_ring(ring: &[DVec2], eps: f64) -> Vec<DVec2> {
+    let mut r = ring.to_vec();
+    let mut changed = true;
+    while changed && r.len() > 3 {
+        changed = false;
+        for i in 0..r.len() {
+            let (a, p, b) = (r[(i + r.len() - 1) % r.len()], r[i], r[(i + 1) % r.len()]);
+            let ab = b - a;
+            let l = ab.length();
+            let off = if l > 0.0 {
+                (p - a).perp_dot(ab).abs() / l
+            } else {
+                p.distance(a)
+            };
+            if off <= eps {
+                r.remove(i);
+                changed = true;
+                break;
+            }
+        }
+    }
+    r
+}
+
+/// Splits a room's hull by its plan (see the module docs).
+fn split_by_plan(
+    h: &ConvexPolyhedron,
+    tris: &[[DVec3; 3]],
+    eps: f64,
+    extent: f64,
+    frame: &Frame,
+) -> Vec<(ConvexPolyhedron, CellSource)> {
+    let flat: Vec<[DVec2; 3]> = tris
+        .iter()
+        .filter(|t| {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            let len = n.length();
+            len > 0.0 && (n.dot(frame.up) / len).abs() > 0.05
+        })
+        .map(|t| t.map(|p| frame.plan(p)))
+        .collect();
+    let whole = vec![(h.clone(), CellSource::Hull)];
+    if flat.is_empty() {
+        return whole;
+    }
+    let grid = (eps * 0.5).max(extent * 1e-9);
+    let Ok(pieces) = plan_pieces(&flat, grid, eps) else {
+        return whole;
+    };
+    if pieces.len() <= 1 {
+        return whole;
+    }
+    let mut out = Vec::new();
+    for piece in &pieces {
+        let mut cell = Some(h.clone());
+        for (i, a) in piece.iter().enumerate() {
+            let b = piece[(i + 1) % piece.len()];
+            let e = b - *a;
+            let n = frame.lift(DVec2::new(e.y, -e.x));
+            let Some(pl) = Plane::from_point_normal(frame.lift(*a), n) else {
+                continue;
+            };
+            cell = cell.and_then(|c| c.clip(&pl, eps));
+        }
+        if let Some(c) = cell {
+            out.push((c, CellSource::Split));
+        }
+    }
+    if out.is_empty() {
+        whole
+    } else {
+        out
+    }
+}

@@ -1,0 +1,65 @@
+//! Overlapping cells of different rooms. Rooms of different priority may nest (the higher one
+//! wins the shared space); equal priorities overlapping is a modelling error.
+
+use super::CellSet;
+use crate::config::CellsConfig;
+use crate::diag::{Code, Diagnostic, Location};
+use crate::scene::Scene;
+use crate::tags::Tagging;
+
+pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &mut CellSet) {
+    let eps = set.tolerance.distance;
+    // Sweep along x: only cells whose x ranges overlap are compared (never all pairs).
+    let mut order: Vec<usize> = (0..set.cells.len()).collect();
+    order.sort_by(|&a, &b| {
+        set.cells[a]
+            .bounds
+            .min
+            .x
+            .total_cmp(&set.cells[b].bounds.min.x)
+    });
+    let mut found = Vec::new();
+    for (i, &a) in order.iter().enumerate() {
+        let ca = &set.cells[a];
+        for &b in &order[i + 1..] {
+            let cb = &set.cells[b];
+            if cb.bounds.min.x >= ca.bounds.max.x - eps {
+                break;
+            }
+            if ca.room == cb.room
+                || cb.bounds.min.y >= ca.bounds.max.y - eps
+                || cb.bounds.max.y <= ca.bounds.min.y + eps
+                || cb.bounds.min.z >= ca.bounds.max.z - eps
+                || cb.bounds.max.z <= ca.bounds.min.z + eps
+            {
+                continue;
+            }
+            let (ra, rb) = (&tagging.rooms[ca.room], &tagging.rooms[cb.room]);
+            if ra.priority != rb.priority {
+                continue;
+            }
+            if let Some(x) = ca.poly.intersection(&cb.poly, eps) {
+                let v = x.volume();
+                if v > cfg.overlap_volume {
+                    found.push(
+                        Diagnostic::new(
+                            Code::CELL_OVERLAP,
+                            format!(
+                                "cells of rooms `{}` and `{}` overlap by {v:.4} m³",
+                                ra.name, rb.name
+                            ),
+                            Location::file(&scene.path)
+                                .with_node(ra.path.clone())
+                                .with_position(x.interior_point().to_array()),
+                        )
+                        .hint(format!(
+                            "move the geometry of one room out of the other, give the nested room a higher `priority`, or add bound meshes (room `{}` is at `{}`)",
+                            rb.name, rb.path
+                        )),
+                    );
+                }
+            }
+        }
+    }
+    set.diagnostics.extend(found);
+}
