@@ -410,3 +410,49 @@ fn panda3d_floors_without_the_preset_give_the_same_cells() {
     assert!(t.diagnostics.has(Code::CELL_ROOM_FROM_FLOOR));
     assert!(!t.diagnostics.has_errors());
 }
+
+/// `--split-geometry`: a mesh spanning cells is cut along the cell planes; the pieces lie in
+/// their cells and together have exactly the mesh's area.
+#[test]
+fn split_geometry_partitions_surfaces_between_cells() {
+    for file in ["l_room.gltf", "u_room.gltf", "pillar_room.gltf"] {
+        let (t, c) = load(&sample(file), None);
+        let pieces = portcullis::cells::split_geometry(&t.scene, &c);
+        assert!(!pieces.is_empty(), "{file}");
+        let area = |tris: &mut dyn Iterator<Item = [DVec3; 3]>| -> f64 {
+            tris.map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length())
+                .sum()
+        };
+        let nodes: std::collections::BTreeSet<usize> = pieces.iter().map(|p| p.node).collect();
+        for n in nodes {
+            let w = t.scene.world_positions(n);
+            let m = t.scene.nodes[n].mesh.unwrap();
+            let whole = area(
+                &mut t.scene.meshes[m]
+                    .triangles
+                    .iter()
+                    .map(|tri| tri.map(|i| w[i as usize])),
+            );
+            let parts = area(
+                &mut pieces
+                    .iter()
+                    .filter(|p| p.node == n)
+                    .flat_map(|p| p.triangles.iter().copied()),
+            );
+            assert!(
+                (whole - parts).abs() <= 1e-9 * whole,
+                "{file}: {} area {whole} split into {parts}",
+                t.scene.node_label(n)
+            );
+        }
+        for p in &pieces {
+            for tri in &p.triangles {
+                let centre = (tri[0] + tri[1] + tri[2]) / 3.0;
+                assert!(
+                    c.cells[p.cell].poly.contains(centre, 1e-9),
+                    "{file}: piece outside its cell"
+                );
+            }
+        }
+    }
+}

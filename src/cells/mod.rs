@@ -37,6 +37,9 @@ use crate::tags::{RoomId, Tagging};
 mod assign;
 mod footprint;
 mod overlap;
+pub mod split;
+
+pub use split::{split_geometry, SplitPiece};
 
 /// Where a cell's volume came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

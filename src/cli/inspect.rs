@@ -29,6 +29,11 @@ pub struct InspectArgs {
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
     pub deny: Option<String>,
 
+    /// Cut meshes that span several cells along the cell planes, and report each cell's part
+    /// (without it, such a mesh is listed whole in every cell it reaches into).
+    #[arg(long)]
+    pub split_geometry: bool,
+
     #[command(flatten)]
     pub level: LevelArgs,
 }
@@ -61,12 +66,28 @@ struct CellView {
     bounds: Bounds,
     /// Nodes the cell renders.
     nodes: Vec<String>,
+    /// With --split-geometry: triangles of meshes cut to this cell.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    split_triangles: Option<usize>,
 }
 
-fn cells_view(t: &Tagged, set: &CellSet) -> Vec<CellView> {
+fn cells_view(t: &Tagged, set: &CellSet, split: bool) -> Vec<CellView> {
+    let pieces = if split {
+        portcullis::cells::split_geometry(&t.scene, set)
+    } else {
+        Vec::new()
+    };
     set.cells
         .iter()
-        .map(|c| CellView {
+        .enumerate()
+        .map(|(i, c)| CellView {
+            split_triangles: split.then(|| {
+                pieces
+                    .iter()
+                    .filter(|p| p.cell == i)
+                    .map(|p| p.triangles.len())
+                    .sum()
+            }),
             room: t.tagging.rooms[c.room].name.clone(),
             source: c.source,
             volume: c.volume,
@@ -249,7 +270,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     config: t.config.path.clone(),
                     scene: Some(summarize(&t.scene)),
                     tags: Some(tags_view(&t)),
-                    cells: Some(cells_view(&t, &cells)),
+                    cells: Some(cells_view(&t, &cells, a.split_geometry)),
                     tolerance: Some(cells.tolerance.distance),
                     diagnostics: t.diagnostics.0.clone(),
                 }
@@ -462,8 +483,12 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                     .ok()
                     .and_then(|v| v.as_str().map(str::to_string))
                     .unwrap_or_default();
+                let split = c
+                    .split_triangles
+                    .map(|n| format!(", {n} split triangles"))
+                    .unwrap_or_default();
                 format!(
-                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, renders {} nodes",
+                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, renders {} nodes{split}",
                     c.room,
                     c.volume,
                     c.planes,
