@@ -21,6 +21,8 @@ pub struct Config {
     pub tags: TagsConfig,
     #[serde(default)]
     pub cells: CellsConfig,
+    #[serde(default)]
+    pub portals: PortalsConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -70,6 +72,29 @@ impl Default for CellsConfig {
             max_tolerance: crate::geom::tolerance::DEFAULT_MAX_DISTANCE,
             detect_props: true,
             up: [0.0, 1.0, 0.0],
+        }
+    }
+}
+
+/// `[portals]`: how openings become portals.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PortalsConfig {
+    /// Parallel cell faces facing each other at most this far apart (m) are bridged across
+    /// the wall between them.
+    pub max_wall_thickness: f64,
+    /// Give each opening its convex hull as one portal instead of an exact convex partition.
+    pub conservative: bool,
+    /// Derive portals to the exterior (openings no other cell shares).
+    pub exterior: bool,
+}
+
+impl Default for PortalsConfig {
+    fn default() -> Self {
+        PortalsConfig {
+            max_wall_thickness: 0.5,
+            conservative: false,
+            exterior: true,
         }
     }
 }

@@ -10,6 +10,7 @@ pub mod diag;
 pub mod geom;
 pub mod import;
 pub mod pipeline;
+pub mod portals;
 pub mod report;
 pub mod scene;
 pub mod schema;

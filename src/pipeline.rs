@@ -65,3 +65,16 @@ pub fn build_cells(tagged: &mut Tagged) -> CellSet {
     tagged.diagnostics.extend(set.diagnostics.iter().cloned());
     set
 }
+
+/// The portals of a tagged level with its cells; diagnostics are appended to
+/// `tagged.diagnostics`.
+pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> crate::portals::PortalSet {
+    let set = crate::portals::build(
+        &tagged.scene,
+        &tagged.tagging,
+        cells,
+        &tagged.config.portals,
+    );
+    tagged.diagnostics.extend(set.diagnostics.iter().cloned());
+    set
+}

@@ -471,7 +471,7 @@ impl Frame {
 
 /// The 2D booleans snap to a grid; the pieces they return are made of input vertices, so we
 /// put the exact input coordinates back (volumes then add up to f64 precision, not to the grid).
-pub(crate) struct ExactVertices {
+pub struct ExactVertices {
     grid: f64,
     map: std::collections::HashMap<(i64, i64), (usize, DVec2)>,
 }

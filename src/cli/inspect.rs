@@ -9,6 +9,7 @@ use serde::Serialize;
 use portcullis::cells::{CellSet, CellSource};
 use portcullis::diag::Diagnostic;
 use portcullis::pipeline::{self, Tagged};
+use portcullis::portals::PortalSet;
 use portcullis::report::{human, style::Style, Totals};
 use portcullis::scene::summary::{summarize, Bounds, SceneSummary};
 use portcullis::tags::rules::{PortalKind, TagKind, VolumeHint};
@@ -53,8 +54,57 @@ struct FileReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     cells: Option<Vec<CellView>>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    portals: Option<Vec<DerivedPortalView>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     tolerance: Option<f64>,
     diagnostics: Vec<Diagnostic>,
+}
+
+#[derive(Debug, Serialize)]
+struct DerivedPortalView {
+    from: usize,
+    /// Target cell; null for the exterior.
+    to: Option<usize>,
+    from_room: String,
+    to_room: Option<String>,
+    kind: PortalKind,
+    one_way: bool,
+    closed: bool,
+    internal: bool,
+    area: f64,
+    /// Counter-clockwise seen from the source cell.
+    polygon: Vec<[f64; 3]>,
+    /// Direction of travel.
+    normal: [f64; 3],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    transform: Option<[f64; 16]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    authored: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    partner: Option<usize>,
+}
+
+fn portals_view(t: &Tagged, cells: &CellSet, set: &PortalSet) -> Vec<DerivedPortalView> {
+    let room = |c: usize| t.tagging.rooms[cells.cells[c].room].name.clone();
+    set.portals
+        .iter()
+        .map(|p| DerivedPortalView {
+            from: p.from,
+            to: p.to,
+            from_room: room(p.from),
+            to_room: p.to.map(room),
+            kind: p.kind,
+            one_way: p.one_way,
+            closed: p.closed,
+            internal: p.internal,
+            area: p.area,
+            polygon: p.polygon.iter().map(|v| v.to_array()).collect(),
+            normal: p.normal.to_array(),
+            transform: p.transform.map(|m| m.to_cols_array()),
+            authored: p.authored.map(|n| t.scene.node_path(n)),
+            partner: p.partner,
+        })
+        .collect()
 }
 
 #[derive(Debug, Serialize)]
@@ -108,7 +158,7 @@ struct TagsView {
     rooms: Vec<RoomView>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     room_groups: Vec<GroupView>,
-    portals: Vec<PortalView>,
+    portals: Vec<AuthoredPortalView>,
     bounds: Vec<VolumeView>,
     footprints: Vec<VolumeView>,
     ignored: Vec<String>,
@@ -139,7 +189,7 @@ struct GroupView {
 }
 
 #[derive(Debug, Serialize)]
-struct PortalView {
+struct AuthoredPortalView {
     node: String,
     rule: String,
     /// The room the portal leads out of (resolved), if known.
@@ -205,7 +255,7 @@ fn tags_view(t: &Tagged) -> TagsView {
         portals: g
             .portals
             .iter()
-            .map(|p| PortalView {
+            .map(|p| AuthoredPortalView {
                 node: p.path.clone(),
                 rule: p.rule.clone(),
                 source: room(p.source_room),
@@ -263,6 +313,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
         let report = match pipeline::load_tagged(path, &opts) {
             Ok(mut t) => {
                 let cells = pipeline::build_cells(&mut t);
+                let portals = pipeline::build_portals(&mut t, &cells);
                 totals.add(t.diagnostics.iter());
                 FileReport {
                     path: path.clone(),
@@ -271,6 +322,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     scene: Some(summarize(&t.scene)),
                     tags: Some(tags_view(&t)),
                     cells: Some(cells_view(&t, &cells, a.split_geometry)),
+                    portals: Some(portals_view(&t, &cells, &portals)),
                     tolerance: Some(cells.tolerance.distance),
                     diagnostics: t.diagnostics.0.clone(),
                 }
@@ -285,6 +337,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     scene: None,
                     tags: None,
                     cells: None,
+                    portals: None,
                     tolerance: None,
                     diagnostics: vec![d],
                 }
@@ -503,6 +556,63 @@ fn render_human(r: &FileReport, style: &Style) -> String {
             title = format!("cells (tolerance {t:.1e} m)");
         }
         list(&mut out, &title, &rows, style);
+    }
+    if let Some(portals) = &r.portals {
+        let (exterior, linked): (Vec<&DerivedPortalView>, Vec<&DerivedPortalView>) =
+            portals.iter().partition(|p| p.to.is_none());
+        let rows: Vec<String> = linked
+            .iter()
+            .map(|p| {
+                let mut flags = Vec::new();
+                if p.kind != PortalKind::Plain {
+                    flags.push(format!("{:?}", p.kind).to_lowercase());
+                }
+                if p.one_way {
+                    flags.push("one-way".into());
+                }
+                if p.closed {
+                    flags.push("closed".into());
+                }
+                if p.internal {
+                    flags.push("internal".into());
+                }
+                if let Some(a) = &p.authored {
+                    flags.push(format!("authored `{a}`"));
+                }
+                let b = portcullis::geom::aabb::Aabb::from_points(
+                    p.polygon
+                        .iter()
+                        .map(|v| glam::DVec3::from_array(*v))
+                        .collect::<Vec<_>>()
+                        .iter(),
+                );
+                format!(
+                    "cell {} ({}) -> cell {} ({}): {:.3} m², {} .. {}{}",
+                    p.from,
+                    p.from_room,
+                    p.to.unwrap_or(0),
+                    p.to_room.as_deref().unwrap_or(""),
+                    p.area,
+                    fmt3(b.min.to_array()),
+                    fmt3(b.max.to_array()),
+                    if flags.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" [{}]", flags.join(", "))
+                    }
+                )
+            })
+            .collect();
+        list(&mut out, "portals between cells", &rows, style);
+        if !exterior.is_empty() {
+            let area: f64 = exterior.iter().map(|p| p.area).sum();
+            let _ = writeln!(
+                out,
+                "    exterior openings: {} portals, {:.3} m² in all",
+                exterior.len(),
+                area
+            );
+        }
     }
     if !r.diagnostics.is_empty() {
         for d in &r.diagnostics {

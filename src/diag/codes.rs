@@ -95,6 +95,11 @@ codes! {
     CELL_TOO_MANY_PLANES = Warning, "a cell has more planes than configured";
     CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap";
     CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
+
+    // --- portals ---
+    PORTAL_AUTHORED_UNMATCHED = Warning, "an authored portal covers no opening between its cells";
+    PORTAL_AUTHORED_WRONG_WAY = Warning, "an authored portal faces the wrong way for its tag convention";
+    PORTAL_NOT_PLANAR = Warning, "an authored portal's vertices are not on one plane";
 }
 
 impl fmt::Display for Code {

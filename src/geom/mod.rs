@@ -2,6 +2,7 @@
 //! are judged with the one tolerance policy in [`tolerance`].
 
 pub mod aabb;
+pub mod boolean2;
 pub mod hull;
 pub mod partition;
 pub mod plane;

@@ -83,6 +83,8 @@ pub struct AuthoredPortal {
     pub closed: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub teleport_exit: Option<NodeId>,
+    /// Which way the quad's front faces by its convention (out of its source room, or in).
+    pub faces: rules::Facing,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -716,6 +718,10 @@ fn make_portal(
         one_way: extras::read_bool(ex, "one_way").unwrap_or_else(|| spec_flags(|s| s.one_way)),
         closed: extras::read_bool(ex, "closed").unwrap_or_else(|| spec_flags(|s| s.closed)),
         teleport_exit,
+        faces: std::iter::once(c.rule)
+            .chain(c.extra.iter().map(|m| m.rule))
+            .find_map(|r| rules.rules[r].spec.faces)
+            .unwrap_or_default(),
     }
 }
 

@@ -71,6 +71,14 @@ pub enum VolumeHint {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+pub enum Facing {
+    #[default]
+    Out,
+    In,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum PortalKind {
     #[default]
     Plain,
@@ -122,6 +130,10 @@ pub struct RuleSpec {
     pub portal_kind: Option<PortalKind>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub volume: Option<VolumeHint>,
+    /// For portal rules: which way the authored quad's front faces. `out` of its source room
+    /// (Godot, LPortal; the default) or `in`, back into it (Panda3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub faces: Option<Facing>,
     /// A name this rule accepts, shown in near-miss hints.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub example: Option<String>,

@@ -1,0 +1,161 @@
+//! 2D polygon booleans for portal openings (shared face region minus blocking geometry), on
+//! i_overlay's integer engine with a fixed grid so the same input always gives the same
+//! polygons.
+
+use glam::DVec2;
+use i_overlay::core::fill_rule::FillRule;
+use i_overlay::core::overlay::{Overlay, ShapeType};
+use i_overlay::core::overlay_rule::OverlayRule;
+use i_overlay::i_float::int::point::IntPoint;
+
+use super::partition::Polygon2;
+
+const LIMIT: f64 = (1u64 << 52) as f64;
+
+fn snap(p: DVec2, grid: f64) -> Option<IntPoint<i64>> {
+    let (x, y) = ((p.x / grid).round(), (p.y / grid).round());
+    (x.is_finite() && y.is_finite() && x.abs() < LIMIT && y.abs() < LIMIT)
+        .then(|| IntPoint::new(x as i64, y as i64))
+}
+
+fn add(overlay: &mut Overlay<i64>, ring: &[DVec2], grid: f64, shape: ShapeType) {
+    let pts: Option<Vec<IntPoint<i64>>> = ring.iter().map(|p| snap(*p, grid)).collect();
+    if let Some(mut pts) = pts {
+        pts.dedup();
+        if pts.len() >= 3 {
+            overlay.add_contour(&pts, shape);
+        }
+    }
+}
+
+fn run(subject: &[Vec<DVec2>], clip: &[Vec<DVec2>], rule: OverlayRule, grid: f64) -> Vec<Polygon2> {
+    if !(grid.is_finite() && grid > 0.0) {
+        return Vec::new();
+    }
+    let n = subject.iter().chain(clip).map(Vec::len).sum();
+    let mut overlay = Overlay::<i64>::new(n);
+    for r in subject {
+        add(&mut overlay, r, grid, ShapeType::Subject);
+    }
+    for r in clip {
+        add(&mut overlay, r, grid, ShapeType::Clip);
+    }
+    let shapes = overlay.overlay(rule, FillRule::EvenOdd);
+    let back = |c: &Vec<IntPoint<i64>>| -> Vec<DVec2> {
+        c.iter()
+            .map(|p| DVec2::new(p.x as f64 * grid, p.y as f64 * grid))
+            .collect()
+    };
+    shapes
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            let mut outer = back(&s[0]);
+            if signed_area(&outer) < 0.0 {
+                outer.reverse();
+            }
+            Polygon2 {
+                outer,
+                holes: s[1..].iter().map(back).collect(),
+            }
+        })
+        .filter(|p| p.area() > grid * grid)
+        .collect()
+}
+
+fn rings(polys: &[Polygon2]) -> Vec<Vec<DVec2>> {
+    polys
+        .iter()
+        .flat_map(|p| std::iter::once(p.outer.clone()).chain(p.holes.iter().cloned()))
+        .collect()
+}
+
+pub fn signed_area(r: &[DVec2]) -> f64 {
+    let mut a = 0.0;
+    for (i, p) in r.iter().enumerate() {
+        a += p.perp_dot(r[(i + 1) % r.len()]);
+    }
+    0.5 * a
+}
+
+/// `a ∩ b` (each a set of simple rings taken by the even-odd rule).
+pub fn intersection(a: &[Vec<DVec2>], b: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
+    run(a, b, OverlayRule::Intersect, grid)
+}
+
+/// `a − b`, where `b` may be any pile of rings, overlapping and of either winding (they are
+/// merged first: two faces on one plane, front and back, must not cancel out).
+pub fn difference(a: &[Polygon2], b: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
+    let merged = union(b, grid);
+    run(&rings(a), &rings(&merged), OverlayRule::Difference, grid)
+}
+
+/// The union of rings; overlapping rings are merged (non-zero would double-count holes made of
+/// triangles, so each ring is added as its own positive shape first).
+pub fn union(a: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
+    if !(grid.is_finite() && grid > 0.0) {
+        return Vec::new();
+    }
+    let mut overlay = Overlay::<i64>::new(a.iter().map(Vec::len).sum());
+    for r in a {
+        let mut r = r.clone();
+        if signed_area(&r) < 0.0 {
+            r.reverse();
+        }
+        add(&mut overlay, &r, grid, ShapeType::Subject);
+    }
+    let shapes = overlay.overlay(OverlayRule::Subject, FillRule::NonZero);
+    let back = |c: &Vec<IntPoint<i64>>| -> Vec<DVec2> {
+        c.iter()
+            .map(|p| DVec2::new(p.x as f64 * grid, p.y as f64 * grid))
+            .collect()
+    };
+    shapes
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            let mut outer = back(&s[0]);
+            if signed_area(&outer) < 0.0 {
+                outer.reverse();
+            }
+            Polygon2 {
+                outer,
+                holes: s[1..].iter().map(back).collect(),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<DVec2> {
+        vec![
+            DVec2::new(x0, y0),
+            DVec2::new(x1, y0),
+            DVec2::new(x1, y1),
+            DVec2::new(x0, y1),
+        ]
+    }
+
+    #[test]
+    fn door_is_wall_minus_blockers() {
+        let shared = intersection(&[rect(0., 0., 6., 2.)], &[rect(0., 0., 6., 2.)], 1e-6);
+        assert_eq!(shared.len(), 1);
+        let open = difference(
+            &shared,
+            &[
+                rect(0., 0., 2., 2.),
+                rect(4., 0., 6., 2.),
+                rect(2., 1.8, 4., 2.),
+            ],
+            1e-6,
+        );
+        assert_eq!(open.len(), 1);
+        assert!((open[0].area() - 2.0 * 1.8).abs() < 1e-9);
+        let u = union(&[rect(0., 0., 2., 2.), rect(1., 0., 3., 2.)], 1e-6);
+        assert_eq!(u.len(), 1);
+        assert!((u[0].area() - 6.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,430 @@
+//! Authored portals: linked to the derived portal they cover (which takes their name, kind and
+//! flags), or, for mirrors and teleporters, made into transformed portals of their own.
+
+use glam::{DMat4, DVec3, DVec4};
+
+use super::{Portal, PortalSet};
+use crate::cells::CellSet;
+use crate::config::PortalsConfig;
+use crate::diag::{Code, Diagnostic, Location};
+use crate::geom::boolean2::intersection;
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area};
+use crate::scene::{NodeId, Scene};
+use crate::tags::rules::{Facing, PortalKind};
+use crate::tags::{AuthoredPortal, Tagging};
+
+/// An authored portal's geometry: centroid, unit normal (from its winding), convex outline.
+struct Quad {
+    centre: DVec3,
+    normal: DVec3,
+    ring: Vec<DVec3>,
+    max_off_plane: f64,
+}
+
+fn quad(scene: &Scene, node: NodeId, eps: f64) -> Option<Quad> {
+    let n = &scene.nodes[node];
+    let mesh = &scene.meshes[n.mesh?];
+    let w: Vec<DVec3> = mesh
+        .positions
+        .iter()
+        .map(|p| n.world.transform_point3(*p))
+        .collect();
+    let mut normal = DVec3::ZERO;
+    let mut centre = DVec3::ZERO;
+    let mut area = 0.0;
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| w[i as usize]);
+        let cr = (b - a).cross(c - a);
+        normal += cr;
+        let ar = 0.5 * cr.length();
+        centre += (a + b + c) / 3.0 * ar;
+        area += ar;
+    }
+    let normal = normal.try_normalize()?;
+    if area <= 0.0 {
+        return None;
+    }
+    let centre = centre / area;
+    let plane = Plane::from_point_normal(centre, normal)?;
+    let used: Vec<DVec3> = mesh
+        .triangles
+        .iter()
+        .flatten()
+        .map(|&i| w[i as usize])
+        .collect();
+    let max_off_plane = used
+        .iter()
+        .map(|p| plane.distance(*p).abs())
+        .fold(0.0, f64::max);
+    let flat: Vec<DVec3> = used
+        .iter()
+        .map(|p| *p - normal * plane.distance(*p))
+        .collect();
+    let ring = convex_ring_on_plane(&flat, &plane, eps);
+    (ring.len() >= 3).then_some(Quad {
+        centre,
+        normal,
+        ring,
+        max_off_plane,
+    })
+}
+
+/// Overlap area of two coplanar-ish polygons, measured on `plane`.
+fn overlap(a: &[DVec3], b: &[DVec3], plane: &Plane, grid: f64) -> f64 {
+    let (u, v) = plane.basis();
+    let o = plane.normal * plane.d;
+    let to2 = |p: &DVec3| glam::DVec2::new((*p - o).dot(u), (*p - o).dot(v));
+    intersection(
+        &[a.iter().map(to2).collect()],
+        &[b.iter().map(to2).collect()],
+        grid,
+    )
+    .iter()
+    .map(|p| p.area())
+    .sum()
+}
+
+fn cell_at(cells: &CellSet, p: DVec3, eps: f64) -> Option<usize> {
+    (0..cells.cells.len()).find(|&c| cells.cells[c].poly.contains(p, eps))
+}
+
+/// Reflection in a plane, as an affine 4x4.
+fn reflection(p: &Plane) -> DMat4 {
+    let n = p.normal;
+    let m = glam::DMat3::IDENTITY - 2.0 * glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    let mut out = DMat4::from_mat3(m);
+    out.w_axis = DVec4::from((n * (2.0 * p.d), 1.0));
+    out
+}
+
+/// A frame at a portal: x along its normal, y up (as close as the plane allows), origin at
+/// its centre.
+fn frame(q: &Quad) -> DMat4 {
+    let x = q.normal;
+    let up = if x.y.abs() < 0.9 { DVec3::Y } else { DVec3::Z };
+    let y = (up - x * up.dot(x)).normalize();
+    let z = x.cross(y);
+    DMat4::from_cols(
+        x.extend(0.0),
+        y.extend(0.0),
+        z.extend(0.0),
+        q.centre.extend(1.0),
+    )
+}
+
+pub(crate) fn link(
+    scene: &Scene,
+    tagging: &Tagging,
+    cells: &CellSet,
+    cfg: &PortalsConfig,
+    set: &mut PortalSet,
+) {
+    let eps = cells.tolerance.distance;
+    let grid = eps * 0.5;
+    let probe = (cfg.max_wall_thickness * 0.5).max(100.0 * eps);
+    // Authored portals are drawn by hand: a few degrees off the wall still means that wall.
+    let cos_tol = (0.05f64).cos();
+    let loc = |n: NodeId| {
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n))
+    };
+    let room_of = |c: usize| cells.cells[c].room;
+    // Which derived portals an authored portal claimed, and with which one-way flag.
+    let mut one_way_claim: Vec<Option<bool>> = vec![None; set.portals.len()];
+    let mut transformed_done: Vec<NodeId> = Vec::new();
+    for ap in &tagging.portals {
+        let Some(q) = quad(scene, ap.node, eps) else {
+            continue;
+        };
+        if q.max_off_plane > 10.0 * eps.max(1e-4) {
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_NOT_PLANAR,
+                    format!(
+                        "portal `{}` is not planar: a vertex is {:.4} m off its plane",
+                        scene.node_label(ap.node),
+                        q.max_off_plane
+                    ),
+                    loc(ap.node).with_position(q.centre.to_array()),
+                )
+                .hint(
+                    "flatten the portal mesh; its vertices were projected onto the average plane",
+                ),
+            );
+        }
+        if ap.kind != PortalKind::Plain {
+            if !transformed_done.contains(&ap.node) {
+                transformed(
+                    scene,
+                    cells,
+                    ap,
+                    &q,
+                    probe,
+                    eps,
+                    set,
+                    &mut transformed_done,
+                    &loc,
+                );
+            }
+            continue;
+        }
+        let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
+            normal: q.normal,
+            d: 0.0,
+        });
+        let mut candidates: Vec<usize> = Vec::new();
+        for (i, p) in set.portals.iter().enumerate() {
+            if p.to.is_none() || p.transform.is_some() || p.normal.dot(q.normal).abs() < cos_tol {
+                continue;
+            }
+            let dist = (p.normal.dot(p.polygon[0]) - p.normal.dot(q.centre)).abs();
+            if dist > cfg.max_wall_thickness + 10.0 * eps {
+                continue;
+            }
+            let a = overlap(&q.ring, &p.polygon, &plane, grid);
+            if a > 0.01 * p.area.min(polygon_area(&q.ring, q.normal)) {
+                candidates.push(i);
+            }
+        }
+        // Direction: the named source room, else the named target, else the way it faces
+        // (Godot's convention: a portal faces out of the room it belongs to).
+        let dir_ok = |i: usize| -> bool {
+            let p = &set.portals[i];
+            let to = p.to.unwrap_or(p.from);
+            let source_ok = ap.source_room.is_none_or(|s| room_of(p.from) == s);
+            let target_ok = ap.target_room.is_none_or(|t| room_of(to) == t);
+            let named = ap.source_room.is_some() || ap.target_room.is_some();
+            source_ok && target_ok && (named || p.normal.dot(q.normal) > 0.0)
+        };
+        let chosen: Vec<usize> = candidates.iter().copied().filter(|&i| dir_ok(i)).collect();
+        if chosen.is_empty() {
+            let front = cell_at(cells, q.centre + q.normal * probe, eps);
+            let back = cell_at(cells, q.centre - q.normal * probe, eps);
+            let side = |c: Option<usize>| match c {
+                Some(c) => format!("cell {c} (room `{}`)", tagging.rooms[room_of(c)].name),
+                None => "no cell".to_string(),
+            };
+            let n = q.normal;
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_AUTHORED_UNMATCHED,
+                    format!(
+                        "portal `{}` covers no opening between cells{}: it faces ({:.3}, {:.3}, {:.3}); probed {:.3} m in front: {}, behind: {}",
+                        scene.node_label(ap.node),
+                        if candidates.is_empty() { "" } else { " leading where its tags say" },
+                        n.x, n.y, n.z, probe, side(front), side(back)
+                    ),
+                    loc(ap.node).with_position(q.centre.to_array()),
+                )
+                .hint("move the portal into the wall opening between its two rooms (or open the wall behind it), and check its source and target names"),
+            );
+            continue;
+        }
+        for &i in &chosen {
+            let p = &mut set.portals[i];
+            p.authored = Some(ap.node);
+            p.closed |= ap.closed;
+            one_way_claim[i] = Some(ap.one_way);
+            let facing = p.normal.dot(q.normal);
+            let wrong = match ap.faces {
+                Facing::Out => facing < 0.0,
+                Facing::In => facing > 0.0,
+            };
+            if wrong && ap.source_room.is_some() {
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_AUTHORED_WRONG_WAY,
+                        format!(
+                            "portal `{}` faces the wrong way for its convention ({}): {} its source room `{}`",
+                            scene.node_label(ap.node),
+                            if ap.faces == Facing::Out { "front out of the source room" } else { "front into the source room" },
+                            if ap.faces == Facing::Out { "back into" } else { "out of" },
+                            tagging.rooms[room_of(set.portals[i].from)].name
+                        ),
+                        loc(ap.node).with_position(q.centre.to_array()),
+                    )
+                    .hint("flip the portal's faces (reverse its winding)"),
+                );
+            }
+        }
+        for &i in &chosen {
+            if let Some(j) = set.portals[i].partner {
+                if ap.closed {
+                    set.portals[j].closed = true;
+                }
+                if set.portals[j].authored.is_none() && !ap.one_way {
+                    set.portals[j].authored = Some(ap.node);
+                }
+            }
+        }
+    }
+    // One-way: a claimed direction whose partner no authored portal claimed loses the partner;
+    // two one-way quads covering both directions (Panda3D) make one two-way pair.
+    let mut remove = vec![false; set.portals.len()];
+    for i in 0..one_way_claim.len() {
+        if one_way_claim[i] == Some(true) {
+            if let Some(j) = set.portals[i].partner {
+                if one_way_claim.get(j).copied().flatten().is_none() {
+                    remove[j] = true;
+                    set.portals[i].one_way = true;
+                    set.portals[i].partner = None;
+                }
+            }
+        }
+    }
+    compact(set, &remove);
+}
+
+/// Drops removed portals and renumbers partners.
+fn compact(set: &mut PortalSet, remove: &[bool]) {
+    let mut new_index = vec![None; set.portals.len()];
+    let mut k = 0;
+    for (i, r) in remove.iter().enumerate() {
+        if !r {
+            new_index[i] = Some(k);
+            k += 1;
+        }
+    }
+    let old = std::mem::take(&mut set.portals);
+    for (i, mut p) in old.into_iter().enumerate() {
+        if remove.get(i).copied().unwrap_or(false) {
+            continue;
+        }
+        p.partner = p.partner.and_then(|j| new_index.get(j).copied().flatten());
+        set.portals.push(p);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn transformed(
+    scene: &Scene,
+    cells: &CellSet,
+    ap: &AuthoredPortal,
+    q: &Quad,
+    probe: f64,
+    eps: f64,
+    set: &mut PortalSet,
+    done: &mut Vec<NodeId>,
+    loc: &dyn Fn(NodeId) -> Location,
+) {
+    let Some(from) = cell_at(cells, q.centre + q.normal * probe, eps) else {
+        set.diagnostics.push(
+            Diagnostic::new(
+                Code::PORTAL_AUTHORED_UNMATCHED,
+                format!(
+                    "{} `{}` faces no cell: probed {:.3} m in front of it",
+                    if ap.kind == PortalKind::Mirror {
+                        "mirror"
+                    } else {
+                        "teleporter"
+                    },
+                    scene.node_label(ap.node),
+                    probe
+                ),
+                loc(ap.node).with_position(q.centre.to_array()),
+            )
+            .hint(
+                "the front of a mirror or teleporter (its winding's normal) must face into a cell",
+            ),
+        );
+        return;
+    };
+    done.push(ap.node);
+    // Seen from the source cell, which lies in front of it.
+    let polygon = q.ring.clone();
+    let area = polygon_area(&q.ring, q.normal);
+    match ap.kind {
+        PortalKind::Mirror => {
+            let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
+                normal: q.normal,
+                d: 0.0,
+            });
+            let i = set.portals.len();
+            set.portals.push(Portal {
+                from,
+                to: Some(from),
+                polygon,
+                normal: -q.normal,
+                area,
+                kind: PortalKind::Mirror,
+                one_way: false,
+                closed: ap.closed,
+                internal: false,
+                transform: Some(reflection(&plane)),
+                authored: Some(ap.node),
+                // A reflection is its own inverse: the mirror is its own partner.
+                partner: Some(i),
+            });
+        }
+        PortalKind::Teleporter => {
+            let Some(exit) = ap.teleport_exit else {
+                return;
+            };
+            let Some(xq) = quad(scene, exit, eps) else {
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_AUTHORED_UNMATCHED,
+                        format!("teleporter `{}` exits at `{}`, which has no mesh", scene.node_label(ap.node), scene.node_label(exit)),
+                        loc(ap.node),
+                    )
+                    .hint("the exit of a teleporter must be a portal mesh (a quad) facing into its cell"),
+                );
+                return;
+            };
+            let Some(to) = cell_at(cells, xq.centre + xq.normal * probe, eps) else {
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_AUTHORED_UNMATCHED,
+                        format!(
+                            "the exit `{}` of teleporter `{}` faces no cell",
+                            scene.node_label(exit),
+                            scene.node_label(ap.node)
+                        ),
+                        loc(exit),
+                    )
+                    .hint("turn the exit so its front faces into a cell"),
+                );
+                return;
+            };
+            done.push(exit);
+            // Walking into the entry (against its normal) comes out of the exit along its
+            // normal: entry frame, half a turn about up, exit frame.
+            let half_turn = DMat4::from_rotation_y(std::f64::consts::PI);
+            let t = frame(&xq) * half_turn * frame(q).inverse();
+            let i = set.portals.len();
+            set.portals.push(Portal {
+                from,
+                to: Some(to),
+                polygon,
+                normal: -q.normal,
+                area,
+                kind: PortalKind::Teleporter,
+                one_way: ap.one_way,
+                closed: ap.closed,
+                internal: false,
+                transform: Some(t),
+                authored: Some(ap.node),
+                partner: (!ap.one_way).then_some(i + 1),
+            });
+            if !ap.one_way {
+                set.portals.push(Portal {
+                    from: to,
+                    to: Some(from),
+                    polygon: xq.ring.clone(),
+                    normal: -xq.normal,
+                    area: polygon_area(&xq.ring, xq.normal),
+                    kind: PortalKind::Teleporter,
+                    one_way: false,
+                    closed: ap.closed,
+                    internal: false,
+                    transform: Some(t.inverse()),
+                    authored: Some(exit),
+                    partner: Some(i),
+                });
+            }
+        }
+        PortalKind::Plain => {}
+    }
+}

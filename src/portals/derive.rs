@@ -1,0 +1,367 @@
+//! Openings between cells (and to the exterior), from the cells' faces and the level's opaque
+//! triangles.
+
+use std::collections::HashSet;
+
+use glam::{DVec2, DVec3};
+
+use super::{reversed, Portal, PortalSet};
+use crate::cells::{CellSet, ExactVertices};
+use crate::config::PortalsConfig;
+use crate::geom::aabb::Aabb;
+use crate::geom::boolean2::{difference, intersection, signed_area};
+use crate::geom::partition::{convex_partition, Polygon2};
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area};
+use crate::scene::{NodeId, Scene};
+use crate::tags::rules::PortalKind;
+use crate::tags::Tagging;
+
+/// Triangles that block sight, with their bounds (sorted by `min.x` for the sweep).
+pub(crate) struct Opaque {
+    tris: Vec<([DVec3; 3], Aabb)>,
+}
+
+impl Opaque {
+    pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet) -> Opaque {
+        let mut skip: HashSet<NodeId> = HashSet::new();
+        skip.extend(tagging.portals.iter().map(|p| p.node));
+        skip.extend(tagging.ignored.iter().map(|n| n.node));
+        skip.extend(tagging.detail.iter().map(|n| n.node));
+        skip.extend(tagging.bounds.iter().map(|n| n.node));
+        skip.extend(tagging.footprints.iter().map(|n| n.node));
+        skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
+        skip.extend(cells.props.iter().copied());
+        let mut tris = Vec::new();
+        for n in scene.walk() {
+            if skip.contains(&n) {
+                continue;
+            }
+            let node = &scene.nodes[n];
+            let Some(m) = node.mesh else { continue };
+            let mesh = &scene.meshes[m];
+            let w: Vec<DVec3> = mesh
+                .positions
+                .iter()
+                .map(|p| node.world.transform_point3(*p))
+                .collect();
+            for t in &mesh.triangles {
+                let tri = t.map(|i| w[i as usize]);
+                tris.push((tri, Aabb::from_points(tri.iter())));
+            }
+        }
+        tris.sort_by(|a, b| a.1.min.x.total_cmp(&b.1.min.x));
+        Opaque { tris }
+    }
+
+    /// Triangles whose bounds meet `b`.
+    fn near<'a>(&'a self, b: &'a Aabb) -> impl Iterator<Item = &'a [DVec3; 3]> + 'a {
+        let end = self.tris.partition_point(|(_, tb)| tb.min.x <= b.max.x);
+        self.tris[..end]
+            .iter()
+            .filter(move |(_, tb)| {
+                tb.max.x >= b.min.x
+                    && tb.min.y <= b.max.y
+                    && tb.max.y >= b.min.y
+                    && tb.min.z <= b.max.z
+                    && tb.max.z >= b.min.z
+            })
+            .map(|(t, _)| t)
+    }
+}
+
+/// A face's plane frame: 2D coordinates on the plane, CCW about the normal.
+#[derive(Clone, Copy)]
+struct Frame2 {
+    origin: DVec3,
+    u: DVec3,
+    v: DVec3,
+}
+
+impl Frame2 {
+    fn new(p: &Plane) -> Frame2 {
+        let (u, v) = p.basis();
+        Frame2 {
+            origin: p.normal * p.d,
+            u,
+            v,
+        }
+    }
+    fn to2(&self, p: DVec3) -> DVec2 {
+        let d = p - self.origin;
+        DVec2::new(d.dot(self.u), d.dot(self.v))
+    }
+    fn to3(&self, q: DVec2, offset: DVec3) -> DVec3 {
+        self.origin + offset + self.u * q.x + self.v * q.y
+    }
+}
+
+/// The part of a triangle between two parallel planes (`lo <= n·p <= hi`), projected.
+fn slab_shadow(t: &[DVec3; 3], n: DVec3, lo: f64, hi: f64, f: &Frame2) -> Option<Vec<DVec2>> {
+    let mut poly: Vec<DVec3> = t.to_vec();
+    for (normal, d) in [(n, hi), (-n, -lo)] {
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for i in 0..poly.len() {
+            let a = poly[i];
+            let b = poly[(i + 1) % poly.len()];
+            let (da, db) = (normal.dot(a) - d, normal.dot(b) - d);
+            if da <= 0.0 {
+                out.push(a);
+            }
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                out.push(a + (b - a) * (da / (da - db)));
+            }
+        }
+        poly = out;
+        if poly.len() < 3 {
+            return None;
+        }
+    }
+    let ring: Vec<DVec2> = poly.iter().map(|p| f.to2(*p)).collect();
+    (signed_area(&ring).abs() > 0.0).then_some(ring)
+}
+
+/// Mean width (twice the area over the perimeter): openings thinner than the tolerance are
+/// float noise along edges that should meet, not holes.
+fn mean_width(p: &Polygon2) -> f64 {
+    let perim = |r: &[DVec2]| -> f64 {
+        (0..r.len())
+            .map(|i| r[i].distance(r[(i + 1) % r.len()]))
+            .sum()
+    };
+    let total: f64 = perim(&p.outer) + p.holes.iter().map(|h| perim(h)).sum::<f64>();
+    if total > 0.0 {
+        2.0 * p.area() / total
+    } else {
+        0.0
+    }
+}
+
+/// Convex pieces of an opening (or its convex hull when the conservative shape is asked for).
+fn pieces(p: &Polygon2, conservative: bool) -> Vec<Vec<DVec2>> {
+    if conservative {
+        let pts: Vec<DVec3> = p.outer.iter().map(|q| DVec3::new(q.x, q.y, 0.0)).collect();
+        let ring = convex_ring_on_plane(
+            &pts,
+            &Plane {
+                normal: DVec3::Z,
+                d: 0.0,
+            },
+            0.0,
+        );
+        return vec![ring.iter().map(|q| DVec2::new(q.x, q.y)).collect()];
+    }
+    convex_partition(p).unwrap_or_else(|_| vec![p.outer.clone()])
+}
+
+pub(crate) fn derive(
+    scene: &Scene,
+    tagging: &Tagging,
+    cells: &CellSet,
+    cfg: &PortalsConfig,
+    set: &mut PortalSet,
+) {
+    let eps = cells.tolerance.distance;
+    let grid = eps * 0.5;
+    let min_width = 10.0 * eps;
+    let opaque = Opaque::new(scene, tagging, cells);
+    let reach = cfg.max_wall_thickness + eps;
+    let cos_tol = (1e-4f64).cos();
+    // For each cell face, the regions other cells claim (in that face's frame).
+    let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
+        .cells
+        .iter()
+        .map(|c| vec![Vec::new(); c.poly.faces.len()])
+        .collect();
+    let mut order: Vec<usize> = (0..cells.cells.len()).collect();
+    order.sort_by(|&a, &b| {
+        cells.cells[a]
+            .bounds
+            .min
+            .x
+            .total_cmp(&cells.cells[b].bounds.min.x)
+    });
+    for (k, &a) in order.iter().enumerate() {
+        let ca = &cells.cells[a];
+        for &b in &order[k + 1..] {
+            let cb = &cells.cells[b];
+            if cb.bounds.min.x > ca.bounds.max.x + reach {
+                break;
+            }
+            if (0..3).any(|i| {
+                cb.bounds.min[i] > ca.bounds.max[i] + reach
+                    || cb.bounds.max[i] < ca.bounds.min[i] - reach
+            }) {
+                continue;
+            }
+            for (ia, fa) in ca.poly.faces.iter().enumerate() {
+                for (ib, fb) in cb.poly.faces.iter().enumerate() {
+                    let na = fa.plane.normal;
+                    if na.dot(fb.plane.normal) > -cos_tol {
+                        continue;
+                    }
+                    // fb: nb·p = db with nb ≈ -na, so along na it sits at -db.
+                    let gap = -fb.plane.d - fa.plane.d;
+                    if gap < -eps || gap > reach {
+                        continue;
+                    }
+                    let gap = gap.max(0.0);
+                    let f = Frame2::new(&fa.plane);
+                    let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
+                    let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
+                    let shared = intersection(&[ra], &[rb], grid);
+                    if shared.is_empty() {
+                        continue;
+                    }
+                    // A wall is bridged only if no other cell fills the gap (then the faces do
+                    // not face each other across a wall, but across that cell).
+                    if gap > eps {
+                        let big = shared.iter().max_by(|x, y| x.area().total_cmp(&y.area()));
+                        if let Some(big) = big {
+                            let c2 =
+                                big.outer.iter().copied().sum::<DVec2>() / big.outer.len() as f64;
+                            let mid = f.to3(c2, na * (gap * 0.5));
+                            let filled = cells.cells.iter().enumerate().any(|(k, c)| {
+                                k != a && k != b && c.poly.contains_strictly(mid, eps)
+                            });
+                            if filled {
+                                continue;
+                            }
+                        }
+                    }
+                    let fb2 = Frame2::new(&fb.plane);
+                    for s in &shared {
+                        claimed[a][ia].push(s.outer.clone());
+                        let back: Vec<DVec2> = s
+                            .outer
+                            .iter()
+                            .map(|q| fb2.to2(f.to3(*q, na * gap)))
+                            .collect();
+                        claimed[b][ib].push(back);
+                    }
+                    // What blocks: everything on the plane, or inside the wall slab.
+                    let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
+                    let mut bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()));
+                    bb.min -= DVec3::splat(eps);
+                    bb.max += DVec3::splat(eps);
+                    let blockers: Vec<Vec<DVec2>> = opaque
+                        .near(&bb)
+                        .filter_map(|t| slab_shadow(t, na, lo, hi, &f))
+                        .collect();
+                    let open = difference(&shared, &blockers, grid);
+                    let exact = ExactVertices::new(
+                        fa.points
+                            .iter()
+                            .chain(fb.points.iter())
+                            .map(|p| f.to2(*p))
+                            .chain(blockers.iter().flatten().copied()),
+                        grid,
+                    );
+                    let internal = ca.room == cb.room;
+                    for o in open.iter().filter(|o| mean_width(o) >= min_width) {
+                        for piece in pieces(o, cfg.conservative) {
+                            let piece = exact.restore(piece);
+                            // CCW about na in 2D: seen from A (behind the plane) it turns the
+                            // other way, so A's polygon is the reversed ring.
+                            let on_a: Vec<DVec3> =
+                                piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                            let on_b: Vec<DVec3> =
+                                piece.iter().map(|q| f.to3(*q, na * gap)).collect();
+                            let area = polygon_area(&on_a, na);
+                            if area <= eps * eps {
+                                continue;
+                            }
+                            let i = set.portals.len();
+                            set.portals.push(Portal {
+                                from: a,
+                                to: Some(b),
+                                polygon: reversed(&on_a),
+                                normal: na,
+                                area,
+                                kind: PortalKind::Plain,
+                                one_way: false,
+                                closed: false,
+                                internal,
+                                transform: None,
+                                authored: None,
+                                partner: Some(i + 1),
+                            });
+                            set.portals.push(Portal {
+                                from: b,
+                                to: Some(a),
+                                polygon: on_b,
+                                normal: -na,
+                                area,
+                                kind: PortalKind::Plain,
+                                one_way: false,
+                                closed: false,
+                                internal,
+                                transform: None,
+                                authored: None,
+                                partner: Some(i),
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
+    if !cfg.exterior {
+        return;
+    }
+    for (c, cell) in cells.cells.iter().enumerate() {
+        for (i, face) in cell.poly.faces.iter().enumerate() {
+            let f = Frame2::new(&face.plane);
+            let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
+            let whole = intersection(
+                std::slice::from_ref(&ring),
+                std::slice::from_ref(&ring),
+                grid,
+            );
+            let mut covered: Vec<Vec<DVec2>> = claimed[c][i].clone();
+            let mut bb = Aabb::from_points(face.points.iter());
+            bb.min -= DVec3::splat(eps);
+            bb.max += DVec3::splat(eps);
+            let d = face.plane.d;
+            covered.extend(
+                opaque
+                    .near(&bb)
+                    .filter_map(|t| slab_shadow(t, face.plane.normal, d - eps, d + eps, &f)),
+            );
+            let exact = ExactVertices::new(
+                face.points
+                    .iter()
+                    .map(|p| f.to2(*p))
+                    .chain(covered.iter().flatten().copied()),
+                grid,
+            );
+            for o in difference(&whole, &covered, grid)
+                .iter()
+                .filter(|o| mean_width(o) >= min_width)
+            {
+                for piece in pieces(o, cfg.conservative) {
+                    let piece = exact.restore(piece);
+                    let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                    let area = polygon_area(&pts, face.plane.normal);
+                    if area <= eps * eps {
+                        continue;
+                    }
+                    set.portals.push(Portal {
+                        from: c,
+                        to: None,
+                        polygon: reversed(&pts),
+                        normal: face.plane.normal,
+                        area,
+                        kind: PortalKind::Plain,
+                        one_way: false,
+                        closed: false,
+                        internal: false,
+                        transform: None,
+                        authored: None,
+                        partner: None,
+                    });
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,87 @@
+//! Portals: the openings between cells, merged with the portals designers authored.
+//!
+//! Derived portals come first (`derive.rs`): for two cells whose faces are coplanar with
+//! opposite normals — or parallel and at most `max_wall_thickness` apart, facing each other
+//! across a wall — the shared region of the two faces, minus every opaque triangle on that
+//! plane (or inside the wall slab), is an opening; each opening becomes convex portal polygons.
+//! What is left of a cell face that no other cell shares and no geometry covers is an exterior
+//! opening. Authored portals (`authored.rs`) are then linked to the derived portal they cover
+//! and lend it their name, kind and flags; mirrors and teleporters get their transforms.
+//!
+//! Invariants of [`PortalSet`]: a portal's polygon is convex and planar, counter-clockwise seen
+//! from its source cell (its Newell normal points back into the source; `normal` is the
+//! direction of travel); every two-way portal has a partner with the same polygon reversed and
+//! the cells swapped, and partners point at each other; a transform is present only when it is
+//! not the identity, and a partner's transform is the inverse.
+
+use glam::{DMat4, DVec3};
+use serde::Serialize;
+
+use crate::cells::CellSet;
+use crate::config::PortalsConfig;
+use crate::diag::Diagnostics;
+use crate::scene::{NodeId, Scene};
+use crate::tags::rules::PortalKind;
+use crate::tags::Tagging;
+
+mod authored;
+mod derive;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Portal {
+    /// Source cell.
+    pub from: usize,
+    /// Target cell; `None` for an opening to the exterior.
+    pub to: Option<usize>,
+    /// Counter-clockwise seen from the source cell.
+    pub polygon: Vec<DVec3>,
+    /// Unit direction of travel, from the source into the target.
+    pub normal: DVec3,
+    pub area: f64,
+    pub kind: PortalKind,
+    pub one_way: bool,
+    pub closed: bool,
+    /// Between two cells of one room (a split room's cells are joined by these).
+    pub internal: bool,
+    /// Maps the source side's space to the target side's (mirrors, teleporters).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub transform: Option<DMat4>,
+    /// The authored portal node this portal carries, if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub authored: Option<NodeId>,
+    /// The portal back the other way.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub partner: Option<usize>,
+}
+
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct PortalSet {
+    pub portals: Vec<Portal>,
+    #[serde(skip)]
+    pub diagnostics: Diagnostics,
+}
+
+impl PortalSet {
+    /// Portals between two different cells, each pair counted once.
+    pub fn pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.portals
+            .iter()
+            .enumerate()
+            .filter_map(|(i, p)| p.partner.filter(|&j| i < j).map(|j| (i, j)))
+    }
+}
+
+/// Derives and links the portals of a level.
+pub fn build(scene: &Scene, tagging: &Tagging, cells: &CellSet, cfg: &PortalsConfig) -> PortalSet {
+    let mut set = PortalSet::default();
+    derive::derive(scene, tagging, cells, cfg, &mut set);
+    authored::link(scene, tagging, cells, cfg, &mut set);
+    set
+}
+
+/// Reverses a portal polygon (the partner's view).
+pub(crate) fn reversed(poly: &[DVec3]) -> Vec<DVec3> {
+    let mut p = poly.to_vec();
+    p.reverse();
+    p
+}

@@ -1,0 +1,309 @@
+//! Portals on the third-party levels and samples, their invariants, and an oracle that does
+//! not use the portal code: unobstructed segments between cells must leave through a portal.
+
+mod common;
+
+use common::{fixture, sample};
+use glam::DVec3;
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+use portcullis::cells::CellSet;
+use portcullis::diag::Code;
+use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
+use portcullis::portals::PortalSet;
+
+fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet, PortalSet) {
+    let opts = LoadOptions {
+        preset: preset.map(str::to_string),
+        ..Default::default()
+    };
+    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
+    let c = build_cells(&mut t);
+    let p = build_portals(&mut t, &c);
+    (t, c, p)
+}
+
+fn all_levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {
+    vec![
+        (fixture("lportal_tutorial_simple.glb"), None),
+        (fixture("lportal_tutorial_simple.obj"), None),
+        (fixture("lportal_boxrooms.glb"), None),
+        (fixture("lportal_boxrooms.obj"), None),
+        (fixture("panda3d_culling.glb"), Some("panda3d")),
+        (fixture("panda3d_culling.obj"), Some("panda3d")),
+        (sample("two_rooms.gltf"), None),
+        (sample("l_room.gltf"), None),
+        (sample("u_room.gltf"), None),
+        (sample("pillar_room.gltf"), None),
+        (sample("bound_boxes.gltf"), None),
+    ]
+}
+
+/// Room-to-room pairs (not internal), as (portal, partner).
+fn room_pairs(t: &Tagged, c: &CellSet, p: &PortalSet) -> Vec<(usize, usize)> {
+    let _ = t;
+    p.pairs()
+        .filter(|&(i, _)| {
+            let q = &p.portals[i];
+            q.to.is_some_and(|to| c.cells[q.from].room != c.cells[to].room)
+        })
+        .collect()
+}
+
+fn bounds(poly: &[DVec3]) -> (DVec3, DVec3) {
+    poly.iter().fold(
+        (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+        |(a, b), p| (a.min(*p), b.max(*p)),
+    )
+}
+
+#[test]
+fn lportal_tutorial_simple_has_one_door_pair() {
+    for file in ["lportal_tutorial_simple.glb", "lportal_tutorial_simple.obj"] {
+        let (t, c, p) = load(&fixture(file), None);
+        let pairs = room_pairs(&t, &c, &p);
+        assert_eq!(pairs.len(), 1, "{file}");
+        let door = &p.portals[pairs[0].0];
+        let (lo, hi) = bounds(&door.polygon);
+        let want = (DVec3::new(3.0, 0.1, -1.0), DVec3::new(3.0, 2.0, 1.0));
+        // Within 1e-6 m, plus the precision of the file itself (the OBJ writes -0.999999).
+        let tol = 1e-6 + 2e-9;
+        assert!(
+            (lo - want.0).abs().max_element() <= tol && (hi - want.1).abs().max_element() <= tol,
+            "{file}: {lo} .. {hi}"
+        );
+        assert!((door.area - 2.0 * 1.9).abs() < 1e-5);
+        let authored = door.authored.map(|n| t.scene.node_label(n));
+        assert_eq!(authored.as_deref(), Some("portal_lounge"), "{file}");
+        // No ceilings: the open tops are exterior portals, on the plane y = 2.
+        let tops: Vec<_> = p
+            .portals
+            .iter()
+            .filter(|q| q.to.is_none() && q.normal.y > 0.99)
+            .collect();
+        assert!(!tops.is_empty());
+        for q in tops {
+            assert!(q.polygon.iter().all(|v| (v.y - 2.0).abs() < 1e-5));
+        }
+        assert!(!t.diagnostics.has(Code::PORTAL_AUTHORED_UNMATCHED));
+    }
+}
+
+#[test]
+fn lportal_boxrooms_has_16_authored_pairs() {
+    for file in ["lportal_boxrooms.glb", "lportal_boxrooms.obj"] {
+        let (t, c, p) = load(&fixture(file), None);
+        let pairs = room_pairs(&t, &c, &p);
+        assert_eq!(pairs.len(), 16, "{file}");
+        let (mut doors, mut walls) = (0, 0);
+        for &(i, j) in &pairs {
+            let (lo, hi) = bounds(&p.portals[i].polygon);
+            let size = hi - lo;
+            let mut dims = [size.x, size.y, size.z];
+            dims.sort_by(f64::total_cmp);
+            // f32 input through rotations: the walls themselves are off by up to ~1e-5 m.
+            assert!(dims[0] < 1e-4);
+            if (dims[1] - 0.8).abs() < 1e-4 && (dims[2] - 1.2).abs() < 1e-4 {
+                doors += 1;
+            } else if (dims[1] - 1.2).abs() < 1e-4 && (dims[2] - 3.6).abs() < 1e-4 {
+                walls += 1;
+            } else {
+                panic!("{file}: unexpected opening {dims:?}");
+            }
+            assert!(p.portals[i].authored.is_some() && p.portals[j].authored.is_some());
+        }
+        // The level has 12 door-sized openings and 4 full-wall ones, matching its 12 `portal`
+        // and 4 `portal_large` quads (the level notes say 10 and 6; the geometry says 12 and 4).
+        assert_eq!((doors, walls), (12, 4), "{file}");
+        assert!(
+            !t.diagnostics.has(Code::PORTAL_AUTHORED_UNMATCHED),
+            "{:?}",
+            t.diagnostics
+        );
+    }
+}
+
+#[test]
+fn panda3d_one_way_quads_make_12_two_way_pairs() {
+    for file in ["panda3d_culling.glb", "panda3d_culling.obj"] {
+        let (t, c, p) = load(&fixture(file), Some("panda3d"));
+        let pairs: Vec<_> = room_pairs(&t, &c, &p)
+            .into_iter()
+            .filter(|&(i, j)| {
+                let (a, b) = (p.portals[i].authored, p.portals[j].authored);
+                a.is_some() && b.is_some() && a != b
+            })
+            .collect();
+        assert_eq!(pairs.len(), 12, "{file}");
+        for &(i, j) in &pairs {
+            assert!(!p.portals[i].one_way && !p.portals[j].one_way);
+            // portal_AtoB_K is on the portal from A to B.
+            let name = t.scene.node_label(p.portals[i].authored.unwrap());
+            let from_room = &t.tagging.rooms[c.cells[p.portals[i].from].room].name;
+            let digits = name
+                .trim_start_matches("portal_")
+                .split("to")
+                .next()
+                .unwrap();
+            assert_eq!(from_room, &format!("cell{digits}"), "{name}");
+        }
+        assert!(
+            !t.diagnostics.has(Code::PORTAL_AUTHORED_UNMATCHED),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn two_rooms_sample_door() {
+    let (t, c, p) = load(&sample("two_rooms.gltf"), None);
+    let pairs = room_pairs(&t, &c, &p);
+    assert_eq!(pairs.len(), 1);
+    let (lo, hi) = bounds(&p.portals[pairs[0].0].polygon);
+    // The sample stores f32 positions: 2.2 is 2.2000000477 there.
+    assert!(
+        (lo - DVec3::new(4.0, 0.0, 1.5)).length() < 1e-6
+            && (hi - DVec3::new(4.0, 2.2, 2.5)).length() < 1e-6,
+        "{lo} .. {hi}"
+    );
+    assert_eq!(
+        p.portals[pairs[0].0]
+            .authored
+            .map(|n| t.scene.node_label(n))
+            .as_deref(),
+        Some("lounge-portal")
+    );
+    // Closed rooms: nothing opens to the exterior.
+    assert!(p.portals.iter().all(|q| q.to.is_some()));
+}
+
+/// Every portal: convex, planar, counter-clockwise seen from its source; partners mutual,
+/// reversed and with swapped cells.
+#[test]
+fn portal_invariants_hold_everywhere() {
+    for (file, preset) in all_levels() {
+        let (_, c, p) = load(&file, preset);
+        let eps = c.tolerance.distance * 10.0;
+        for (i, q) in p.portals.iter().enumerate() {
+            let n = q.polygon.len();
+            assert!(n >= 3 && q.area > 0.0);
+            let mut newell = DVec3::ZERO;
+            for k in 0..n {
+                newell += q.polygon[k].cross(q.polygon[(k + 1) % n]);
+            }
+            assert!(
+                newell.normalize().dot(q.normal) < -0.999,
+                "{}: portal {i} winding",
+                file.display()
+            );
+            let d = q.normal.dot(q.polygon[0]);
+            for v in &q.polygon {
+                assert!((q.normal.dot(*v) - d).abs() <= eps, "not planar");
+            }
+            for k in 0..n {
+                let (a, b, cc) = (q.polygon[k], q.polygon[(k + 1) % n], q.polygon[(k + 2) % n]);
+                assert!(
+                    (b - a).cross(cc - b).dot(q.normal) <= eps * (b - a).length().max(1.0),
+                    "not convex"
+                );
+            }
+            if let Some(j) = q.partner {
+                let r = &p.portals[j];
+                assert_eq!(r.partner, Some(i));
+                if j != i {
+                    assert_eq!(Some(q.from), r.to);
+                    assert_eq!(Some(r.from), q.to);
+                    assert_eq!(q.polygon.len(), r.polygon.len());
+                }
+            }
+        }
+    }
+}
+
+/// The oracle: for random segments between two different cells that hit none of the level's
+/// triangles, the point where the segment leaves its first cell lies in a portal of that cell.
+#[test]
+fn unobstructed_segments_leave_cells_through_portals() {
+    for (file, preset) in all_levels() {
+        let (t, c, p) = load(&file, preset);
+        if c.cells.len() < 2 {
+            continue;
+        }
+        let skip: std::collections::HashSet<usize> = t
+            .tagging
+            .portals
+            .iter()
+            .map(|q| q.node)
+            .chain(t.tagging.footprints.iter().map(|f| f.node))
+            .chain(t.tagging.bounds.iter().map(|b| b.node))
+            .collect();
+        let mut verts = Vec::new();
+        let mut idx = Vec::new();
+        for n in t.scene.walk() {
+            if skip.contains(&n) || t.scene.nodes[n].mesh.is_none() {
+                continue;
+            }
+            let w = t.scene.world_positions(n);
+            let m = t.scene.nodes[n].mesh.unwrap();
+            for tri in &t.scene.meshes[m].triangles {
+                let base = verts.len() as u32;
+                verts.extend(tri.iter().map(|&i| w[i as usize]));
+                idx.push([base, base + 1, base + 2]);
+            }
+        }
+        let mesh = TriMesh::new(verts, idx).unwrap();
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let sample_in = |cell: usize, rnd: &mut dyn FnMut() -> f64| -> DVec3 {
+            let b = c.cells[cell].bounds;
+            loop {
+                let q = b.min + (b.max - b.min) * DVec3::new(rnd(), rnd(), rnd());
+                if c.cells[cell].poly.contains_strictly(q, 1e-6) {
+                    return q;
+                }
+            }
+        };
+        let eps = c.tolerance.distance * 100.0;
+        let mut checked = 0usize;
+        for _ in 0..400 {
+            let a = (rnd() * c.cells.len() as f64) as usize % c.cells.len();
+            let b = (rnd() * c.cells.len() as f64) as usize % c.cells.len();
+            if a == b {
+                continue;
+            }
+            let (pa, pb) = (sample_in(a, &mut rnd), sample_in(b, &mut rnd));
+            let d = pb - pa;
+            let len = d.length();
+            if mesh.intersects_local_ray(&Ray::new(pa, d / len), len) {
+                continue;
+            }
+            // Where the segment leaves cell a.
+            let exit_t = c.cells[a]
+                .poly
+                .faces
+                .iter()
+                .filter(|f| f.plane.normal.dot(d) > 0.0)
+                .map(|f| (f.plane.d - f.plane.normal.dot(pa)) / f.plane.normal.dot(d))
+                .fold(f64::MAX, f64::min);
+            let e = pa + d * exit_t;
+            let through = p.portals.iter().filter(|q| q.from == a).any(|q| {
+                let n = q.polygon.len();
+                (q.normal.dot(e) - q.normal.dot(q.polygon[0])).abs() <= eps
+                    && (0..n).all(|k| {
+                        let (u, v) = (q.polygon[k], q.polygon[(k + 1) % n]);
+                        // Counter-clockwise seen from the source: inside is to the left
+                        // when looking along the direction of travel from behind.
+                        (v - u).cross(e - u).dot(-q.normal) >= -eps * (v - u).length()
+                    })
+            });
+            assert!(through, "{}: a clear segment from cell {a} to cell {b} leaves cell {a} at {e} through no portal", file.display());
+            checked += 1;
+        }
+        let _ = checked;
+    }
+}
