@@ -6,7 +6,7 @@ use glam::DVec3;
 
 use super::{node_triangles, CellSet};
 use crate::diag::{Code, Diagnostic, Location};
-use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
+use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
 
@@ -19,19 +19,7 @@ fn triangle_in_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
     };
     let mut poly: Vec<DVec3> = t.to_vec();
     for f in &cell.faces {
-        let mut out = Vec::with_capacity(poly.len() + 2);
-        for i in 0..poly.len() {
-            let a = poly[i];
-            let b = poly[(i + 1) % poly.len()];
-            let (da, db) = (f.plane.distance(a) - eps, f.plane.distance(b) - eps);
-            if da <= 0.0 {
-                out.push(a);
-            }
-            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-                out.push(a + (b - a) * (da / (da - db)));
-            }
-        }
-        poly = out;
+        poly = clip_polygon(&poly, f.plane.normal, f.plane.d + eps);
         if poly.len() < 3 {
             return false;
         }

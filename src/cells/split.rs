@@ -9,7 +9,7 @@ use glam::DVec3;
 use serde::Serialize;
 
 use super::{node_triangles, CellSet};
-use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::geom::polyhedron::{clip_polygon, ConvexPolyhedron};
 use crate::scene::{NodeId, Scene};
 
 /// The part of one node's surface inside one cell, in world coordinates.
@@ -32,19 +32,7 @@ fn clip_to_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> Vec<DVec3>
             }
             continue;
         }
-        let mut out = Vec::with_capacity(poly.len() + 2);
-        for i in 0..poly.len() {
-            let a = poly[i];
-            let b = poly[(i + 1) % poly.len()];
-            let (da, db) = (f.plane.distance(a), f.plane.distance(b));
-            if da <= 0.0 {
-                out.push(a);
-            }
-            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-                out.push(a + (b - a) * (da / (da - db)));
-            }
-        }
-        poly = out;
+        poly = clip_polygon(&poly, f.plane.normal, f.plane.d);
         if poly.len() < 3 {
             return Vec::new();
         }

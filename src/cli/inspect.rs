@@ -486,7 +486,7 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                 )
             })
             .collect();
-        list(&mut out, "portals", &portals, style);
+        list(&mut out, "authored portals", &portals, style);
         let vol = |v: &[VolumeView]| -> Vec<String> {
             v.iter()
                 .map(|b| {

@@ -318,6 +318,24 @@ fn dedupe_ring(pts: &mut Vec<DVec3>, eps: f64) {
     }
 }
 
+/// The part of a convex polygon behind the plane `normal · p = d` (Sutherland–Hodgman, no
+/// tolerance: callers shift `d` by theirs). Fewer than three points means nothing is left.
+pub fn clip_polygon(poly: &[DVec3], normal: DVec3, d: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(poly.len() + 2);
+    for i in 0..poly.len() {
+        let a = poly[i];
+        let b = poly[(i + 1) % poly.len()];
+        let (da, db) = (normal.dot(a) - d, normal.dot(b) - d);
+        if da <= 0.0 {
+            out.push(a);
+        }
+        if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+            out.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    out
+}
+
 /// Area of a planar polygon (projected on `normal`).
 pub fn polygon_area(pts: &[DVec3], normal: DVec3) -> f64 {
     let mut n = DVec3::ZERO;

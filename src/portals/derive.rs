@@ -12,7 +12,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection, signed_area};
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area};
+use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area};
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
@@ -100,19 +100,7 @@ impl Frame2 {
 fn slab_shadow(t: &[DVec3; 3], n: DVec3, lo: f64, hi: f64, f: &Frame2) -> Option<Vec<DVec2>> {
     let mut poly: Vec<DVec3> = t.to_vec();
     for (normal, d) in [(n, hi), (-n, -lo)] {
-        let mut out = Vec::with_capacity(poly.len() + 2);
-        for i in 0..poly.len() {
-            let a = poly[i];
-            let b = poly[(i + 1) % poly.len()];
-            let (da, db) = (normal.dot(a) - d, normal.dot(b) - d);
-            if da <= 0.0 {
-                out.push(a);
-            }
-            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-                out.push(a + (b - a) * (da / (da - db)));
-            }
-        }
-        poly = out;
+        poly = clip_polygon(&poly, normal, d);
         if poly.len() < 3 {
             return None;
         }
