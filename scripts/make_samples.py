@@ -176,6 +176,200 @@ def bound_boxes():
     )
 
 
+
+# --- Portal samples: openings in a shared wall, a door through a thick wall, an arch, a mirror and a
+# teleporter. Every surface is still a single-sided quad (or a strip of one); the self-check below
+# says which shells are closed and how the open walls tile their rectangle.
+
+def dot(u, v):
+    return sum(u[k] * v[k] for k in range(3))
+
+
+def facing(tris, n):
+    """The triangles, each wound so that its normal points along n."""
+    out = []
+    for a, b, c in tris:
+        d = dot(normal((a, b, c)), n)
+        assert abs(d) > 1e-12, f"triangle {(a, b, c)} is degenerate or edge-on to {n}"
+        out.append((a, b, c) if d > 0 else (a, c, b))
+    return out
+
+
+def fan(pts):
+    """Triangle fan over a convex polygon given in cyclic order; repeated corners (a strip that
+    narrows to a point) are dropped so no triangle is degenerate."""
+    ring = [p for i, p in enumerate(pts) if p != pts[i - 1]]
+    return [(ring[0], ring[k], ring[k + 1]) for k in range(1, len(ring) - 1)]
+
+
+def wall_x(x, pieces, nx):
+    """Convex pieces given as (z, y) rings in the plane x = const, facing +x (nx = 1) or -x (-1)."""
+    tris = []
+    for ring in pieces:
+        tris += fan([(x, y, z) for z, y in ring])
+    return facing(tris, (nx, 0, 0))
+
+
+def rect_zy(z0, y0, z1, y1):
+    return [(z0, y0), (z1, y0), (z1, y1), (z0, y1)]
+
+
+def box_room(x0, x1, skip=()):
+    """Inward-facing floor, ceiling and walls of a room [x0, x1] x [0, H] x [0, 4], without the
+    x-walls whose x is in `skip` (those are built by the caller, or left open)."""
+    z0, z1 = 0.0, 4.0
+    floor = quad((x0, 0, z0), (x0, 0, z1), (x1, 0, z1), (x1, 0, z0))
+    ceiling = quad((x0, H, z0), (x1, H, z0), (x1, H, z1), (x0, H, z1))
+    walls = []
+    walls += quad((x0, 0, z0), (x1, 0, z0), (x1, H, z0), (x0, H, z0))  # z = 0, faces +z
+    walls += quad((x0, 0, z1), (x0, H, z1), (x1, H, z1), (x1, 0, z1))  # z = 4, faces -z
+    for x, nx in ((x0, 1), (x1, -1)):
+        if x not in skip:
+            walls += wall_x(x, [rect_zy(z0, 0, z1, H)], nx)
+    return floor, ceiling, walls
+
+
+def voxel_solid(xs, ys, zs, solid):
+    """Outward-facing closed surface of the union of the grid cells (i, j, k) of xs x ys x zs
+    with solid(i, j, k): one quad per cell face between a solid cell and a non-solid one (or the
+    outside). All faces lie on one grid, so the surface is conforming and closes edge for edge."""
+    axes = (xs, ys, zs)
+    size = [len(a) - 1 for a in axes]
+
+    def filled(c):
+        return all(0 <= c[a] < size[a] for a in range(3)) and solid(*c)
+
+    tris = []
+    for i in range(size[0]):
+        for j in range(size[1]):
+            for k in range(size[2]):
+                c = (i, j, k)
+                if not filled(c):
+                    continue
+                for a in range(3):
+                    for side in (0, 1):
+                        nb = list(c)
+                        nb[a] += 1 if side else -1
+                        if filled(nb):
+                            continue
+                        u, v = [b for b in range(3) if b != a]
+                        (ua, ub), (va, vb) = [(axes[b][c[b]], axes[b][c[b] + 1]) for b in (u, v)]
+                        corners = []
+                        for pu, pv in ((ua, va), (ub, va), (ub, vb), (ua, vb)):
+                            p = [0.0] * 3
+                            p[a], p[u], p[v] = axes[a][c[a] + side], pu, pv
+                            corners.append(tuple(p))
+                        n = [0, 0, 0]
+                        n[a] = 1 if side else -1
+                        tris += facing(quad(*corners), n)
+    return tris
+
+
+WINDOWED = {  # door_window: the openings of the shared wall x = 4, (z0, y0, z1, y1)
+    "door": (0.5, 0.0, 1.5, 2.2),
+    "window": (2.5, 1.0, 3.5, 2.0),
+}
+
+
+def door_window():
+    holes = list(WINDOWED.values())
+    pieces = [rect_zy(*c) for c in grid_cells((0.0, 0.0, 4.0, H), holes)]
+    rooms = []
+    for name, (x0, x1), nx in (("west-room", (0.0, 4.0), -1), ("east-room", (4.0, 8.0), 1)):
+        f, c, w = box_room(x0, x1, skip=(4.0,))
+        rooms.append(room_node(name, f, c, w + wall_x(4.0, pieces, nx)))
+    return level(*rooms)
+
+
+THICK = (4.0, 4.3)               # the slab between west-room and east-room in thick_wall
+THICK_DOOR = (1.5, 0.0, 2.5, 2.2)  # its door, (z0, y0, z1, y1)
+
+
+def thick_wall():
+    xa, xb = THICK
+    dz0, dy0, dz1, dy1 = THICK_DOOR
+    assert dy0 == 0.0
+    # Cells of x [4, 4.3] x y [0, 2.2, 3] x z [0, 1.5, 2.5, 4]; the door is cell (0, 0, 1).
+    slab = voxel_solid([xa, xb], [0.0, dy1, H], [0.0, dz0, dz1, 4.0],
+                       lambda i, j, k: not (j == 0 and k == 1))
+    wf, wc, ww = box_room(0.0, xa, skip=(xa,))
+    ef, ec, ew = box_room(xb, xb + 4.0, skip=(xb,))
+    west = room_node("west-room", wf, wc, ww)
+    west["children"] += [
+        {"name": "Wall", "tris": slab, "material": "wall"},
+        {"name": "west-bound", "tris": box(0.0, 0.0, 0.0, xa, H, 4.0), "material": "bound"},
+    ]
+    return level(west, room_node("east-room", ef, ec, ew))
+
+
+ARCH_SEGMENTS = 8
+
+
+def arch_ring():
+    """The fanlight: the half-disc of radius 1 about (z, y) = (2, 2) above y = 2 as a half-polygon
+    of ARCH_SEGMENTS equal segments, corners from (3, 2) over the top to (1, 2)."""
+    import math
+    pts = []
+    for k in range(ARCH_SEGMENTS + 1):
+        t = math.pi * k / ARCH_SEGMENTS
+        pts.append((2.0 + math.cos(t), 2.0 + math.sin(t)))
+    # Snap the ends and the apex exactly (cos(pi/2) and sin(pi) are not quite 0 in floating point).
+    pts[0], pts[-1] = (3.0, 2.0), (1.0, 2.0)
+    if ARCH_SEGMENTS % 2 == 0:
+        pts[ARCH_SEGMENTS // 2] = (2.0, 3.0)
+    return pts
+
+
+def arch_opening():
+    """The opening as convex (z, y) rings: the doorway and the fanlight; their union is the
+    non-convex arched opening (reflex at (1.5, 2) and (2.5, 2))."""
+    return [rect_zy(1.5, 0.0, 2.5, 2.0), arch_ring()]
+
+
+def arch_area():
+    """Exact: 1 x 2 doorway plus half of a regular 2n-gon of radius 1, n segments of central angle
+    pi/n: n * sin(pi/n) / 2. For n = 8, 4 sin(pi/8) = 2 sqrt(2 - sqrt 2)."""
+    import math
+    return 2.0 + ARCH_SEGMENTS * math.sin(math.pi / ARCH_SEGMENTS) / 2.0
+
+
+def arch():
+    ring = arch_ring()
+    pieces = [rect_zy(0.0, 0.0, 1.0, H), rect_zy(1.0, 0.0, 1.5, 2.0),
+              rect_zy(2.5, 0.0, 3.0, 2.0), rect_zy(3.0, 0.0, 4.0, H)]
+    # Above the arch: one vertical strip per segment, from the segment up to the ceiling (the two
+    # strips at the apex, which touches the ceiling, are triangles).
+    for (za, ya), (zb, yb) in zip(ring, ring[1:]):
+        pieces.append([(za, ya), (zb, yb), (zb, H), (za, H)])
+    rooms = []
+    for name, (x0, x1), nx in (("west-room", (0.0, 4.0), -1), ("east-room", (4.0, 8.0), 1)):
+        f, c, w = box_room(x0, x1, skip=(4.0,))
+        rooms.append(room_node(name, f, c, w + wall_x(4.0, pieces, nx)))
+    return level(*rooms)
+
+
+def mirror():
+    hall = room_node("hall-room", *box_room(0.0, 4.0))
+    hall["children"].append({
+        "name": "Mirror", "tris": wall_x(4.0, [rect_zy(1.0, 0.5, 3.0, 2.5)], -1), "material": "portal",
+        "extras": {"portal": True, "portal_kind": "mirror"}})
+    return level(hall)
+
+
+TELEPORT = {"tp_a": (4.0, -1, "tp_b"), "tp_b": (10.0, 1, "tp_a")}  # x, facing, exit
+
+
+def teleporter():
+    rooms = []
+    for name, (x0, x1), tp in (("a-room", (0.0, 4.0), "tp_a"), ("b-room", (10.0, 14.0), "tp_b")):
+        node = room_node(name, *box_room(x0, x1))
+        x, nx, exit_ = TELEPORT[tp]
+        node["children"].append({
+            "name": tp, "tris": wall_x(x, [rect_zy(1.0, 0.0, 3.0, 2.0)], nx), "material": "portal",
+            "extras": {"portal": True, "portal_kind": "teleporter", "teleport_exit": exit_}})
+        rooms.append(node)
+    return level(*rooms)
+
 def check_shell(tris, volume, what):
     """Closed and consistently oriented (every directed edge once, its reverse once) with the
     given signed volume (divergence theorem: outward shells positive, inward negative)."""
@@ -209,6 +403,150 @@ def self_check(samples):
             for node in tree["children"][1:]:
                 check_shell(node["tris"], 48.0, f"{name}/{node['name']}")
 
+
+
+def node_at(tree, path):
+    """The node at `path` (names joined by '/') below `tree`."""
+    for name in path.split("/"):
+        tree = next(c for c in tree["children"] if c["name"] == name)
+    return tree
+
+
+def area(t):
+    return sum(k * k for k in normal(t)) ** 0.5 / 2.0
+
+
+def ring_area(ring):
+    return abs(sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(ring, ring[1:] + ring[:1]))) / 2.0
+
+
+def check_faces_into(tris, centre, what):
+    """Every triangle's front (its winding's normal) looks towards `centre` (rooms here are boxes,
+    so this is exactly "faces into the room")."""
+    for t in tris:
+        mid = [sum(p[k] for p in t) / 3.0 for k in range(3)]
+        to = [centre[k] - mid[k] for k in range(3)]
+        assert dot(normal(t), to) > 0, f"{what}: triangle {t} faces away from {centre}"
+
+
+def check_tiling(tris, x, rect, openings, what):
+    """The triangles lie in the plane x = const and tile the (z, y) rectangle `rect` minus the
+    convex `openings` (disjoint interiors) exactly: the areas add up, and every point of a fine
+    lattice is covered by one triangle outside the openings and by none inside them."""
+    z0, y0, z1, y1 = rect
+    pts = [p for t in tris for p in t]
+    assert all(p[0] == x for p in pts), f"{what}: not all in the plane x = {x}"
+    assert all(z0 <= p[2] <= z1 and y0 <= p[1] <= y1 for p in pts), f"{what}: outside its rectangle"
+    want = (z1 - z0) * (y1 - y0) - sum(ring_area(r) for r in openings)
+    got = sum(area(t) for t in tris)
+    assert abs(got - want) < 1e-9, f"{what}: area {got}, expected {want}"
+
+    def side(a, b, p):
+        return (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+
+    def inside(ring, p):
+        """1 strictly inside the convex ring, 0 strictly outside, None too close to its boundary."""
+        s = [side(a, b, p) for a, b in zip(ring, ring[1:] + ring[:1])]
+        if all(v > 1e-9 for v in s) or all(v < -1e-9 for v in s):
+            return 1
+        if any(abs(v) <= 1e-9 for v in s) and not any(v > 1e-9 for v in s) or \
+                any(abs(v) <= 1e-9 for v in s) and not any(v < -1e-9 for v in s):
+            return None
+        return 0
+
+    flat = [[(p[2], p[1]) for p in t] for t in tris]
+    nz, ny = 97, 71
+    for i in range(nz):
+        for j in range(ny):
+            p = (z0 + (i + 0.5) * (z1 - z0) / nz, y0 + (j + 0.5) * (y1 - y0) / ny)
+            cover = [inside(t, p) for t in flat]
+            hole = [inside(r, p) for r in openings]
+            if None in cover or None in hole:
+                continue
+            want = 0 if any(hole) else 1
+            assert sum(cover) == want, f"{what}: {p} covered {sum(cover)} times, expected {want}"
+
+
+def room_tris(room):
+    return [t for c in room["children"] if c["name"] in ("Floor", "Walls", "Ceiling") for t in c["tris"]]
+
+
+def check_box_room(room, x0, x1, what, close_x=None):
+    """A box room [x0, x1] x [0, H] x [0, 4]: faces into the room, floor up, ceiling down, and
+    closed with volume -(its volume). A room open at x = close_x (its wall there has holes, or is
+    missing) is checked closed with that wall replaced by the full rectangle instead."""
+    centre = ((x0 + x1) / 2, H / 2, 2.0)
+    tris = room_tris(room)
+    check_faces_into(tris, centre, what)
+    assert all(normal(t)[1] > 0 for t in node_at(room, "Floor")["tris"]), f"{what}: floor not up"
+    assert all(normal(t)[1] < 0 for t in node_at(room, "Ceiling")["tris"]), f"{what}: ceiling not down"
+    if close_x is not None:
+        tris = [t for t in tris if not all(p[0] == close_x for p in t)]
+        tris += wall_x(close_x, [rect_zy(0.0, 0.0, 4.0, H)], 1 if close_x == x0 else -1)
+    check_shell(tris, -(x1 - x0) * H * 4.0, what)
+
+
+def self_check_portals(samples):
+    # Two rooms open to each other through holes in their own surfaces on the shared plane x = 4.
+    for name, openings in (("door_window", [rect_zy(*r) for r in WINDOWED.values()]),
+                           ("arch", arch_opening())):
+        tree = samples[name]
+        shared = []
+        for room, x0, x1 in (("west-room", 0.0, 4.0), ("east-room", 4.0, 8.0)):
+            what = f"{name}/{room}"
+            node = node_at(tree, room)
+            check_box_room(node, x0, x1, what, close_x=4.0)
+            wall = [t for t in node_at(node, "Walls")["tris"] if all(p[0] == 4.0 for p in t)]
+            check_tiling(wall, 4.0, (0.0, 0.0, 4.0, H), openings, f"{what} wall x = 4")
+            shared.append(sorted(tuple(sorted(t)) for t in wall))
+        assert shared[0] == shared[1], f"{name}: the two rooms' surfaces at x = 4 differ"
+    assert abs(sum(ring_area(r) for r in arch_opening()) - arch_area()) < 1e-12, "arch: area formula"
+
+    # Thick wall: both rooms open on the slab side; the slab and the bound box are closed and face out.
+    tree = samples["thick_wall"]
+    xa, xb = THICK
+    check_box_room(node_at(tree, "west-room"), 0.0, xa, "thick_wall/west-room", close_x=xa)
+    check_box_room(node_at(tree, "east-room"), xb, xb + 4.0, "thick_wall/east-room", close_x=xb)
+    slab = node_at(tree, "west-room/Wall")["tris"]
+    dz0, dy0, dz1, dy1 = THICK_DOOR
+    check_shell(slab, (xb - xa) * (H * 4.0 - (dz1 - dz0) * (dy1 - dy0)), "thick_wall/west-room/Wall")
+    for x in THICK:
+        side_tris = [t for t in slab if all(p[0] == x for p in t)]
+        assert all(normal(t)[0] * (x - (xa + xb) / 2) > 0 for t in side_tris), "slab side faces in"
+        check_tiling(side_tris, x, (0.0, 0.0, 4.0, H), [rect_zy(*THICK_DOOR)], f"thick_wall slab x = {x}")
+    check_shell(node_at(tree, "west-room/west-bound")["tris"], xa * H * 4.0, "thick_wall/west-bound")
+
+    # Mirror: a quad on the wall x = 4, facing into the hall.
+    tree = samples["mirror"]
+    hall = node_at(tree, "hall-room")
+    check_box_room(hall, 0.0, 4.0, "mirror/hall-room")
+    m = node_at(hall, "Mirror")["tris"]
+    check_tiling(m, 4.0, (1.0, 0.5, 3.0, 2.5), [], "mirror/Mirror")
+    check_faces_into(m, (2.0, H / 2, 2.0), "mirror/Mirror")
+
+    # Teleporter: quads on the walls x = 4 and x = 10, each facing into its room, naming each other;
+    # the transform (entry frame, half a turn about up, exit frame) works out as a translation.
+    tree = samples["teleporter"]
+    frames = {}
+    for room, x0, x1 in (("a-room", 0.0, 4.0), ("b-room", 10.0, 14.0)):
+        node = node_at(tree, room)
+        check_box_room(node, x0, x1, f"teleporter/{room}")
+        tp = next(c for c in node["children"] if c["name"] in TELEPORT)
+        x, nx, exit_ = TELEPORT[tp["name"]]
+        assert tp["extras"]["teleport_exit"] == exit_ and exit_ != tp["name"]
+        check_tiling(tp["tris"], x, (1.0, 0.0, 3.0, 2.0), [], f"teleporter/{tp['name']}")
+        check_faces_into(tp["tris"], ((x0 + x1) / 2, H / 2, 2.0), f"teleporter/{tp['name']}")
+        corners = sorted({p for t in tp["tris"] for p in t})
+        frames[tp["name"]] = ([sum(p[k] for p in corners) / len(corners) for k in range(3)], nx)
+    (ca, na), (cb, nb) = frames["tp_a"], frames["tp_b"]
+    # Frame axes (normal, up, normal x up) as rows; the half turn about up is diag(-1, 1, -1).
+    fa = [[na, 0, 0], [0, 1, 0], [0, 0, -na]]
+    fb = [[nb, 0, 0], [0, 1, 0], [0, 0, -nb]]
+    half = [-1, 1, -1]
+    lin = [[sum(fb[k][r] * half[k] * fa[k][c] for k in range(3)) for c in range(3)] for r in range(3)]
+    move = [cb[r] - sum(lin[r][c] * ca[c] for c in range(3)) for r in range(3)]
+    assert lin == [[1, 0, 0], [0, 1, 0], [0, 0, 1]] and move == [6.0, 0.0, 0.0], (lin, move)
+    assert ca == [4.0, 1.0, 2.0] and cb == [10.0, 1.0, 2.0]
 
 def normal(t):
     a, b, c = t
@@ -326,3 +664,12 @@ if __name__ == "__main__":
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
     print("self-check passed: every room shell is closed, inward-facing, with its known volume")
+    portal_samples = {"door_window": door_window(), "thick_wall": thick_wall(), "arch": arch(),
+                      "mirror": mirror(), "teleporter": teleporter()}
+    self_check_portals(portal_samples)
+    for name, tree in portal_samples.items():
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
+    print("self-check passed: the portal samples' shells are closed (open walls closed by their "
+          "rectangle), their open walls tile the rectangle minus the openings, every surface faces "
+          f"the right way; arch opening area {arch_area():.6f}")
