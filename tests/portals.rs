@@ -36,6 +36,11 @@ fn all_levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {
         (sample("u_room.gltf"), None),
         (sample("pillar_room.gltf"), None),
         (sample("bound_boxes.gltf"), None),
+        (sample("door_window.gltf"), None),
+        (sample("thick_wall.gltf"), None),
+        (sample("arch.gltf"), None),
+        (sample("mirror.gltf"), None),
+        (sample("teleporter.gltf"), None),
     ]
 }
 
@@ -306,4 +311,120 @@ fn unobstructed_segments_leave_cells_through_portals() {
         }
         let _ = checked;
     }
+}
+
+#[test]
+fn zero_thickness_wall_with_a_door_and_a_window() {
+    let (t, c, p) = load(&sample("door_window.gltf"), None);
+    let pairs = room_pairs(&t, &c, &p);
+    assert_eq!(pairs.len(), 2);
+    let mut areas: Vec<f64> = pairs.iter().map(|&(i, _)| p.portals[i].area).collect();
+    areas.sort_by(f64::total_cmp);
+    assert!(
+        (areas[0] - 1.0).abs() < 1e-6 && (areas[1] - 2.2).abs() < 1e-6,
+        "{areas:?}"
+    );
+    for &(i, j) in &pairs {
+        for v in p.portals[i].polygon.iter().chain(&p.portals[j].polygon) {
+            assert!((v.x - 4.0).abs() < 1e-6);
+        }
+    }
+    assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
+}
+
+#[test]
+fn a_door_through_a_thick_wall_is_bridged() {
+    let (t, c, p) = load(&sample("thick_wall.gltf"), None);
+    let pairs = room_pairs(&t, &c, &p);
+    assert_eq!(
+        pairs.len(),
+        1,
+        "{:?}",
+        p.portals
+            .iter()
+            .map(|q| (q.from, q.to, q.area))
+            .collect::<Vec<_>>()
+    );
+    let (i, j) = pairs[0];
+    assert!((p.portals[i].area - 2.2).abs() < 1e-6);
+    let xs = |k: usize| p.portals[k].polygon.iter().map(|v| v.x).fold(0.0, f64::max);
+    let mut planes = [xs(i), xs(j)];
+    planes.sort_by(f64::total_cmp);
+    assert!(
+        (planes[0] - 4.0).abs() < 1e-6 && (planes[1] - 4.3).abs() < 1e-6,
+        "{planes:?}"
+    );
+    assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
+}
+
+#[test]
+fn a_non_convex_arched_opening_becomes_convex_pieces() {
+    let (t, c, p) = load(&sample("arch.gltf"), None);
+    let pairs = room_pairs(&t, &c, &p);
+    assert!(
+        pairs.len() >= 2,
+        "a non-convex opening needs at least two convex portals"
+    );
+    let total: f64 = pairs.iter().map(|&(i, _)| p.portals[i].area).sum();
+    // A 1 x 2 doorway under a half 8-gon of radius 1.
+    let expected = 2.0 + 4.0 * (std::f64::consts::PI / 8.0).sin();
+    assert!((total - expected).abs() < 1e-6, "{total} vs {expected}");
+    // With the conservative shape, one convex hull instead.
+    let mut t2 = t.clone();
+    t2.config.portals.conservative = true;
+    let p2 = portcullis::portals::build(&t2.scene, &t2.tagging, &c, &t2.config.portals);
+    assert_eq!(room_pairs(&t2, &c, &p2).len(), 1);
+}
+
+#[test]
+fn a_mirror_reflects_into_its_own_cell() {
+    let (t, _, p) = load(&sample("mirror.gltf"), None);
+    let mirrors: Vec<_> = p
+        .portals
+        .iter()
+        .enumerate()
+        .filter(|(_, q)| q.kind == portcullis::tags::rules::PortalKind::Mirror)
+        .collect();
+    assert_eq!(mirrors.len(), 1);
+    let (i, m) = mirrors[0];
+    assert_eq!(m.to, Some(m.from));
+    assert_eq!(m.partner, Some(i));
+    let tr = m.transform.expect("a mirror carries its reflection");
+    assert!((tr.determinant() + 1.0).abs() < 1e-9);
+    let q = tr.transform_point3(DVec3::new(3.0, 1.0, 2.0));
+    assert!((q - DVec3::new(5.0, 1.0, 2.0)).length() < 1e-9, "{q}");
+    assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
+}
+
+#[test]
+fn a_teleporter_pair_carries_inverse_rigid_transforms() {
+    let (t, c, p) = load(&sample("teleporter.gltf"), None);
+    let tps: Vec<usize> = (0..p.portals.len())
+        .filter(|&i| p.portals[i].kind == portcullis::tags::rules::PortalKind::Teleporter)
+        .collect();
+    assert_eq!(tps.len(), 2);
+    let (a, b) = (&p.portals[tps[0]], &p.portals[tps[1]]);
+    assert_eq!(a.partner, Some(tps[1]));
+    assert_eq!(b.partner, Some(tps[0]));
+    assert_ne!(c.cells[a.from].room, c.cells[b.from].room);
+    let (ta, tb) = (a.transform.unwrap(), b.transform.unwrap());
+    assert!((ta.determinant() - 1.0).abs() < 1e-9, "rigid");
+    assert!(
+        (tb * ta).abs_diff_eq(glam::DMat4::IDENTITY, 1e-9),
+        "partner is the inverse"
+    );
+    // The transform of the portal leaving room `a`.
+    let ta = if t.tagging.rooms[c.cells[a.from].room].name == "a" {
+        ta
+    } else {
+        tb
+    };
+    let centre = ta.transform_point3(DVec3::new(4.0, 1.0, 2.0));
+    assert!(
+        (centre - DVec3::new(10.0, 1.0, 2.0)).length() < 1e-9,
+        "{centre}"
+    );
+    let dir = ta.transform_vector3(DVec3::X);
+    assert!((dir - DVec3::X).length() < 1e-9, "{dir}");
+    assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
 }
