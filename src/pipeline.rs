@@ -78,3 +78,19 @@ pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> crate::portals::Po
     tagged.diagnostics.extend(set.diagnostics.iter().cloned());
     set
 }
+
+/// The annotated level as the bytes of one glTF file (`out` decides relative URIs).
+pub fn write_annotated(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    out: &Path,
+    format: crate::export::gltf_out::OutFormat,
+) -> Result<Vec<u8>, Diagnostic> {
+    use crate::export::{extension, gltf_out};
+    let scene = &tagged.scene;
+    let ann = extension::build(scene, &tagged.tagging, cells, portals, &|n| {
+        gltf_out::node_index(scene, n)
+    });
+    gltf_out::write(scene, &ann, out, format)
+}

@@ -12,10 +12,15 @@ pub enum Schema {
     RuleSet,
     /// The extras keys designers use.
     Tags,
+    /// The `PORTCULLIS_portals` root extension object.
+    Portals,
+    /// The `PORTCULLIS_portals` node extension object.
+    PortalsNode,
 }
 
 pub const CONFIG: &str = include_str!("../schemas/config.schema.json");
 pub const TAGS: &str = include_str!("../schemas/tags.schema.json");
+pub const PORTALS: &str = include_str!("../schemas/PORTCULLIS_portals.schema.json");
 
 /// (file name, text) of every shipped schema, for `portcullis schema`.
 pub const FILES: &[(&str, &str)] = &[("config.schema.json", CONFIG), ("tags.schema.json", TAGS)];
@@ -26,6 +31,15 @@ fn schema_value(s: Schema) -> Value {
     match s {
         Schema::Config => parse(CONFIG),
         Schema::Tags => parse(TAGS),
+        Schema::Portals => parse(PORTALS),
+        Schema::PortalsNode => {
+            let root = parse(PORTALS);
+            serde_json::json!({
+                "$schema": "https://json-schema.org/draft/2020-12/schema",
+                "$defs": root["$defs"].clone(),
+                "$ref": "#/$defs/node"
+            })
+        }
         Schema::RuleSet => {
             let config = parse(CONFIG);
             serde_json::json!({
@@ -56,7 +70,13 @@ mod tests {
 
     #[test]
     fn schemas_compile_and_judge() {
-        for s in [Schema::Config, Schema::RuleSet, Schema::Tags] {
+        for s in [
+            Schema::Config,
+            Schema::RuleSet,
+            Schema::Tags,
+            Schema::Portals,
+            Schema::PortalsNode,
+        ] {
             jsonschema::validator_for(&schema_value(s)).unwrap();
         }
         assert!(validate(

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+pub mod convert;
 pub mod inspect;
 pub mod schema;
 
@@ -27,6 +28,9 @@ pub enum Command {
     /// materials) and what the tags recognised (rooms, portals, bounds, footprints, ignored and
     /// detail nodes), with every near-miss name.
     Inspect(inspect::InspectArgs),
+    /// Write each level as glTF with the PORTCULLIS_portals extension (cells, portals)
+    /// added and nothing else changed.
+    Convert(convert::ConvertArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
 }
@@ -72,6 +76,10 @@ pub fn run(cli: Cli) -> i32 {
     let style = portcullis::report::style::Style::for_stdout(&cli.color);
     match cli.command {
         Command::Inspect(a) => inspect::run(&a, &style),
+        Command::Convert(a) => convert::run(
+            &a,
+            &portcullis::report::style::Style::for_stderr(&cli.color),
+        ),
         Command::Schema(a) => schema::run(&a),
     }
 }

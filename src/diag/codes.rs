@@ -60,6 +60,9 @@ codes! {
     CONFIG_NOT_FOUND = Error, "the configuration file given with --config does not exist";
     TAGS_PRESET_UNKNOWN = Error, "the tag preset named does not exist";
     TAGS_RULE_INVALID = Error, "a tag rule has an invalid pattern";
+    OUTPUT_FAILED = Error, "the output file could not be written";
+    OUTPUT_WOULD_OVERWRITE_INPUT = Error, "the output path is the input file (use --in-place to allow it)";
+    OUTPUT_FORMAT_UNKNOWN = Error, "the output file extension names no format portcullis writes";
 
     // --- input: read, but with problems in the level (exit 1 for errors) ---
     GEOM_NON_FINITE = Error, "a position is NaN or infinite; its triangles were dropped";

@@ -24,6 +24,16 @@ impl Style {
         Style { color }
     }
 
+    /// Like [`Style::for_stdout`], for messages on standard error.
+    pub fn for_stderr(choice: &str) -> Style {
+        let color = match choice {
+            "always" => true,
+            "never" => false,
+            _ => std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none(),
+        };
+        Style { color }
+    }
+
     fn paint(&self, code: &str, s: &str) -> String {
         if self.color {
             format!("\x1b[{code}m{s}\x1b[0m")

@@ -134,3 +134,42 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::write(&p, text).unwrap();
     p
 }
+
+/// Runs the Khronos glTF-Validator (tools/gltf-validate) on a file and returns its report.
+/// `None` when the validator is not installed; under CI that is a failure, not a skip.
+pub fn khronos_validate(path: &Path) -> Option<Value> {
+    let dir = root().join("tools/gltf-validate");
+    if !dir.join("node_modules/gltf-validator").exists() {
+        if std::env::var_os("CI").is_some() {
+            panic!("the glTF validator is not installed (run scripts/test.sh, which runs npm ci)");
+        }
+        eprintln!(
+            "note: glTF validator not installed; skipping validation of {}",
+            path.display()
+        );
+        return None;
+    }
+    let out = std::process::Command::new("node")
+        .arg(dir.join("validate.js"))
+        .arg(path)
+        .output()
+        .expect("node runs");
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "validator output is not JSON ({e}): {}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    Some(report)
+}
+
+/// Reads a .gltf or .glb into its JSON document and BIN chunk.
+pub fn read_gltf(bytes: &[u8]) -> (Value, Option<Vec<u8>>) {
+    if bytes.starts_with(b"glTF") {
+        let glb = gltf::binary::Glb::from_slice(bytes).expect("valid GLB");
+        let json: Value = serde_json::from_slice(&glb.json).unwrap();
+        (json, glb.bin.map(|b| b.into_owned()))
+    } else {
+        (serde_json::from_slice(bytes).unwrap(), None)
+    }
+}

@@ -1,0 +1,156 @@
+//! `portcullis convert IN... -o OUT | --out-dir DIR`: the level with the `PORTCULLIS_portals`
+//! extension added, written atomically; inputs are never overwritten unless `--in-place`.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use portcullis::diag::{Code, Diagnostic, Location};
+use portcullis::export::gltf_out::OutFormat;
+use portcullis::pipeline;
+use portcullis::report::{human, style::Style, Totals};
+
+use super::LevelArgs;
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Level files: .gltf, .glb, .obj.
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+
+    /// Output file (.gltf or .glb), for a single input.
+    #[arg(short, long, value_name = "OUT", conflicts_with_all = ["out_dir", "in_place"])]
+    pub output: Option<PathBuf>,
+
+    /// Output folder: each input is written there as NAME.glb (or --out-format gltf).
+    #[arg(long, value_name = "DIR", conflicts_with = "in_place")]
+    pub out_dir: Option<PathBuf>,
+
+    /// Format for --out-dir outputs.
+    #[arg(long, value_name = "glb|gltf", default_value = "glb", value_parser = ["glb", "gltf"])]
+    pub out_format: String,
+
+    /// Replace each glTF input by its annotated version (atomically).
+    #[arg(long)]
+    pub in_place: bool,
+
+    /// Exit with 1 when there are warnings, not only errors.
+    #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
+    pub deny: Option<String>,
+
+    #[command(flatten)]
+    pub level: LevelArgs,
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// Where one input goes.
+fn output_for(a: &ConvertArgs, input: &Path) -> Result<PathBuf, Diagnostic> {
+    if a.in_place {
+        return Ok(input.to_path_buf());
+    }
+    if let Some(o) = &a.output {
+        return Ok(o.clone());
+    }
+    if let Some(dir) = &a.out_dir {
+        let stem = input.file_stem().unwrap_or_default().to_string_lossy();
+        return Ok(dir.join(format!("{stem}.{}", a.out_format)));
+    }
+    Err(Diagnostic::new(
+        Code::OUTPUT_FAILED,
+        "no output given",
+        Location::file(input),
+    )
+    .hint("give -o OUT.glb for one input, or --out-dir DIR for several"))
+}
+
+fn convert_one(
+    a: &ConvertArgs,
+    input: &Path,
+    totals: &mut Totals,
+    style: &Style,
+) -> Result<(), Diagnostic> {
+    let out = output_for(a, input)?;
+    let format = OutFormat::from_path(&out).ok_or_else(|| {
+        Diagnostic::new(
+            Code::OUTPUT_FORMAT_UNKNOWN,
+            format!(
+                "cannot write `{}`: portcullis writes .gltf and .glb",
+                out.display()
+            ),
+            Location::file(&out),
+        )
+        .hint("name the output .glb or .gltf")
+    })?;
+    if !a.in_place && same_file(&out, input) {
+        return Err(Diagnostic::new(
+            Code::OUTPUT_WOULD_OVERWRITE_INPUT,
+            format!("the output `{}` is the input file", out.display()),
+            Location::file(input),
+        )
+        .hint("write somewhere else, or pass --in-place to replace the input on purpose"));
+    }
+    let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    if a.in_place && t.scene.gltf.is_none() {
+        return Err(Diagnostic::new(
+            Code::OUTPUT_FORMAT_UNKNOWN,
+            format!(
+                "--in-place needs a glTF input; `{}` is not one",
+                input.display()
+            ),
+            Location::file(input),
+        )
+        .hint("write the glTF with -o OUT.glb instead"));
+    }
+    let cells = pipeline::build_cells(&mut t);
+    let portals = pipeline::build_portals(&mut t, &cells);
+    let bytes = pipeline::write_annotated(&t, &cells, &portals, &out, format)?;
+    portcullis::export::atomic::write(&out, &bytes).map_err(|e| {
+        Diagnostic::new(
+            Code::OUTPUT_FAILED,
+            format!("cannot write `{}`: {e}", out.display()),
+            Location::file(&out),
+        )
+        .hint("check that the folder exists and is writable; nothing was written")
+    })?;
+    totals.add(t.diagnostics.iter());
+    eprint!("{}", human::diagnostics(t.diagnostics.iter(), style));
+    eprintln!(
+        "{} -> {}: {} cells, {} portals",
+        input.display(),
+        out.display(),
+        cells.cells.len(),
+        portals.portals.len()
+    );
+    Ok(())
+}
+
+pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
+    if a.files.len() > 1 && a.output.is_some() {
+        eprintln!("error: -o takes one input; use --out-dir DIR for several");
+        return 2;
+    }
+    if let Some(dir) = &a.out_dir {
+        if !dir.is_dir() {
+            eprintln!("error: --out-dir `{}` is not a folder", dir.display());
+            return 2;
+        }
+    }
+    let mut totals = Totals::default();
+    for f in &a.files {
+        totals.files += 1;
+        if let Err(d) = convert_one(a, f, &mut totals, style) {
+            totals.failed += 1;
+            totals.add([&d]);
+            eprint!("{}", human::diagnostic(&d, style));
+            eprintln!();
+        }
+    }
+    eprintln!("{}", totals.line());
+    totals.exit_code(a.deny.is_some())
+}

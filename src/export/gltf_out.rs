@@ -1,0 +1,423 @@
+//! Writing the annotated level as glTF (.gltf or .glb).
+//!
+//! A glTF input is written back as it was: the original JSON (key order kept) with our
+//! extension added, and the original buffer bytes. Only what the container change requires is
+//! touched: for .glb, all buffers become the one BIN chunk (buffer views re-pointed); for .gltf,
+//! a GLB's BIN chunk becomes a data: URI; external URIs (buffers, images) are rewritten relative
+//! to the output's folder so they still resolve. An OBJ input becomes a new glTF with one node
+//! per scene node, names and materials kept.
+
+use std::path::{Component, Path, PathBuf};
+
+use base64::Engine;
+use serde_json::{json, Map, Value};
+
+use super::extension::{Annotation, NAME};
+use crate::diag::{Code, Diagnostic, Location};
+use crate::scene::{NodeId, Scene};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutFormat {
+    Gltf,
+    Glb,
+}
+
+impl OutFormat {
+    pub fn from_path(p: &Path) -> Option<OutFormat> {
+        match p.extension()?.to_str()?.to_ascii_lowercase().as_str() {
+            "gltf" => Some(OutFormat::Gltf),
+            "glb" => Some(OutFormat::Glb),
+            _ => None,
+        }
+    }
+}
+
+/// The glTF node index a scene node is written as.
+pub fn node_index(scene: &Scene, n: NodeId) -> Option<usize> {
+    if scene.gltf.is_some() {
+        scene.nodes[n]
+            .source
+            .pointer
+            .as_deref()?
+            .strip_prefix("/nodes/")?
+            .parse()
+            .ok()
+    } else {
+        Some(n)
+    }
+}
+
+fn pad4(v: &mut Vec<u8>, byte: u8) {
+    while v.len() % 4 != 0 {
+        v.push(byte);
+    }
+}
+
+/// A GLB container from a JSON document and a BIN chunk.
+pub fn glb(json: &Value, bin: Option<&[u8]>) -> Vec<u8> {
+    let mut j = serde_json::to_vec(json).unwrap_or_default();
+    pad4(&mut j, b' ');
+    let mut out = Vec::with_capacity(28 + j.len() + bin.map_or(0, |b| b.len() + 8));
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&j);
+    if let Some(b) = bin {
+        let mut b = b.to_vec();
+        pad4(&mut b, 0);
+        out.extend_from_slice(&(b.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&b);
+    }
+    let len = out.len() as u32;
+    out[8..12].copy_from_slice(&len.to_le_bytes());
+    out
+}
+
+/// `target` relative to `from_dir`, with `/` separators (both absolute or both relative to
+/// the same directory).
+fn relative(target: &Path, from_dir: &Path) -> PathBuf {
+    let t: Vec<Component> = target.components().collect();
+    let f: Vec<Component> = from_dir.components().collect();
+    let common = t.iter().zip(&f).take_while(|(a, b)| a == b).count();
+    let mut out = PathBuf::new();
+    for _ in common..f.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c.as_os_str());
+    }
+    out
+}
+
+fn absolute(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).unwrap_or_else(|_| {
+        std::env::current_dir()
+            .map(|d| d.join(p))
+            .unwrap_or_else(|_| p.to_path_buf())
+    })
+}
+
+/// Rewrites an external (non-data:) URI written for `in_dir` so it resolves from `out_dir`.
+fn rebase_uri(uri: &str, in_dir: &Path, out_dir: &Path) -> String {
+    if uri.starts_with("data:") || uri.contains("://") || uri.starts_with('/') {
+        return uri.to_string();
+    }
+    let (ai, ao) = (absolute(in_dir), absolute(out_dir));
+    if ai == ao {
+        return uri.to_string();
+    }
+    let rel = relative(&ai, &ao);
+    let prefix: Vec<String> = rel
+        .components()
+        .map(|c| {
+            c.as_os_str()
+                .to_string_lossy()
+                .replace('%', "%25")
+                .replace(' ', "%20")
+        })
+        .collect();
+    if prefix.is_empty() {
+        uri.to_string()
+    } else {
+        format!("{}/{uri}", prefix.join("/"))
+    }
+}
+
+/// Writes the annotated level; returns the bytes of the one output file.
+pub fn write(
+    scene: &Scene,
+    ann: &Annotation,
+    out: &Path,
+    format: OutFormat,
+) -> Result<Vec<u8>, Diagnostic> {
+    let out_dir = out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let (mut doc, bin) = match &scene.gltf {
+        Some(src) => from_gltf(src, format, out_dir),
+        None => from_scene(scene, format),
+    };
+    annotate(&mut doc, ann);
+    match format {
+        OutFormat::Glb => Ok(glb(&doc, bin.as_deref())),
+        OutFormat::Gltf => {
+            let mut v = serde_json::to_vec_pretty(&doc).map_err(|e| {
+                Diagnostic::new(
+                    Code::OUTPUT_FAILED,
+                    format!("cannot serialise the glTF: {e}"),
+                    Location::file(out),
+                )
+            })?;
+            v.push(b'\n');
+            Ok(v)
+        }
+    }
+}
+
+/// Adds the extension to the document (replacing an earlier annotation by portcullis).
+fn annotate(doc: &mut Value, ann: &Annotation) {
+    let Some(obj) = doc.as_object_mut() else {
+        return;
+    };
+    let used = obj.entry("extensionsUsed").or_insert_with(|| json!([]));
+    if let Some(a) = used.as_array_mut() {
+        if !a.iter().any(|v| v == NAME) {
+            a.push(json!(NAME));
+        }
+    }
+    let ext = obj.entry("extensions").or_insert_with(|| json!({}));
+    if let Some(e) = ext.as_object_mut() {
+        e.insert(NAME.into(), ann.root.clone());
+    }
+    if let Some(nodes) = obj.get_mut("nodes").and_then(Value::as_array_mut) {
+        for node in nodes.iter_mut() {
+            if let Some(e) = node.get_mut("extensions").and_then(Value::as_object_mut) {
+                e.remove(NAME);
+                if e.is_empty() {
+                    node.as_object_mut().map(|o| o.remove("extensions"));
+                }
+            }
+        }
+        for (i, v) in &ann.nodes {
+            if let Some(node) = nodes.get_mut(*i).and_then(Value::as_object_mut) {
+                let e = node.entry("extensions").or_insert_with(|| json!({}));
+                if let Some(e) = e.as_object_mut() {
+                    e.insert(NAME.into(), v.clone());
+                }
+            }
+        }
+    }
+}
+
+fn data_uri(bytes: &[u8]) -> String {
+    format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+fn from_gltf(
+    src: &crate::scene::GltfSource,
+    format: OutFormat,
+    out_dir: &Path,
+) -> (Value, Option<Vec<u8>>) {
+    let mut doc = src.json.clone();
+    let rebase = |v: &mut Value| {
+        if let Some(uri) = v.get("uri").and_then(Value::as_str) {
+            let new = rebase_uri(uri, &src.base_dir, out_dir);
+            v["uri"] = json!(new);
+        }
+    };
+    if let Some(images) = doc.get_mut("images").and_then(Value::as_array_mut) {
+        images.iter_mut().for_each(rebase);
+    }
+    match format {
+        OutFormat::Gltf => {
+            if let Some(buffers) = doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                for (i, b) in buffers.iter_mut().enumerate() {
+                    match b.get("uri").and_then(Value::as_str) {
+                        Some(_) => rebase(b),
+                        None => {
+                            let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
+                            b["uri"] = json!(data_uri(data));
+                        }
+                    }
+                }
+            }
+            (doc, None)
+        }
+        OutFormat::Glb => {
+            let mut bin = Vec::new();
+            let mut base = Vec::with_capacity(src.buffers.len());
+            for data in &src.buffers {
+                while bin.len() % 8 != 0 {
+                    bin.push(0);
+                }
+                base.push(bin.len());
+                bin.extend_from_slice(data);
+            }
+            if let Some(views) = doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
+                for v in views {
+                    let b = v.get("buffer").and_then(Value::as_u64).unwrap_or(0) as usize;
+                    let off = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+                    v["buffer"] = json!(0);
+                    let new = off + base.get(b).copied().unwrap_or(0);
+                    if new != 0 || v.get("byteOffset").is_some() {
+                        v["byteOffset"] = json!(new);
+                    }
+                }
+            }
+            if src.buffers.is_empty() {
+                if let Some(o) = doc.as_object_mut() {
+                    o.remove("buffers");
+                }
+                return (doc, None);
+            }
+            let first = doc
+                .get("buffers")
+                .and_then(Value::as_array)
+                .and_then(|a| a.first())
+                .cloned()
+                .unwrap_or_else(|| json!({}));
+            let mut one = Map::new();
+            for (k, v) in first.as_object().into_iter().flatten() {
+                if k != "uri" && k != "byteLength" {
+                    one.insert(k.clone(), v.clone());
+                }
+            }
+            one.insert("byteLength".into(), json!(bin.len()));
+            doc["buffers"] = json!([Value::Object(one)]);
+            (doc, Some(bin))
+        }
+    }
+}
+
+/// A new glTF for a scene read from OBJ (or any importer without a glTF source).
+fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec<u8>>) {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut meshes = Vec::new();
+    let mut mesh_centre = vec![glam::DVec3::ZERO; scene.meshes.len()];
+    for (mi, m) in scene.meshes.iter().enumerate() {
+        let b = crate::geom::aabb::Aabb::from_points(m.positions.iter());
+        let c = if b.is_empty() {
+            glam::DVec3::ZERO
+        } else {
+            (b.min + b.max) * 0.5
+        };
+        mesh_centre[mi] = c;
+        // Positions relative to the mesh centre (the node carries the centre in f64 JSON),
+        // so a level far from the origin keeps its precision in the f32 buffer.
+        let pos: Vec<[f32; 3]> = m
+            .positions
+            .iter()
+            .map(|p| (*p - c).as_vec3().to_array())
+            .collect();
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for p in &pos {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let pos_off = bin.len();
+        for p in &pos {
+            for x in p {
+                bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        views.push(json!({"buffer": 0, "byteOffset": pos_off, "byteLength": pos.len() * 12, "target": 34962}));
+        let pos_acc = accessors.len();
+        if pos.is_empty() {
+            (lo, hi) = ([0.0; 3], [0.0; 3]);
+        }
+        accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5126, "count": pos.len(), "type": "VEC3", "min": lo, "max": hi}));
+        let mut prims = Vec::new();
+        for p in &m.primitives {
+            let tris = m
+                .triangles
+                .get(p.first_triangle..p.first_triangle + p.triangle_count)
+                .unwrap_or(&[]);
+            if tris.is_empty() {
+                continue;
+            }
+            let off = bin.len();
+            for t in tris {
+                for i in t {
+                    bin.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            views.push(json!({"buffer": 0, "byteOffset": off, "byteLength": tris.len() * 12, "target": 34963}));
+            accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5125, "count": tris.len() * 3, "type": "SCALAR"}));
+            let mut prim =
+                json!({"attributes": {"POSITION": pos_acc}, "indices": accessors.len() - 1});
+            if let Some(mat) = p.material {
+                prim["material"] = json!(mat);
+            }
+            prims.push(prim);
+        }
+        let mut mesh = json!({"primitives": prims});
+        if let Some(n) = &m.name {
+            mesh["name"] = json!(n);
+        }
+        meshes.push(mesh);
+    }
+    // Meshes are in world space with identity transforms (OBJ); a mesh node is placed at its
+    // mesh's centre, every other node where its parent is, each written relative to its parent.
+    let mut placed = vec![glam::DVec3::ZERO; scene.nodes.len()];
+    for n in scene.walk() {
+        let up = scene.nodes[n]
+            .parent
+            .map(|p| placed[p])
+            .unwrap_or(glam::DVec3::ZERO);
+        placed[n] = scene.nodes[n].mesh.map(|m| mesh_centre[m]).unwrap_or(up);
+    }
+    let nodes: Vec<Value> = scene
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let mut o = Map::new();
+            if let Some(name) = &n.name {
+                o.insert("name".into(), json!(name));
+            }
+            if !n.children.is_empty() {
+                o.insert("children".into(), json!(n.children));
+            }
+            if let Some(m) = n.mesh {
+                o.insert("mesh".into(), json!(m));
+            }
+            let up = n.parent.map(|p| placed[p]).unwrap_or(glam::DVec3::ZERO);
+            let t = placed[i] - up;
+            if t != glam::DVec3::ZERO {
+                o.insert("translation".into(), json!([t.x, t.y, t.z]));
+            }
+            if let Some(e) = &n.extras {
+                o.insert("extras".into(), e.clone());
+            }
+            Value::Object(o)
+        })
+        .collect();
+    let materials: Vec<Value> = scene
+        .materials
+        .iter()
+        .map(|m| match &m.name {
+            Some(n) => json!({"name": n}),
+            None => json!({}),
+        })
+        .collect();
+    let mut doc = json!({
+        "asset": {"version": "2.0", "generator": format!("portcullis {}", env!("CARGO_PKG_VERSION"))},
+        "scene": 0,
+        "scenes": [{"nodes": scene.roots}],
+    });
+    if !nodes.is_empty() {
+        doc["nodes"] = json!(nodes);
+    }
+    if !meshes.is_empty() {
+        doc["meshes"] = json!(meshes);
+        doc["accessors"] = json!(accessors);
+        doc["bufferViews"] = json!(views);
+    }
+    if !materials.is_empty() {
+        doc["materials"] = json!(materials);
+    }
+    if bin.is_empty() {
+        return (doc, None);
+    }
+    match format {
+        OutFormat::Glb => {
+            doc["buffers"] = json!([{"byteLength": bin.len()}]);
+            (doc, Some(bin))
+        }
+        OutFormat::Gltf => {
+            doc["buffers"] = json!([{"byteLength": bin.len(), "uri": data_uri(&bin)}]);
+            (doc, None)
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! Writing results: the annotated glTF with the `PORTCULLIS_portals` extension, written
+//! atomically.
+
+pub mod atomic;
+pub mod extension;
+pub mod gltf_out;

@@ -1,0 +1,418 @@
+//! `portcullis convert`: annotated glTF that the Khronos validator accepts, whose extension
+//! follows its schema, that keeps everything else of the input, byte-identical across runs,
+//! and written so that a failure leaves nothing behind.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use base64::Engine;
+use common::{fixture, khronos_validate, read_gltf, sample};
+use portcullis::schema::{validate, Schema};
+use serde_json::{json, Value};
+
+fn portcullis() -> Command {
+    let mut c = Command::cargo_bin("portcullis").unwrap();
+    c.env("NO_COLOR", "1");
+    c
+}
+
+fn convert(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    portcullis()
+        .arg("convert")
+        .arg(input)
+        .arg("-o")
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn every_input() -> Vec<(PathBuf, Vec<&'static str>)> {
+    let mut v: Vec<(PathBuf, Vec<&'static str>)> =
+        std::fs::read_dir(common::root().join("samples"))
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "obj")))
+            .map(|p| (p, vec![]))
+            .collect();
+    for f in [
+        "lportal_tutorial_simple.glb",
+        "lportal_tutorial_simple.obj",
+        "lportal_boxrooms.glb",
+        "lportal_boxrooms.obj",
+        "navigation_level_mesh.obj",
+        "living_room.glb",
+        "occlusion_room.glb",
+    ] {
+        v.push((fixture(f), vec![]));
+    }
+    v.push((fixture("panda3d_culling.glb"), vec!["--tags", "panda3d"]));
+    v.push((fixture("panda3d_culling.obj"), vec!["--tags", "panda3d"]));
+    v.sort();
+    v
+}
+
+fn check_extension(doc: &Value, what: &str) {
+    let used = doc["extensionsUsed"].as_array().expect("extensionsUsed");
+    assert!(used.iter().any(|u| u == "PORTCULLIS_portals"), "{what}");
+    assert!(
+        doc.get("extensionsRequired").is_none_or(|r| !r
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|u| u == "PORTCULLIS_portals")),
+        "{what}: never required"
+    );
+    let ext = &doc["extensions"]["PORTCULLIS_portals"];
+    let errs = validate(Schema::Portals, ext);
+    assert!(errs.is_empty(), "{what}: {errs:?}");
+    for n in doc["nodes"].as_array().into_iter().flatten() {
+        if let Some(e) = n
+            .get("extensions")
+            .and_then(|e| e.get("PORTCULLIS_portals"))
+        {
+            let errs = validate(Schema::PortalsNode, e);
+            assert!(errs.is_empty(), "{what}: {errs:?}");
+        }
+    }
+    // Internal consistency: indices in range, partners mutual.
+    let cells = ext["cells"].as_array().map_or(0, Vec::len);
+    let portals = ext["portals"].as_array().cloned().unwrap_or_default();
+    for (i, p) in portals.iter().enumerate() {
+        for c in p["cells"].as_array().unwrap() {
+            assert!((c.as_u64().unwrap() as usize) < cells, "{what}");
+        }
+        if let Some(j) = p.get("partner").and_then(Value::as_u64) {
+            assert_eq!(
+                portals[j as usize]["partner"].as_u64(),
+                Some(i as u64),
+                "{what}: partners mutual"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_output_validates_and_follows_the_schema() {
+    let dir = tempfile::tempdir().unwrap();
+    for (input, extra) in every_input() {
+        for ext in ["glb", "gltf"] {
+            let name = format!("{}.{ext}", input.file_name().unwrap().to_str().unwrap());
+            let out = dir.path().join(&name);
+            let o = convert(&input, &out, &extra);
+            assert!(
+                o.status.code() == Some(0) || o.status.code() == Some(1),
+                "{name}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let (doc, _) = read_gltf(&std::fs::read(&out).unwrap());
+            check_extension(&doc, &name);
+            // The gltf crate reads it back (our extension is not required).
+            gltf::Gltf::from_slice(&std::fs::read(&out).unwrap())
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            if let Some(report) = khronos_validate(&out) {
+                assert_eq!(
+                    report["issues"]["numErrors"], 0,
+                    "{name}: {}",
+                    report["issues"]["messages"]
+                );
+            }
+        }
+    }
+}
+
+/// Every buffer view's bytes, from a document and its buffers.
+fn views(doc: &Value, bin: Option<&[u8]>, base: &Path) -> Vec<Vec<u8>> {
+    let buffers: Vec<Vec<u8>> = doc["buffers"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|b| match b.get("uri").and_then(Value::as_str) {
+            Some(u) if u.starts_with("data:") => {
+                let data = u.split_once(',').unwrap().1;
+                base64::engine::general_purpose::STANDARD
+                    .decode(data)
+                    .unwrap()
+            }
+            Some(u) => std::fs::read(base.join(u)).unwrap(),
+            None => bin.unwrap().to_vec(),
+        })
+        .collect();
+    doc["bufferViews"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|v| {
+            let b = &buffers[v["buffer"].as_u64().unwrap() as usize];
+            let off = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+            let len = v["byteLength"].as_u64().unwrap() as usize;
+            b[off..off + len].to_vec()
+        })
+        .collect()
+}
+
+/// The document without what convert may change: our extension, extensionsUsed, and the
+/// buffer plumbing (buffer URIs, buffer views' buffer and offset).
+fn comparable(doc: &Value) -> Value {
+    let mut d = doc.clone();
+    let o = d.as_object_mut().unwrap();
+    o.remove("extensionsUsed");
+    if let Some(e) = o.get_mut("extensions").and_then(Value::as_object_mut) {
+        e.remove("PORTCULLIS_portals");
+        if e.is_empty() {
+            o.remove("extensions");
+        }
+    }
+    o.remove("buffers");
+    if let Some(vs) = o.get_mut("bufferViews").and_then(Value::as_array_mut) {
+        for v in vs {
+            let v = v.as_object_mut().unwrap();
+            v.remove("buffer");
+            v.remove("byteOffset");
+        }
+    }
+    if let Some(ns) = o.get_mut("nodes").and_then(Value::as_array_mut) {
+        for n in ns {
+            let n = n.as_object_mut().unwrap();
+            if let Some(e) = n.get_mut("extensions").and_then(Value::as_object_mut) {
+                e.remove("PORTCULLIS_portals");
+                if e.is_empty() {
+                    n.remove("extensions");
+                }
+            }
+        }
+    }
+    d
+}
+
+fn assert_round_trip(input: &Path, extra: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = std::fs::read(input).unwrap();
+    let (doc_in, bin_in) = read_gltf(&bytes);
+    let views_in = views(&doc_in, bin_in.as_deref(), input.parent().unwrap());
+    for ext in ["glb", "gltf"] {
+        let out = dir.path().join(format!("out.{ext}"));
+        let o = convert(input, &out, extra);
+        assert!(
+            o.status.code().unwrap() <= 1,
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let (doc_out, bin_out) = read_gltf(&std::fs::read(&out).unwrap());
+        assert_eq!(
+            comparable(&doc_in),
+            comparable(&doc_out),
+            "{} -> {ext}",
+            input.display()
+        );
+        assert_eq!(
+            views_in,
+            views(&doc_out, bin_out.as_deref(), dir.path()),
+            "{} -> {ext}: data",
+            input.display()
+        );
+        if let Some(report) = khronos_validate(&out) {
+            assert_eq!(
+                report["issues"]["numErrors"], 0,
+                "{}",
+                report["issues"]["messages"]
+            );
+        }
+    }
+    assert_eq!(
+        std::fs::read(input).unwrap(),
+        bytes,
+        "the input is never modified"
+    );
+}
+
+#[test]
+fn round_trip_keeps_everything_of_the_third_party_glbs() {
+    for f in [
+        "lportal_tutorial_simple.glb",
+        "lportal_boxrooms.glb",
+        "living_room.glb",
+        "occlusion_room.glb",
+        "gi_zdm2.glb",
+    ] {
+        assert_round_trip(&fixture(f), &[]);
+    }
+    assert_round_trip(&fixture("panda3d_culling.glb"), &["--tags", "panda3d"]);
+}
+
+/// A level with an animation, a skin, a textured material, a camera, a light extension and
+/// extras: all of it survives.
+#[test]
+fn round_trip_keeps_animations_skins_textures_and_extensions() {
+    let mut bin: Vec<u8> = Vec::new();
+    let f = |bin: &mut Vec<u8>, xs: &[f32]| {
+        xs.iter()
+            .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()))
+    };
+    f(&mut bin, &[0., 0., 0., 1., 0., 0., 0., 1., 0.]); // positions: 36 bytes
+    f(&mut bin, &[0., 0., 1., 0., 0., 1.]); // uv: 24
+    bin.extend_from_slice(&[0u8; 12]); // joints (u8 x4 x3): 12
+    f(&mut bin, &[1., 0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0.]); // weights: 48
+    f(
+        &mut bin,
+        &[
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1.,
+        ],
+    ); // inverse bind: 64
+    f(&mut bin, &[0., 1.]); // times: 8
+    f(&mut bin, &[0., 0., 0., 0., 1., 0.]); // translations: 24
+    let png = base64::engine::general_purpose::STANDARD.decode(
+        "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR4nGP4z8DwHwAFAAH/iZk9HQAAAABJRU5ErkJggg==",
+    ).unwrap();
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    let doc = json!({
+        "asset": {"version": "2.0", "extras": {"author": "test"}},
+        "extensionsUsed": ["KHR_lights_punctual", "VENDOR_custom"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "color": [1, 0.5, 0.2]}]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [
+            {"name": "skinned", "mesh": 0, "skin": 0, "extras": {"room": "hall"}},
+            {"name": "joint", "translation": [0, 0, 0]},
+            {"name": "cam", "camera": 0, "extensions": {"VENDOR_custom": {"x": 1}}},
+            {"name": "lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "JOINTS_0": 2, "WEIGHTS_0": 3}, "material": 0}]}],
+        "skins": [{"joints": [1], "inverseBindMatrices": 4}],
+        "animations": [{"channels": [{"sampler": 0, "target": {"node": 1, "path": "translation"}}],
+                        "samplers": [{"input": 5, "output": 6}]}],
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+        "materials": [{"name": "painted", "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"magFilter": 9729}],
+        "images": [{"uri": format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(&png))}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5121, "count": 3, "type": "VEC4"},
+            {"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC4"},
+            {"bufferView": 4, "componentType": 5126, "count": 1, "type": "MAT4"},
+            {"bufferView": 5, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+            {"bufferView": 6, "componentType": 5126, "count": 2, "type": "VEC3"}
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+            {"buffer": 0, "byteOffset": 60, "byteLength": 12},
+            {"buffer": 0, "byteOffset": 72, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 120, "byteLength": 64},
+            {"buffer": 0, "byteOffset": 184, "byteLength": 8},
+            {"buffer": 0, "byteOffset": 192, "byteLength": 24}
+        ],
+        "buffers": [{"byteLength": bin.len(), "uri": uri}]
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("rich.gltf");
+    std::fs::write(&input, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+    assert_round_trip(&input, &[]);
+}
+
+#[test]
+fn output_is_byte_identical_across_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    for (input, extra) in [
+        (fixture("lportal_boxrooms.glb"), vec![]),
+        (fixture("panda3d_culling.obj"), vec!["--tags", "panda3d"]),
+        (sample("l_room.gltf"), vec![]),
+    ] {
+        let a = dir.path().join("a.glb");
+        let b = dir.path().join("b.glb");
+        convert(&input, &a, &extra);
+        let mut c = portcullis();
+        c.env("RAYON_NUM_THREADS", "1")
+            .arg("convert")
+            .arg(&input)
+            .arg("-o")
+            .arg(&b)
+            .args(&extra);
+        c.output().unwrap();
+        assert_eq!(
+            std::fs::read(&a).unwrap(),
+            std::fs::read(&b).unwrap(),
+            "{}",
+            input.display()
+        );
+    }
+}
+
+#[test]
+fn inputs_are_never_overwritten_and_failures_leave_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("level.gltf");
+    std::fs::copy(sample("two_rooms.gltf"), &input).unwrap();
+    let before = std::fs::read(&input).unwrap();
+    let o = convert(&input, &input, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("OUTPUT_WOULD_OVERWRITE_INPUT"));
+    assert_eq!(std::fs::read(&input).unwrap(), before);
+    // A folder that does not exist: exit 2, nothing written anywhere.
+    let o = convert(&input, &dir.path().join("missing/out.glb"), &[]);
+    assert_eq!(o.status.code(), Some(2));
+    // An output path that is a folder: the write fails after the temporary was made.
+    let blocked = dir.path().join("blocked.glb");
+    std::fs::create_dir(&blocked).unwrap();
+    std::fs::write(blocked.join("keep"), b"x").unwrap();
+    let o = convert(&input, &blocked, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names.len(),
+        2,
+        "only the input and the folder remain: {names:?}"
+    );
+    // --in-place replaces the input by its annotated version.
+    let o = portcullis()
+        .arg("convert")
+        .arg(&input)
+        .arg("--in-place")
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let (doc, _) = read_gltf(&std::fs::read(&input).unwrap());
+    check_extension(&doc, "in place");
+    // Converting the annotated file again gives the same file (the old annotation is replaced).
+    let again = dir.path().join("again.gltf");
+    convert(&input, &again, &[]);
+    let (doc2, _) = read_gltf(&std::fs::read(&again).unwrap());
+    assert_eq!(doc, doc2);
+}
+
+#[test]
+fn out_dir_converts_many_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = portcullis()
+        .arg("convert")
+        .arg(sample("two_rooms.gltf"))
+        .arg(sample("l_room.gltf"))
+        .arg("--out-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(dir.path().join("two_rooms.glb").is_file() && dir.path().join("l_room.glb").is_file());
+}
