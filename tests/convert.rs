@@ -416,3 +416,106 @@ fn out_dir_converts_many_files() {
     );
     assert!(dir.path().join("two_rooms.glb").is_file() && dir.path().join("l_room.glb").is_file());
 }
+
+/// Convert, read the annotation back, and compare with the level computed in memory.
+#[test]
+fn the_annotation_reads_back_as_the_same_level() {
+    use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    for (input, preset) in [
+        (fixture("lportal_boxrooms.glb"), None),
+        (fixture("panda3d_culling.glb"), Some("panda3d")),
+        (sample("l_room.gltf"), None),
+        (sample("mirror.gltf"), None),
+    ] {
+        let out = dir.path().join("out.glb");
+        let mut args = vec![];
+        if let Some(p) = preset {
+            args = vec!["--tags", p];
+        }
+        convert(&input, &out, &args);
+        let (doc, _) = read_gltf(&std::fs::read(&out).unwrap());
+        let a = portcullis::export::read::annotation(&doc)
+            .expect("annotated")
+            .expect("parses");
+        let nodes = doc["nodes"].as_array().unwrap().len();
+        assert!(portcullis::export::read::consistency(&a, nodes).is_empty());
+        let mut t = load_tagged(
+            &input,
+            &LoadOptions {
+                preset: preset.map(str::to_string),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let cells = build_cells(&mut t);
+        let portals = build_portals(&mut t, &cells);
+        assert_eq!(a.cells.len(), cells.cells.len());
+        for (r, c) in a.cells.iter().zip(&cells.cells) {
+            assert_eq!(r.room, t.tagging.rooms[c.room].name);
+            assert_eq!(r.planes.len(), c.poly.faces.len());
+            for (p, f) in r.planes.iter().zip(&c.poly.faces) {
+                let n = f.plane.normal;
+                for (x, y) in p.iter().zip([n.x, n.y, n.z, f.plane.d]) {
+                    assert!((x - y).abs() <= 1e-9);
+                }
+            }
+        }
+        assert_eq!(a.portals.len(), portals.portals.len());
+        for (r, p) in a.portals.iter().zip(&portals.portals) {
+            assert_eq!((r.from(), r.to()), (p.from, p.to));
+            assert_eq!(
+                (r.one_way, r.closed, r.internal, r.partner),
+                (p.one_way, p.closed, p.internal, p.partner)
+            );
+            assert_eq!(r.transform.is_some(), p.transform.is_some());
+            for (x, y) in r.polygon.iter().zip(&p.polygon) {
+                assert!((glam::DVec3::from_array(*x) - *y).length() <= 2e-9);
+            }
+        }
+    }
+}
+
+/// `inspect` on an annotated file summarises the annotation; `--validate` checks it, and a
+/// changed level makes it stale.
+#[test]
+fn inspect_summarises_and_validates_annotations() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("a.gltf");
+    convert(&sample("two_rooms.gltf"), &out, &[]);
+    let inspect = |p: &Path| {
+        let o = portcullis()
+            .arg("inspect")
+            .arg(p)
+            .args(["--validate", "--format", "json"])
+            .output()
+            .unwrap();
+        (
+            o.status.code().unwrap(),
+            serde_json::from_slice::<Value>(&o.stdout).unwrap(),
+        )
+    };
+    let (code, v) = inspect(&out);
+    assert_eq!(code, 0);
+    assert_eq!(v["files"][0]["annotation"]["cells"], 2);
+    assert_eq!(v["files"][0]["annotation"]["stale"], false);
+    // Break a partner index: invalid.
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    doc["extensions"]["PORTCULLIS_portals"]["portals"][0]["partner"] = json!(0);
+    let bad = dir.path().join("bad.gltf");
+    std::fs::write(&bad, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (code, v) = inspect(&bad);
+    assert_eq!(code, 1);
+    assert!(v["files"][0]["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|d| d["code"] == "ANNOTATION_INVALID"));
+    // Move a node: the annotation is stale.
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    doc["nodes"][0]["translation"] = json!([0.5, 0, 0]);
+    let moved = dir.path().join("moved.gltf");
+    std::fs::write(&moved, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (_, v) = inspect(&moved);
+    assert_eq!(v["files"][0]["annotation"]["stale"], true);
+}

@@ -30,6 +30,11 @@ pub struct InspectArgs {
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
     pub deny: Option<String>,
 
+    /// For files portcullis already annotated: check the stored extension against its schema
+    /// and for internal consistency (indices in range, partners mutual).
+    #[arg(long)]
+    pub validate: bool,
+
     /// Cut meshes that span several cells along the cell planes, and report each cell's part
     /// (without it, such a mesh is listed whole in every cell it reaches into).
     #[arg(long)]
@@ -57,7 +62,69 @@ struct FileReport {
     portals: Option<Vec<DerivedPortalView>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     tolerance: Option<f64>,
+    /// What a stored PORTCULLIS_portals extension says, if the file has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    annotation: Option<AnnotationView>,
     diagnostics: Vec<Diagnostic>,
+}
+
+#[derive(Debug, Serialize)]
+struct AnnotationView {
+    generator: String,
+    input_hash: String,
+    /// The geometry or tags changed since the annotation was written.
+    stale: bool,
+    cells: usize,
+    portals: usize,
+}
+
+/// Summarises (and with `validate`, checks) a stored annotation.
+fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
+    use portcullis::diag::{Code, Location};
+    use portcullis::export::{extension, read};
+    let doc = t.scene.gltf.as_ref()?.json.clone();
+    let raw = doc.get("extensions")?.get(extension::NAME)?.clone();
+    let at =
+        || Location::file(&t.scene.path).with_pointer(format!("/extensions/{}", extension::NAME));
+    if validate {
+        let mut problems = portcullis::schema::validate(portcullis::schema::Schema::Portals, &raw);
+        if let Some(Ok(a)) = read::annotation(&doc) {
+            let nodes = doc
+                .get("nodes")
+                .and_then(|n| n.as_array())
+                .map_or(0, Vec::len);
+            problems.extend(read::consistency(&a, nodes));
+        }
+        for p in problems {
+            t.diagnostics.push(
+                Diagnostic::new(
+                    Code::ANNOTATION_INVALID,
+                    format!("the stored annotation is invalid: {p}"),
+                    at(),
+                )
+                .hint("convert the level again to rewrite the annotation"),
+            );
+        }
+    }
+    let a = read::annotation(&doc)?.ok()?;
+    let stale = a.input_hash != extension::input_hash(&t.scene, &t.tagging);
+    if stale {
+        t.diagnostics.push(
+            Diagnostic::new(
+                Code::ANNOTATION_STALE,
+                "the stored annotation was computed from different geometry or tags",
+                at(),
+            )
+            .hint("convert the level again"),
+        );
+    }
+    Some(AnnotationView {
+        generator: a.generator,
+        input_hash: a.input_hash,
+        stale,
+        cells: a.cells.len(),
+        portals: a.portals.len(),
+    })
 }
 
 #[derive(Debug, Serialize)]
@@ -312,6 +379,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
         totals.files += 1;
         let report = match pipeline::load_tagged(path, &opts) {
             Ok(mut t) => {
+                let annotation = annotation_view(&mut t, a.validate);
                 let cells = pipeline::build_cells(&mut t);
                 let portals = pipeline::build_portals(&mut t, &cells);
                 totals.add(t.diagnostics.iter());
@@ -324,6 +392,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     cells: Some(cells_view(&t, &cells, a.split_geometry)),
                     portals: Some(portals_view(&t, &cells, &portals)),
                     tolerance: Some(cells.tolerance.distance),
+                    annotation,
                     diagnostics: t.diagnostics.0.clone(),
                 }
             }
@@ -339,6 +408,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     cells: None,
                     portals: None,
                     tolerance: None,
+                    annotation: None,
                     diagnostics: vec![d],
                 }
             }
@@ -418,6 +488,20 @@ fn render_human(r: &FileReport, style: &Style) -> String {
         if !s.materials.is_empty() {
             let _ = writeln!(out, "  materials: {}", s.materials.join(", "));
         }
+    }
+    if let Some(a) = &r.annotation {
+        let _ = writeln!(
+            out,
+            "  annotation: {} cells, {} portals, by {}{}",
+            a.cells,
+            a.portals,
+            a.generator,
+            if a.stale {
+                " (stale: the level changed since)"
+            } else {
+                ""
+            }
+        );
     }
     if let Some(c) = &r.config {
         let _ = writeln!(out, "  config: {}", c.display());

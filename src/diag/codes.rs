@@ -99,6 +99,10 @@ codes! {
     CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap";
     CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
 
+    // --- annotated files ---
+    ANNOTATION_INVALID = Error, "the file's PORTCULLIS_portals extension breaks its schema or refers to things that do not exist";
+    ANNOTATION_STALE = Warning, "the file's PORTCULLIS_portals extension was computed from different geometry or tags";
+
     // --- portals ---
     PORTAL_AUTHORED_UNMATCHED = Warning, "an authored portal covers no opening between its cells";
     PORTAL_AUTHORED_WRONG_WAY = Warning, "an authored portal faces the wrong way for its tag convention";

@@ -4,3 +4,4 @@
 pub mod atomic;
 pub mod extension;
 pub mod gltf_out;
+pub mod read;
