@@ -7,6 +7,7 @@
 pub mod cells;
 pub mod config;
 pub mod diag;
+pub mod export;
 pub mod geom;
 pub mod import;
 pub mod pipeline;
