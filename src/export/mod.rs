@@ -1,7 +1,10 @@
 //! Writing results: the annotated glTF with the `PORTCULLIS_portals` extension, written
-//! atomically.
+//! atomically, reading it back, and the debug outputs (a glTF of cells and portals, an SVG
+//! plan).
 
 pub mod atomic;
+pub mod debug;
 pub mod extension;
 pub mod gltf_out;
 pub mod read;
+pub mod svg;
