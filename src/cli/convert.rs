@@ -34,6 +34,20 @@ pub struct ConvertArgs {
     #[arg(long)]
     pub in_place: bool,
 
+    /// Also write a debug glTF (.glb) of the cells (translucent, per room) and portals
+    /// (coloured by kind and direction), for any glTF viewer. One input only.
+    #[arg(long, value_name = "OUT.glb")]
+    pub debug: Option<PathBuf>,
+
+    /// Also write a top-down SVG map of the cells and portals. One input only.
+    #[arg(long, value_name = "OUT.svg")]
+    pub svg: Option<PathBuf>,
+
+    /// With --svg: highlight this cell and the cells it can see (reachability through open
+    /// portals until the PVS stage lands).
+    #[arg(long, value_name = "CELL", requires = "svg")]
+    pub pvs_of: Option<usize>,
+
     /// Exit with 1 when there are warnings, not only errors.
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
     pub deny: Option<String>,
@@ -118,6 +132,41 @@ fn convert_one(
         )
         .hint("check that the folder exists and is writable; nothing was written")
     })?;
+    let write_extra = |path: &Path, bytes: &[u8]| {
+        portcullis::export::atomic::write(path, bytes).map_err(|e| {
+            Diagnostic::new(
+                Code::OUTPUT_FAILED,
+                format!("cannot write `{}`: {e}", path.display()),
+                Location::file(path),
+            )
+            .hint("check that the folder exists and is writable")
+        })
+    };
+    if let Some(path) = &a.debug {
+        let bytes =
+            portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &Default::default());
+        write_extra(path, &bytes)?;
+    }
+    if let Some(path) = &a.svg {
+        let visible = a.pvs_of.map(|c| (c, reachable(&portals, c)));
+        if let Some((c, _)) = visible {
+            if c >= cells.cells.len() {
+                return Err(Diagnostic::new(
+                    Code::OUTPUT_FAILED,
+                    format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
+                    Location::file(input),
+                )
+                .hint("give a cell index from `portcullis inspect`"));
+            }
+        }
+        let svg = portcullis::export::svg::svg_map(
+            &t.tagging,
+            &cells,
+            &portals,
+            visible.as_ref().map(|(c, v)| (*c, v.as_slice())),
+        );
+        write_extra(path, svg.as_bytes())?;
+    }
     totals.add(t.diagnostics.iter());
     eprint!("{}", human::diagnostics(t.diagnostics.iter(), style));
     eprintln!(
@@ -130,7 +179,28 @@ fn convert_one(
     Ok(())
 }
 
+/// Cells reachable from `from` through portals that are not closed (the `flood` visibility).
+fn reachable(portals: &portcullis::portals::PortalSet, from: usize) -> Vec<usize> {
+    let mut seen = std::collections::BTreeSet::from([from]);
+    let mut stack = vec![from];
+    while let Some(c) = stack.pop() {
+        for p in portals.portals.iter().filter(|p| p.from == c && !p.closed) {
+            if let Some(to) = p.to {
+                if seen.insert(to) {
+                    stack.push(to);
+                }
+            }
+        }
+    }
+    seen.remove(&from);
+    seen.into_iter().collect()
+}
+
 pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
+    if a.files.len() > 1 && (a.debug.is_some() || a.svg.is_some()) {
+        eprintln!("error: --debug and --svg take one input");
+        return 2;
+    }
     if a.files.len() > 1 && a.output.is_some() {
         eprintln!("error: -o takes one input; use --out-dir DIR for several");
         return 2;

@@ -236,6 +236,11 @@ pub fn svg_map(
         if p.partner.is_some_and(|j| j < i) {
             continue;
         }
+        // Openings in floors and ceilings (open tops, stairwells) face up or down: seen from
+        // above they are areas, not lines, and drawing their diagonal would only mislead.
+        if p.normal.y.abs() > 0.7 {
+            continue;
+        }
         let pts: Vec<DVec2> = p.polygon.iter().map(|q| plan_point(*q)).collect();
         let Some((a, b)) = longest_extent(&pts) else {
             continue;
