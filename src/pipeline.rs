@@ -42,9 +42,14 @@ pub fn config_for(input: &Path, opts: &LoadOptions) -> Result<Config, Diagnostic
     }
 }
 
-/// Imports and tags one file. `Err` means the file could not be processed at all.
+/// Imports and tags one file (`-` reads standard input). `Err` means the file could not be
+/// processed at all.
 pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnostic> {
-    let imported = import::import_path(input, &opts.import)?;
+    let imported = if input == Path::new("-") {
+        read_stdin(opts)?
+    } else {
+        import::import_path(input, &opts.import)?
+    };
     let config = config_for(input, opts)?;
     let rules = config::rule_set(&config, opts.preset.as_deref())?;
     let tagging = tags::recognise(&imported.scene, &rules);
@@ -57,6 +62,23 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
         tagging,
         diagnostics,
     })
+}
+
+/// A level piped in: glTF and GLB are recognised by their first bytes, anything else is read
+/// as OBJ; relative references resolve from the current folder.
+fn read_stdin(opts: &LoadOptions) -> Result<import::Imported, Diagnostic> {
+    use std::io::Read;
+    let path = Path::new("-");
+    let mut bytes = Vec::new();
+    std::io::stdin().read_to_end(&mut bytes).map_err(|e| {
+        Diagnostic::new(
+            crate::diag::Code::IO_READ_FAILED,
+            format!("cannot read standard input: {e}"),
+            crate::diag::Location::file(path),
+        )
+    })?;
+    let format = import::sniff_format(&bytes).unwrap_or(crate::scene::Format::Obj);
+    import::import_bytes(&bytes, path, format, Path::new("."), &opts.import)
 }
 
 /// The cells of a tagged level; their diagnostics are appended to `tagged.diagnostics`.

@@ -519,3 +519,33 @@ fn inspect_summarises_and_validates_annotations() {
     let (_, v) = inspect(&moved);
     assert_eq!(v["files"][0]["annotation"]["stale"], true);
 }
+
+/// `-` reads standard input and writes standard output, for pipes after an exporter.
+#[test]
+fn pipes_in_and_out() {
+    for (input, fmt) in [
+        (sample("two_rooms.gltf"), "glb"),
+        (sample("two_rooms.obj"), "gltf"),
+        (fixture("lportal_boxrooms.glb"), "glb"),
+    ] {
+        let o = portcullis()
+            .args(["convert", "-", "-o", "-", "--out-format", fmt])
+            .write_stdin(std::fs::read(&input).unwrap())
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let (doc, _) = read_gltf(&o.stdout);
+        check_extension(&doc, &input.display().to_string());
+        assert_eq!(o.stdout.starts_with(b"glTF"), fmt == "glb");
+        let cells = doc["extensions"]["PORTCULLIS_portals"]["cells"]
+            .as_array()
+            .unwrap()
+            .len();
+        assert!(cells >= 2);
+    }
+}

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Args;
+use rayon::prelude::*;
 
 use portcullis::diag::{Code, Diagnostic, Location};
 use portcullis::export::gltf_out::OutFormat;
@@ -14,11 +15,13 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Level files: .gltf, .glb, .obj.
+    /// Level files: .gltf, .glb, .obj; `-` reads standard input (glTF/GLB recognised by their
+    /// first bytes, anything else read as OBJ).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
-    /// Output file (.gltf or .glb), for a single input.
+    /// Output file (.gltf or .glb), for a single input; `-` writes to standard output (in
+    /// --out-format).
     #[arg(short, long, value_name = "OUT", conflicts_with_all = ["out_dir", "in_place"])]
     pub output: Option<PathBuf>,
 
@@ -83,14 +86,25 @@ fn output_for(a: &ConvertArgs, input: &Path) -> Result<PathBuf, Diagnostic> {
     .hint("give -o OUT.glb for one input, or --out-dir DIR for several"))
 }
 
-fn convert_one(
-    a: &ConvertArgs,
-    input: &Path,
-    totals: &mut Totals,
-    style: &Style,
-) -> Result<(), Diagnostic> {
+/// What converting one file produced, reported in input order once all are done.
+struct Outcome {
+    diagnostics: Vec<Diagnostic>,
+    summary: String,
+}
+
+fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let out = output_for(a, input)?;
-    let format = OutFormat::from_path(&out).ok_or_else(|| {
+    let to_stdout = out == Path::new("-");
+    let format = if to_stdout {
+        Some(if a.out_format == "gltf" {
+            OutFormat::Gltf
+        } else {
+            OutFormat::Glb
+        })
+    } else {
+        OutFormat::from_path(&out)
+    };
+    let format = format.ok_or_else(|| {
         Diagnostic::new(
             Code::OUTPUT_FORMAT_UNKNOWN,
             format!(
@@ -110,7 +124,7 @@ fn convert_one(
         .hint("write somewhere else, or pass --in-place to replace the input on purpose"));
     }
     let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
-    if a.in_place && t.scene.gltf.is_none() {
+    if a.in_place && (t.scene.gltf.is_none() || input == Path::new("-")) {
         return Err(Diagnostic::new(
             Code::OUTPUT_FORMAT_UNKNOWN,
             format!(
@@ -124,7 +138,14 @@ fn convert_one(
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
     let bytes = pipeline::write_annotated(&t, &cells, &portals, &out, format)?;
-    portcullis::export::atomic::write(&out, &bytes).map_err(|e| {
+    let written = if to_stdout {
+        use std::io::Write;
+        let mut so = std::io::stdout().lock();
+        so.write_all(&bytes).and_then(|_| so.flush())
+    } else {
+        portcullis::export::atomic::write(&out, &bytes)
+    };
+    written.map_err(|e| {
         Diagnostic::new(
             Code::OUTPUT_FAILED,
             format!("cannot write `{}`: {e}", out.display()),
@@ -167,16 +188,16 @@ fn convert_one(
         );
         write_extra(path, svg.as_bytes())?;
     }
-    totals.add(t.diagnostics.iter());
-    eprint!("{}", human::diagnostics(t.diagnostics.iter(), style));
-    eprintln!(
-        "{} -> {}: {} cells, {} portals",
-        input.display(),
-        out.display(),
-        cells.cells.len(),
-        portals.portals.len()
-    );
-    Ok(())
+    Ok(Outcome {
+        diagnostics: t.diagnostics.0.clone(),
+        summary: format!(
+            "{} -> {}: {} cells, {} portals",
+            input.display(),
+            out.display(),
+            cells.cells.len(),
+            portals.portals.len()
+        ),
+    })
 }
 
 /// Cells reachable from `from` through portals that are not closed (the `flood` visibility).
@@ -211,16 +232,59 @@ pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
             return 2;
         }
     }
+    if a.files
+        .iter()
+        .filter(|f| f.as_path() == Path::new("-"))
+        .count()
+        > 1
+    {
+        eprintln!("error: standard input (`-`) can be read once");
+        return 2;
+    }
+    // Files are converted in parallel; reports are printed in input order, so the output is
+    // the same whatever the thread count.
+    let progress = progress_bar(a.files.len() as u64);
+    let outcomes: Vec<Result<Outcome, Diagnostic>> = a
+        .files
+        .par_iter()
+        .map(|f| {
+            let r = convert_one(a, f);
+            progress.inc(1);
+            r
+        })
+        .collect();
+    progress.finish_and_clear();
     let mut totals = Totals::default();
-    for f in &a.files {
+    for r in outcomes {
         totals.files += 1;
-        if let Err(d) = convert_one(a, f, &mut totals, style) {
-            totals.failed += 1;
-            totals.add([&d]);
-            eprint!("{}", human::diagnostic(&d, style));
-            eprintln!();
+        match r {
+            Ok(o) => {
+                totals.add(o.diagnostics.iter());
+                eprint!("{}", human::diagnostics(o.diagnostics.iter(), style));
+                eprintln!("{}", o.summary);
+            }
+            Err(d) => {
+                totals.failed += 1;
+                totals.add([&d]);
+                eprintln!("{}", human::diagnostic(&d, style));
+            }
         }
     }
     eprintln!("{}", totals.line());
     totals.exit_code(a.deny.is_some())
+}
+
+/// A progress bar on a terminal; nothing in pipes, in CI, or for a single file.
+fn progress_bar(n: u64) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if n < 2 || !std::io::stderr().is_terminal() || std::env::var_os("CI").is_some() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(n);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} levels {elapsed}")
+    {
+        bar.set_style(style);
+    }
+    bar
 }
