@@ -46,6 +46,8 @@ fn every_input() -> Vec<(PathBuf, Vec<&'static str>)> {
         "navigation_level_mesh.obj",
         "living_room.glb",
         "occlusion_room.glb",
+        "gi_zdm2.glb",
+        "pandora.obj",
     ] {
         v.push((fixture(f), vec![]));
     }
@@ -328,7 +330,14 @@ fn output_is_byte_identical_across_runs() {
     ] {
         let a = dir.path().join("a.glb");
         let b = dir.path().join("b.glb");
-        convert(&input, &a, &extra);
+        let mut c = portcullis();
+        c.env("RAYON_NUM_THREADS", "2")
+            .arg("convert")
+            .arg(&input)
+            .arg("-o")
+            .arg(&a)
+            .args(&extra);
+        c.output().unwrap();
         let mut c = portcullis();
         c.env("RAYON_NUM_THREADS", "1")
             .arg("convert")
@@ -547,5 +556,71 @@ fn pipes_in_and_out() {
             .unwrap()
             .len();
         assert!(cells >= 2);
+    }
+}
+
+fn has_empty_array(v: &Value, at: &str) -> Option<String> {
+    match v {
+        Value::Array(a) if a.is_empty() => Some(at.to_string()),
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| has_empty_array(x, &format!("{at}/{i}"))),
+        Value::Object(o) => o
+            .iter()
+            .find_map(|(k, x)| has_empty_array(x, &format!("{at}/{k}"))),
+        _ => None,
+    }
+}
+
+/// The extension leaves out what a level does not need, each rule checked.
+#[test]
+fn the_extension_leaves_out_what_is_not_needed() {
+    let dir = tempfile::tempdir().unwrap();
+    let ext_of = |input: &Path| -> Value {
+        let out = dir.path().join("x.gltf");
+        convert(input, &out, &[]);
+        let (doc, _) = read_gltf(&std::fs::read(&out).unwrap());
+        doc["extensions"]["PORTCULLIS_portals"].clone()
+    };
+    // Every room one cell: no rooms array. Plain portals: no transform, no kind, no flags.
+    let e = ext_of(&sample("two_rooms.gltf"));
+    assert!(e.get("rooms").is_none());
+    for p in e["portals"].as_array().unwrap() {
+        for key in ["transform", "kind", "oneWay", "closed", "internal"] {
+            assert!(p.get(key).is_none(), "{key} on a plain portal: {p}");
+        }
+    }
+    // A split room: the rooms array lists its cells, and its internal portals say so.
+    let e = ext_of(&sample("l_room.gltf"));
+    assert_eq!(e["rooms"][0]["cells"], json!([0, 1]));
+    assert!(e["portals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|p| p["internal"] == true));
+    // Only a mirror carries a transform.
+    let e = ext_of(&sample("mirror.gltf"));
+    for p in e["portals"].as_array().unwrap() {
+        assert_eq!(
+            p.get("transform").is_some(),
+            p.get("kind") == Some(&json!("mirror"))
+        );
+    }
+    // A level without rooms: no cells, no portals, and never an empty array.
+    let e = ext_of(&fixture("navigation_level_mesh.obj"));
+    assert!(e.get("cells").is_none() && e.get("portals").is_none());
+    for input in [
+        sample("two_rooms.gltf"),
+        sample("l_room.gltf"),
+        fixture("navigation_level_mesh.obj"),
+        fixture("lportal_boxrooms.glb"),
+    ] {
+        assert_eq!(
+            has_empty_array(&ext_of(&input), ""),
+            None,
+            "{}",
+            input.display()
+        );
     }
 }
