@@ -14,7 +14,7 @@ use portcullis::export::debug::{debug_glb, DebugExtras};
 use portcullis::export::svg::{svg_map, PVS_HIDDEN_FILL, PVS_SOURCE_FILL, PVS_VISIBLE_FILL};
 use portcullis::geom::aabb::Aabb;
 use portcullis::geom::polyhedron::ConvexPolyhedron;
-use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
+use portcullis::pipeline::Tagged;
 use portcullis::portals::PortalSet;
 
 fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
@@ -27,13 +27,7 @@ fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
 }
 
 fn load(path: &Path, preset: Option<&str>) -> (Tagged, CellSet, PortalSet) {
-    let opts = LoadOptions {
-        preset: preset.map(str::to_string),
-        ..Default::default()
-    };
-    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
-    let c = build_cells(&mut t);
-    let p = build_portals(&mut t, &c);
+    let (t, c, p) = common::load_level(path, preset);
     assert!(!c.cells.is_empty(), "{}: no cells", path.display());
     (t, c, p)
 }

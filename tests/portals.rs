@@ -9,18 +9,11 @@ use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
+use portcullis::pipeline::Tagged;
 use portcullis::portals::PortalSet;
 
 fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet, PortalSet) {
-    let opts = LoadOptions {
-        preset: preset.map(str::to_string),
-        ..Default::default()
-    };
-    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
-    let c = build_cells(&mut t);
-    let p = build_portals(&mut t, &c);
-    (t, c, p)
+    common::load_level(path, preset)
 }
 
 fn all_levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {

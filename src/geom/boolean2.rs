@@ -41,6 +41,14 @@ fn run(subject: &[Vec<DVec2>], clip: &[Vec<DVec2>], rule: OverlayRule, grid: f64
         add(&mut overlay, r, grid, ShapeType::Clip);
     }
     let shapes = overlay.overlay(rule, FillRule::EvenOdd);
+    polygons(&shapes, grid)
+        .into_iter()
+        .filter(|p| p.area() > grid * grid)
+        .collect()
+}
+
+/// i_overlay shapes (outer contour first, then holes) back in metres, outer rings CCW.
+fn polygons(shapes: &[Vec<Vec<IntPoint<i64>>>], grid: f64) -> Vec<Polygon2> {
     let back = |c: &Vec<IntPoint<i64>>| -> Vec<DVec2> {
         c.iter()
             .map(|p| DVec2::new(p.x as f64 * grid, p.y as f64 * grid))
@@ -59,7 +67,6 @@ fn run(subject: &[Vec<DVec2>], clip: &[Vec<DVec2>], rule: OverlayRule, grid: f64
                 holes: s[1..].iter().map(back).collect(),
             }
         })
-        .filter(|p| p.area() > grid * grid)
         .collect()
 }
 
@@ -105,25 +112,7 @@ pub fn union(a: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
         add(&mut overlay, &r, grid, ShapeType::Subject);
     }
     let shapes = overlay.overlay(OverlayRule::Subject, FillRule::NonZero);
-    let back = |c: &Vec<IntPoint<i64>>| -> Vec<DVec2> {
-        c.iter()
-            .map(|p| DVec2::new(p.x as f64 * grid, p.y as f64 * grid))
-            .collect()
-    };
-    shapes
-        .iter()
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            let mut outer = back(&s[0]);
-            if signed_area(&outer) < 0.0 {
-                outer.reverse();
-            }
-            Polygon2 {
-                outer,
-                holes: s[1..].iter().map(back).collect(),
-            }
-        })
-        .collect()
+    polygons(&shapes, grid)
 }
 
 #[cfg(test)]

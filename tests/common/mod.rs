@@ -173,3 +173,23 @@ pub fn read_gltf(bytes: &[u8]) -> (Value, Option<Vec<u8>>) {
         (serde_json::from_slice(bytes).unwrap(), None)
     }
 }
+
+/// Imports, tags, and builds the cells and portals of a level, as `convert` does.
+pub fn load_level(
+    path: &Path,
+    preset: Option<&str>,
+) -> (
+    portcullis::pipeline::Tagged,
+    portcullis::cells::CellSet,
+    portcullis::portals::PortalSet,
+) {
+    use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions};
+    let opts = LoadOptions {
+        preset: preset.map(str::to_string),
+        ..Default::default()
+    };
+    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
+    let c = build_cells(&mut t);
+    let p = build_portals(&mut t, &c);
+    (t, c, p)
+}
