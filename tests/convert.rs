@@ -624,3 +624,35 @@ fn the_extension_leaves_out_what_is_not_needed() {
         );
     }
 }
+
+/// Overlapping rooms are reported, and the debug output draws where they overlap.
+#[test]
+fn overlaps_are_reported_and_drawn() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: Value =
+        serde_json::from_slice(&std::fs::read(sample("bound_boxes.gltf")).unwrap()).unwrap();
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    let lounge = nodes
+        .iter_mut()
+        .find(|n| n["name"] == "lounge-cell")
+        .unwrap();
+    lounge["translation"] = json!([-1.0, 0.0, 0.0]);
+    let input = dir.path().join("overlap.gltf");
+    std::fs::write(&input, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let debug = dir.path().join("debug.glb");
+    let o = convert(
+        &input,
+        &dir.path().join("out.glb"),
+        &["--debug", debug.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("CELL_OVERLAP") && err.contains("12.0000 m³"),
+        "{err}"
+    );
+    let g = gltf::Gltf::from_slice(&std::fs::read(&debug).unwrap()).unwrap();
+    assert!(g
+        .document
+        .nodes()
+        .any(|n| n.name().is_some_and(|s| s.starts_with("overlap"))));
+}

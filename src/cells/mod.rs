@@ -75,6 +75,8 @@ pub struct CellSet {
     pub tolerance: Tolerance,
     /// Room meshes recognised as props (they do not shape cells).
     pub props: Vec<NodeId>,
+    /// Where cells of different rooms overlap (each reported as `CELL_OVERLAP`).
+    pub overlaps: Vec<ConvexPolyhedron>,
     #[serde(skip)]
     pub diagnostics: Diagnostics,
 }
@@ -352,6 +354,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         room_cells,
         tolerance: tol,
         props,
+        overlaps: Vec::new(),
         diagnostics: diags,
     };
     overlap::check(scene, tagging, cfg, &mut set);

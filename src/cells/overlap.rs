@@ -19,6 +19,7 @@ pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &m
             .total_cmp(&set.cells[b].bounds.min.x)
     });
     let mut found = Vec::new();
+    let mut regions = Vec::new();
     for (i, &a) in order.iter().enumerate() {
         let ca = &set.cells[a];
         for &b in &order[i + 1..] {
@@ -41,6 +42,7 @@ pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &m
             if let Some(x) = ca.poly.intersection(&cb.poly, eps) {
                 let v = x.volume();
                 if v > cfg.overlap_volume {
+                    regions.push(x.clone());
                     found.push(
                         Diagnostic::new(
                             Code::CELL_OVERLAP,
@@ -62,4 +64,5 @@ pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &m
         }
     }
     set.diagnostics.extend(found);
+    set.overlaps = regions;
 }

@@ -164,8 +164,11 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         })
     };
     if let Some(path) = &a.debug {
-        let bytes =
-            portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &Default::default());
+        let extras = portcullis::export::debug::DebugExtras {
+            overlaps: cells.overlaps.clone(),
+            ..Default::default()
+        };
+        let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;
     }
     if let Some(path) = &a.svg {
