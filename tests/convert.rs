@@ -656,3 +656,21 @@ fn overlaps_are_reported_and_drawn() {
         .nodes()
         .any(|n| n.name().is_some_and(|s| s.starts_with("overlap"))));
 }
+
+/// A quoted glob is expanded by portcullis itself.
+#[test]
+fn globs_are_expanded() {
+    let dir = tempfile::tempdir().unwrap();
+    let pattern = common::root().join("samples/*_room.gltf");
+    let o = portcullis()
+        .arg("convert")
+        .arg(&pattern)
+        .arg("--out-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    for n in ["l_room.glb", "u_room.glb", "pillar_room.glb"] {
+        assert!(dir.path().join(n).is_file(), "{n}");
+    }
+}

@@ -75,11 +75,40 @@ impl LevelArgs {
 pub fn run(cli: Cli) -> i32 {
     let style = portcullis::report::style::Style::for_stdout(&cli.color);
     match cli.command {
-        Command::Inspect(a) => inspect::run(&a, &style),
-        Command::Convert(a) => convert::run(
-            &a,
-            &portcullis::report::style::Style::for_stderr(&cli.color),
-        ),
+        Command::Inspect(mut a) => {
+            a.files = expand_inputs(&a.files);
+            inspect::run(&a, &style)
+        }
+        Command::Convert(mut a) => {
+            a.files = expand_inputs(&a.files);
+            convert::run(
+                &a,
+                &portcullis::report::style::Style::for_stderr(&cli.color),
+            )
+        }
         Command::Schema(a) => schema::run(&a),
     }
+}
+
+/// Expands glob patterns among the inputs (for shells that do not, and for quoted patterns);
+/// a pattern matching nothing is kept as given so it is reported as a missing file.
+pub fn expand_inputs(files: &[PathBuf]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for f in files {
+        let s = f.to_string_lossy();
+        let is_pattern = s.contains(['*', '?', '[']) && !f.exists();
+        let matches: Vec<PathBuf> = if is_pattern {
+            glob::glob(&s)
+                .map(|g| g.flatten().collect())
+                .unwrap_or_default()
+        } else {
+            Vec::new()
+        };
+        if matches.is_empty() {
+            out.push(f.clone());
+        } else {
+            out.extend(matches);
+        }
+    }
+    out
 }
