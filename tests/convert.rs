@@ -669,7 +669,12 @@ fn globs_are_expanded() {
         .arg(dir.path())
         .output()
         .unwrap();
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     for n in ["l_room.glb", "u_room.glb", "pillar_room.glb"] {
         assert!(dir.path().join(n).is_file(), "{n}");
     }
