@@ -449,6 +449,24 @@ fn list(out: &mut String, title: &str, items: &[String], style: &Style) {
     }
 }
 
+/// The words shown after a portal for what is not plain about it.
+fn portal_flags(kind: PortalKind, one_way: bool, closed: bool, internal: bool) -> Vec<String> {
+    let mut flags = Vec::new();
+    if kind != PortalKind::Plain {
+        flags.push(format!("{kind:?}").to_lowercase());
+    }
+    for (on, word) in [
+        (one_way, "one-way"),
+        (closed, "closed"),
+        (internal, "internal"),
+    ] {
+        if on {
+            flags.push(word.to_string());
+        }
+    }
+    flags
+}
+
 fn fmt3(v: [f64; 3]) -> String {
     let f = |x: f64| {
         let s = format!("{x:.3}");
@@ -546,16 +564,7 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                     (None, Some(n)) => format!("{n}?"),
                     (None, None) => "?".to_string(),
                 };
-                let mut flags = Vec::new();
-                if p.kind != PortalKind::Plain {
-                    flags.push(format!("{:?}", p.kind).to_lowercase());
-                }
-                if p.one_way {
-                    flags.push("one-way".to_string());
-                }
-                if p.closed {
-                    flags.push("closed".to_string());
-                }
+                let flags = portal_flags(p.kind, p.one_way, p.closed, false);
                 let flags = if flags.is_empty() {
                     String::new()
                 } else {
@@ -647,19 +656,7 @@ fn render_human(r: &FileReport, style: &Style) -> String {
         let rows: Vec<String> = linked
             .iter()
             .map(|p| {
-                let mut flags = Vec::new();
-                if p.kind != PortalKind::Plain {
-                    flags.push(format!("{:?}", p.kind).to_lowercase());
-                }
-                if p.one_way {
-                    flags.push("one-way".into());
-                }
-                if p.closed {
-                    flags.push("closed".into());
-                }
-                if p.internal {
-                    flags.push("internal".into());
-                }
+                let mut flags = portal_flags(p.kind, p.one_way, p.closed, p.internal);
                 if let Some(a) = &p.authored {
                     flags.push(format!("authored `{a}`"));
                 }
