@@ -421,3 +421,165 @@ fn a_teleporter_pair_carries_inverse_rigid_transforms() {
     assert!((dir - DVec3::X).length() < 1e-9, "{dir}");
     assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
 }
+
+/// A scene built in code: named nodes, each with world-space triangles (identity transforms).
+fn scene_of(
+    parts: Vec<(
+        &str,
+        Option<usize>,
+        Vec<[DVec3; 3]>,
+        Option<serde_json::Value>,
+    )>,
+) -> portcullis::scene::Scene {
+    use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
+    let mut scene = Scene::new("built.obj".into(), Format::Obj);
+    for (name, parent, tris, extras) in parts {
+        let mesh = (!tris.is_empty()).then(|| {
+            scene.meshes.push(Mesh {
+                name: Some(name.into()),
+                positions: tris.iter().flatten().copied().collect(),
+                triangles: (0..tris.len() as u32)
+                    .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                    .collect(),
+                primitives: vec![Primitive {
+                    material: None,
+                    first_triangle: 0,
+                    triangle_count: tris.len(),
+                    source: SourceRef::default(),
+                }],
+                extras: None,
+                source: SourceRef::default(),
+            });
+            scene.meshes.len() - 1
+        });
+        scene.add_node(Node {
+            name: Some(name.into()),
+            parent,
+            children: vec![],
+            world: glam::DMat4::IDENTITY,
+            mesh,
+            extras,
+            source: SourceRef::default(),
+        });
+    }
+    scene
+}
+
+/// A quad's two triangles, counter-clockwise as given.
+fn quad(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Vec<[DVec3; 3]> {
+    vec![[a, b, c], [a, c, d]]
+}
+
+/// An outward-facing box.
+fn cube(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+    let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let (a, b) = (lo, hi);
+    let mut t = Vec::new();
+    t.extend(quad(
+        p(a.x, a.y, a.z),
+        p(a.x, a.y, b.z),
+        p(a.x, b.y, b.z),
+        p(a.x, b.y, a.z),
+    ));
+    t.extend(quad(
+        p(b.x, a.y, a.z),
+        p(b.x, b.y, a.z),
+        p(b.x, b.y, b.z),
+        p(b.x, a.y, b.z),
+    ));
+    t.extend(quad(
+        p(a.x, a.y, a.z),
+        p(b.x, a.y, a.z),
+        p(b.x, a.y, b.z),
+        p(a.x, a.y, b.z),
+    ));
+    t.extend(quad(
+        p(a.x, b.y, a.z),
+        p(a.x, b.y, b.z),
+        p(b.x, b.y, b.z),
+        p(b.x, b.y, a.z),
+    ));
+    t.extend(quad(
+        p(a.x, a.y, a.z),
+        p(a.x, b.y, a.z),
+        p(b.x, b.y, a.z),
+        p(b.x, a.y, a.z),
+    ));
+    t.extend(quad(
+        p(a.x, a.y, b.z),
+        p(b.x, a.y, b.z),
+        p(b.x, b.y, b.z),
+        p(a.x, b.y, b.z),
+    ));
+    t
+}
+
+/// One quad over a door that opens into two rooms is linked to both, and said to be a guess.
+#[test]
+fn an_authored_portal_over_two_rooms_is_ambiguous() {
+    let v = DVec3::new;
+    // The wall x = 4 (both faces), with a door z 1..3, y 0..2.
+    let mut wall = Vec::new();
+    for (z0, z1, y0, y1) in [
+        (0.0, 1.0, 0.0, 3.0),
+        (3.0, 4.0, 0.0, 3.0),
+        (1.0, 3.0, 2.0, 3.0),
+    ] {
+        wall.extend(quad(
+            v(4., y0, z0),
+            v(4., y1, z0),
+            v(4., y1, z1),
+            v(4., y0, z1),
+        ));
+        wall.extend(quad(
+            v(4., y0, z0),
+            v(4., y0, z1),
+            v(4., y1, z1),
+            v(4., y1, z0),
+        ));
+    }
+    let door = quad(v(4., 0., 1.), v(4., 2., 1.), v(4., 2., 3.), v(4., 0., 3.)); // faces +x
+    let scene = scene_of(vec![
+        (
+            "kitchen-cell",
+            None,
+            cube(v(0., 0., 0.), v(4., 3., 4.)),
+            None,
+        ),
+        (
+            "Door",
+            Some(0),
+            door,
+            Some(serde_json::json!({"portal": true})),
+        ),
+        (
+            "lounge-cell",
+            None,
+            cube(v(4., 0., 0.), v(8., 3., 2.)),
+            None,
+        ),
+        (
+            "pantry-cell",
+            None,
+            cube(v(4., 0., 2.), v(8., 3., 4.)),
+            None,
+        ),
+        ("Wall", None, wall, None),
+    ]);
+    let rules = portcullis::tags::presets::load("default").unwrap();
+    let tagging = portcullis::tags::recognise(&scene, &rules);
+    assert_eq!(tagging.rooms.len(), 3);
+    let cells = portcullis::cells::build(&scene, &tagging, &Default::default());
+    let portals = portcullis::portals::build(&scene, &tagging, &cells, &Default::default());
+    assert!(
+        portals.diagnostics.has(Code::PORTAL_AUTHORED_AMBIGUOUS),
+        "{:?}",
+        portals.diagnostics
+    );
+    let linked = portals
+        .portals
+        .iter()
+        .filter(|p| p.authored.is_some() && p.to.is_some())
+        .count();
+    assert!(linked >= 2);
+}

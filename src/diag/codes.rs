@@ -106,6 +106,7 @@ codes! {
     // --- portals ---
     PORTAL_AUTHORED_UNMATCHED = Warning, "an authored portal covers no opening between its cells";
     PORTAL_AUTHORED_WRONG_WAY = Warning, "an authored portal faces the wrong way for its tag convention";
+    PORTAL_AUTHORED_AMBIGUOUS = Warning, "an authored portal covers openings between several pairs of rooms";
     PORTAL_NOT_PLANAR = Warning, "an authored portal's vertices are not on one plane";
 }
 

@@ -222,6 +222,41 @@ pub(crate) fn link(
             );
             continue;
         }
+        // One authored quad should open one way between two rooms; more means the link is a
+        // guess.
+        let mut links: Vec<(usize, usize)> = chosen
+            .iter()
+            .map(|&i| {
+                let p = &set.portals[i];
+                (room_of(p.from), room_of(p.to.unwrap_or(p.from)))
+            })
+            .filter(|(a, b)| a != b)
+            .collect();
+        links.sort_unstable();
+        links.dedup();
+        if links.len() > 1 {
+            let names: Vec<String> = links
+                .iter()
+                .map(|(a, b)| {
+                    format!(
+                        "`{}` -> `{}`",
+                        tagging.rooms[*a].name, tagging.rooms[*b].name
+                    )
+                })
+                .collect();
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_AUTHORED_AMBIGUOUS,
+                    format!(
+                        "portal `{}` covers openings between several pairs of rooms ({}); it was linked to all of them",
+                        scene.node_label(ap.node),
+                        names.join(", ")
+                    ),
+                    loc(ap.node).with_position(q.centre.to_array()),
+                )
+                .hint("name its source and target rooms (e.g. `portal_TARGET` inside the source room), or split it into one quad per opening"),
+            );
+        }
         for &i in &chosen {
             let p = &mut set.portals[i];
             p.authored = Some(ap.node);
