@@ -423,14 +423,15 @@ fn a_teleporter_pair_carries_inverse_rigid_transforms() {
 }
 
 /// A scene built in code: named nodes, each with world-space triangles (identity transforms).
-fn scene_of(
-    parts: Vec<(
-        &str,
-        Option<usize>,
-        Vec<[DVec3; 3]>,
-        Option<serde_json::Value>,
-    )>,
-) -> portcullis::scene::Scene {
+/// (name, parent, world-space triangles, extras) of one node.
+type Part<'a> = (
+    &'a str,
+    Option<usize>,
+    Vec<[DVec3; 3]>,
+    Option<serde_json::Value>,
+);
+
+fn scene_of(parts: Vec<Part>) -> portcullis::scene::Scene {
     use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
     let mut scene = Scene::new("built.obj".into(), Format::Obj);
     for (name, parent, tris, extras) in parts {
