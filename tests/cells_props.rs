@@ -1,31 +1,19 @@
 //! Property tests of the cells stage on generated rooms: convexity, disjointness, volume
 //! conservation, and invariance under translation, rotation and scale.
 
-use std::path::PathBuf;
+mod common;
 
 use glam::{DMat4, DQuat, DVec2, DVec3};
 use portcullis::cells::{build, CellSet};
 use portcullis::config::CellsConfig;
-use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
+use portcullis::scene::Scene;
 use portcullis::tags::{presets, recognise};
 use proptest::prelude::*;
 
 /// A prism room over a rectilinear outline (counter-clockwise in (x, z)), as an inward-facing
 /// shell split into Floor / Walls / Ceiling meshes under a `hall-room` node.
 fn prism_room(outline: &[DVec2], floor_rects: &[[f64; 4]], height: f64, world: DMat4) -> Scene {
-    // Positions are exact f64 here, as decimal OBJ text would be (not f32 glTF).
-    let mut scene = Scene::new(PathBuf::from("generated.obj"), Format::Obj);
-    let room = scene.add_node(Node {
-        name: Some("hall-room".into()),
-        parent: None,
-        children: vec![],
-        world,
-        mesh: None,
-        extras: None,
-        source: SourceRef::default(),
-    });
     let p3 = |q: DVec2, y: f64| DVec3::new(q.x, y, q.y);
-    let mut parts: Vec<(&str, Vec<[DVec3; 3]>)> = Vec::new();
     let quad = |a: DVec3, b: DVec3, c: DVec3, d: DVec3, inward: DVec3| -> Vec<[DVec3; 3]> {
         let n = (b - a).cross(c - a);
         if n.dot(inward) >= 0.0 {
@@ -73,37 +61,15 @@ fn prism_room(outline: &[DVec2], floor_rects: &[[f64; 4]], height: f64, world: D
             inward,
         ));
     }
-    parts.push(("Floor", floor));
-    parts.push(("Walls", walls));
-    parts.push(("Ceiling", ceiling));
-    for (name, tris) in parts {
-        let mesh = scene.meshes.len();
-        scene.meshes.push(Mesh {
-            name: Some(name.into()),
-            positions: tris.iter().flatten().copied().collect(),
-            triangles: (0..tris.len() as u32)
-                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                .collect(),
-            primitives: vec![Primitive {
-                material: None,
-                first_triangle: 0,
-                triangle_count: tris.len(),
-                source: SourceRef::default(),
-            }],
-            extras: None,
-            source: SourceRef::default(),
-        });
-        scene.add_node(Node {
-            name: Some(name.into()),
-            parent: Some(room),
-            children: vec![],
-            world,
-            mesh: Some(mesh),
-            extras: None,
-            source: SourceRef::default(),
-        });
-    }
-    scene
+    common::scene_of(
+        vec![
+            ("hall-room", None, vec![], None),
+            ("Floor", Some(0), floor, None),
+            ("Walls", Some(0), walls, None),
+            ("Ceiling", Some(0), ceiling, None),
+        ],
+        world,
+    )
 }
 
 fn cells_of(scene: &Scene, up: DVec3) -> CellSet {

@@ -29,6 +29,27 @@ fn convert(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// The command exited 0; otherwise fail with what it printed.
+fn assert_ok(o: &std::process::Output) {
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `convert INPUTS... --out-dir DIR`.
+fn convert_to_dir(inputs: &[&Path], dir: &Path) -> std::process::Output {
+    portcullis()
+        .arg("convert")
+        .args(inputs)
+        .arg("--out-dir")
+        .arg(dir)
+        .output()
+        .unwrap()
+}
+
 fn every_input() -> Vec<(PathBuf, Vec<&'static str>)> {
     let mut v: Vec<(PathBuf, Vec<&'static str>)> =
         std::fs::read_dir(common::root().join("samples"))
@@ -391,12 +412,7 @@ fn inputs_are_never_overwritten_and_failures_leave_nothing() {
         .arg("--in-place")
         .output()
         .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    assert_ok(&o);
     let (doc, _) = read_gltf(&std::fs::read(&input).unwrap());
     check_extension(&doc, "in place");
     // Converting the annotated file again gives the same file (the old annotation is replaced).
@@ -409,20 +425,11 @@ fn inputs_are_never_overwritten_and_failures_leave_nothing() {
 #[test]
 fn out_dir_converts_many_files() {
     let dir = tempfile::tempdir().unwrap();
-    let o = portcullis()
-        .arg("convert")
-        .arg(sample("two_rooms.gltf"))
-        .arg(sample("l_room.gltf"))
-        .arg("--out-dir")
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    let o = convert_to_dir(
+        &[&sample("two_rooms.gltf"), &sample("l_room.gltf")],
+        dir.path(),
     );
+    assert_ok(&o);
     assert!(dir.path().join("two_rooms.glb").is_file() && dir.path().join("l_room.glb").is_file());
 }
 
@@ -662,19 +669,8 @@ fn overlaps_are_reported_and_drawn() {
 fn globs_are_expanded() {
     let dir = tempfile::tempdir().unwrap();
     let pattern = common::root().join("samples/*_room.gltf");
-    let o = portcullis()
-        .arg("convert")
-        .arg(&pattern)
-        .arg("--out-dir")
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let o = convert_to_dir(&[&pattern], dir.path());
+    assert_ok(&o);
     for n in ["l_room.glb", "u_room.glb", "pillar_room.glb"] {
         assert!(dir.path().join(n).is_file(), "{n}");
     }

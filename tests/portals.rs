@@ -222,6 +222,7 @@ fn portal_invariants_hold_everywhere() {
 /// triangles, the point where the segment leaves its first cell lies in a portal of that cell.
 #[test]
 fn unobstructed_segments_leave_cells_through_portals() {
+    let mut total_checked = 0usize;
     for (file, preset) in all_levels() {
         let (t, c, p) = load(&file, preset);
         if c.cells.len() < 2 {
@@ -302,8 +303,13 @@ fn unobstructed_segments_leave_cells_through_portals() {
             assert!(through, "{}: a clear segment from cell {a} to cell {b} leaves cell {a} at {e} through no portal", file.display());
             checked += 1;
         }
-        let _ = checked;
+        total_checked += checked;
     }
+    // The oracle must have something to judge: clear segments through doors exist.
+    assert!(
+        total_checked > 100,
+        "only {total_checked} clear segments were checked"
+    );
 }
 
 #[test]
@@ -422,50 +428,6 @@ fn a_teleporter_pair_carries_inverse_rigid_transforms() {
     assert!(!t.diagnostics.has_errors(), "{:?}", t.diagnostics);
 }
 
-/// A scene built in code: named nodes, each with world-space triangles (identity transforms).
-/// (name, parent, world-space triangles, extras) of one node.
-type Part<'a> = (
-    &'a str,
-    Option<usize>,
-    Vec<[DVec3; 3]>,
-    Option<serde_json::Value>,
-);
-
-fn scene_of(parts: Vec<Part>) -> portcullis::scene::Scene {
-    use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
-    let mut scene = Scene::new("built.obj".into(), Format::Obj);
-    for (name, parent, tris, extras) in parts {
-        let mesh = (!tris.is_empty()).then(|| {
-            scene.meshes.push(Mesh {
-                name: Some(name.into()),
-                positions: tris.iter().flatten().copied().collect(),
-                triangles: (0..tris.len() as u32)
-                    .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                    .collect(),
-                primitives: vec![Primitive {
-                    material: None,
-                    first_triangle: 0,
-                    triangle_count: tris.len(),
-                    source: SourceRef::default(),
-                }],
-                extras: None,
-                source: SourceRef::default(),
-            });
-            scene.meshes.len() - 1
-        });
-        scene.add_node(Node {
-            name: Some(name.into()),
-            parent,
-            children: vec![],
-            world: glam::DMat4::IDENTITY,
-            mesh,
-            extras,
-            source: SourceRef::default(),
-        });
-    }
-    scene
-}
-
 /// A quad's two triangles, counter-clockwise as given.
 fn quad(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Vec<[DVec3; 3]> {
     vec![[a, b, c], [a, c, d]]
@@ -540,33 +502,36 @@ fn an_authored_portal_over_two_rooms_is_ambiguous() {
         ));
     }
     let door = quad(v(4., 0., 1.), v(4., 2., 1.), v(4., 2., 3.), v(4., 0., 3.)); // faces +x
-    let scene = scene_of(vec![
-        (
-            "kitchen-cell",
-            None,
-            cube(v(0., 0., 0.), v(4., 3., 4.)),
-            None,
-        ),
-        (
-            "Door",
-            Some(0),
-            door,
-            Some(serde_json::json!({"portal": true})),
-        ),
-        (
-            "lounge-cell",
-            None,
-            cube(v(4., 0., 0.), v(8., 3., 2.)),
-            None,
-        ),
-        (
-            "pantry-cell",
-            None,
-            cube(v(4., 0., 2.), v(8., 3., 4.)),
-            None,
-        ),
-        ("Wall", None, wall, None),
-    ]);
+    let scene = common::scene_of(
+        vec![
+            (
+                "kitchen-cell",
+                None,
+                cube(v(0., 0., 0.), v(4., 3., 4.)),
+                None,
+            ),
+            (
+                "Door",
+                Some(0),
+                door,
+                Some(serde_json::json!({"portal": true})),
+            ),
+            (
+                "lounge-cell",
+                None,
+                cube(v(4., 0., 0.), v(8., 3., 2.)),
+                None,
+            ),
+            (
+                "pantry-cell",
+                None,
+                cube(v(4., 0., 2.), v(8., 3., 4.)),
+                None,
+            ),
+            ("Wall", None, wall, None),
+        ],
+        glam::DMat4::IDENTITY,
+    );
     let rules = portcullis::tags::presets::load("default").unwrap();
     let tagging = portcullis::tags::recognise(&scene, &rules);
     assert_eq!(tagging.rooms.len(), 3);
