@@ -23,6 +23,8 @@ pub struct Config {
     pub cells: CellsConfig,
     #[serde(default)]
     pub portals: PortalsConfig,
+    #[serde(default)]
+    pub vis: VisConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -97,6 +99,17 @@ impl Default for PortalsConfig {
             exterior: true,
         }
     }
+}
+
+/// `[vis]`: the PVS stage.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VisConfig {
+    /// Transformed portals (mirrors, teleporters) one sightline may pass through. Unset: the
+    /// default bound (see `vis::DEFAULT_TRANSFORM_DEPTH`).
+    pub transform_depth: Option<usize>,
+    /// Sightlines per directed portal for the `sampled` method.
+    pub samples: Option<usize>,
 }
 
 /// The configuration next to `input`, if there is one.

@@ -109,10 +109,25 @@ pub fn write_annotated(
     out: &Path,
     format: crate::export::gltf_out::OutFormat,
 ) -> Result<Vec<u8>, Diagnostic> {
+    write_annotated_with_pvs(tagged, cells, portals, None, out, format)
+}
+
+/// [`write_annotated`], storing a PVS computed by `method` in the extension.
+pub fn write_annotated_with_pvs(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
+    out: &Path,
+    format: crate::export::gltf_out::OutFormat,
+) -> Result<Vec<u8>, Diagnostic> {
     use crate::export::{extension, gltf_out};
     let scene = &tagged.scene;
-    let ann = extension::build(scene, &tagged.tagging, cells, portals, &|n| {
+    let mut ann = extension::build(scene, &tagged.tagging, cells, portals, &|n| {
         gltf_out::node_index(scene, n)
     });
+    if let Some((p, m)) = pvs {
+        ann.set_visibility(p, m);
+    }
     gltf_out::write(scene, &ann, out, format)
 }

@@ -46,10 +46,20 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "OUT.svg")]
     pub svg: Option<PathBuf>,
 
-    /// With --svg: highlight this cell and the cells it can see (reachability through open
-    /// portals until the PVS stage lands).
+    /// With --svg: highlight this cell and the cells in its PVS (computed by --vis, or full).
     #[arg(long, value_name = "CELL", requires = "svg")]
     pub pvs_of: Option<usize>,
+
+    /// The PVS stored in the extension's `visibility`: flood, fast, full, sampled (a lower
+    /// bound; not for engines), or none to leave it out.
+    #[arg(long = "vis", value_name = "METHOD", default_value = "full",
+          value_parser = ["none", "flood", "fast", "full", "sampled"])]
+    pub vis_method: String,
+
+    /// Also write the cell graph as a Quake portal file (PRT1) for Quake-family tools; one input
+    /// only. `-o OUT.prt` writes only that.
+    #[arg(long, value_name = "OUT.prt")]
+    pub prt: Option<PathBuf>,
 
     /// Exit with 1 when there are warnings, not only errors.
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
@@ -94,6 +104,9 @@ struct Outcome {
 
 fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let out = output_for(a, input)?;
+    if portcullis::vis::load::is_prt(&out) {
+        return convert_to_prt(a, input, &out);
+    }
     let to_stdout = out == Path::new("-");
     let format = if to_stdout {
         Some(if a.out_format == "gltf" {
@@ -137,7 +150,27 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     }
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
-    let bytes = pipeline::write_annotated(&t, &cells, &portals, &out, format)?;
+    let method = portcullis::vis::Method::parse(&a.vis_method);
+    let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
+    let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
+        let opts = portcullis::vis::VisOptions {
+            method: pvs_method,
+            transform_depth: t
+                .config
+                .vis
+                .transform_depth
+                .unwrap_or(portcullis::vis::DEFAULT_TRANSFORM_DEPTH),
+            samples: t
+                .config
+                .vis
+                .samples
+                .unwrap_or(portcullis::vis::DEFAULT_SAMPLES),
+            ..Default::default()
+        };
+        portcullis::vis::of_level(cells.cells.len(), &portals, cells.tolerance.distance, &opts)
+    });
+    let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
+    let bytes = pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?;
     let written = if to_stdout {
         use std::io::Write;
         let mut so = std::io::stdout().lock();
@@ -171,8 +204,17 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;
     }
+    if let Some(path) = &a.prt {
+        write_prt(&mut t.diagnostics, cells.cells.len(), &portals, path)?;
+    }
     if let Some(path) = &a.svg {
-        let visible = a.pvs_of.map(|c| (c, reachable(&portals, c)));
+        let visible = a.pvs_of.map(|c| {
+            let seen: Vec<usize> = match &pvs {
+                Some(p) if c < p.cells() => p.visible(c).filter(|&v| v != c).collect(),
+                _ => Vec::new(),
+            };
+            (c, seen)
+        });
         if let Some((c, _)) = visible {
             if c >= cells.cells.len() {
                 return Err(Diagnostic::new(
@@ -203,26 +245,45 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     })
 }
 
-/// Cells reachable from `from` through portals that are not closed (the `flood` visibility).
-fn reachable(portals: &portcullis::portals::PortalSet, from: usize) -> Vec<usize> {
-    let mut seen = std::collections::BTreeSet::from([from]);
-    let mut stack = vec![from];
-    while let Some(c) = stack.pop() {
-        for p in portals.portals.iter().filter(|p| p.from == c && !p.closed) {
-            if let Some(to) = p.to {
-                if seen.insert(to) {
-                    stack.push(to);
-                }
-            }
-        }
-    }
-    seen.remove(&from);
-    seen.into_iter().collect()
+/// `-o OUT.prt`: only the portal file.
+fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, Diagnostic> {
+    let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    let cells = pipeline::build_cells(&mut t);
+    let portals = pipeline::build_portals(&mut t, &cells);
+    write_prt(&mut t.diagnostics, cells.cells.len(), &portals, out)?;
+    Ok(Outcome {
+        diagnostics: t.diagnostics.0.clone(),
+        summary: format!(
+            "{} -> {}: {} cells, {} portals",
+            input.display(),
+            out.display(),
+            cells.cells.len(),
+            portals.portals.len()
+        ),
+    })
+}
+
+fn write_prt(
+    diags: &mut portcullis::diag::Diagnostics,
+    cells: usize,
+    portals: &portcullis::portals::PortalSet,
+    out: &Path,
+) -> Result<(), Diagnostic> {
+    let (text, d) = portcullis::prt::write(cells, portals, out);
+    diags.extend(d);
+    portcullis::export::atomic::write(out, text.as_bytes()).map_err(|e| {
+        Diagnostic::new(
+            Code::OUTPUT_FAILED,
+            format!("cannot write `{}`: {e}", out.display()),
+            Location::file(out),
+        )
+        .hint("check that the folder exists and is writable")
+    })
 }
 
 pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
-    if a.files.len() > 1 && (a.debug.is_some() || a.svg.is_some()) {
-        eprintln!("error: --debug and --svg take one input");
+    if a.files.len() > 1 && (a.debug.is_some() || a.svg.is_some() || a.prt.is_some()) {
+        eprintln!("error: --debug, --svg and --prt take one input");
         return 2;
     }
     if a.files.len() > 1 && a.output.is_some() {

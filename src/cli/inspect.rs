@@ -76,6 +76,16 @@ struct AnnotationView {
     stale: bool,
     cells: usize,
     portals: usize,
+    /// The stored PVS: its method, encoding and visible pairs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    visibility: Option<VisibilityView>,
+}
+
+#[derive(Debug, Serialize)]
+struct VisibilityView {
+    method: String,
+    encoding: String,
+    pairs: usize,
 }
 
 /// Summarises (and with `validate`, checks) a stored annotation.
@@ -107,6 +117,33 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
         }
     }
     let a = read::annotation(&doc)?.ok()?;
+    let buffers = t
+        .scene
+        .gltf
+        .as_ref()
+        .map(|g| g.buffers.clone())
+        .unwrap_or_default();
+    let visibility = match read::visibility(&a, &doc, &buffers) {
+        Some(Ok(pvs)) => a.visibility.as_ref().map(|v| VisibilityView {
+            method: v["method"].as_str().unwrap_or_default().to_string(),
+            encoding: v["encoding"].as_str().unwrap_or_default().to_string(),
+            pairs: pvs.pairs(),
+        }),
+        Some(Err(e)) => {
+            if validate {
+                t.diagnostics.push(
+                    Diagnostic::new(
+                        Code::ANNOTATION_INVALID,
+                        format!("the stored annotation is invalid: {e}"),
+                        at(),
+                    )
+                    .hint("convert the level again to rewrite the annotation"),
+                );
+            }
+            None
+        }
+        None => None,
+    };
     let stale = a.input_hash != extension::input_hash(&t.scene, &t.tagging);
     if stale {
         t.diagnostics.push(
@@ -124,6 +161,7 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
         stale,
         cells: a.cells.len(),
         portals: a.portals.len(),
+        visibility,
     })
 }
 
@@ -520,6 +558,13 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                 ""
             }
         );
+        if let Some(v) = &a.visibility {
+            let _ = writeln!(
+                out,
+                "  visibility: {}, {} visible pairs ({})",
+                v.method, v.pairs, v.encoding
+            );
+        }
     }
     if let Some(c) = &r.config {
         let _ = writeln!(out, "  config: {}", c.display());

@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 pub mod convert;
 pub mod inspect;
 pub mod schema;
+pub mod vis;
 
 /// Cells and portals for game levels: import glTF / OBJ / USD, recognise rooms and portals from
 /// the designer's tags, check them, and write an annotated glTF.
@@ -33,6 +34,9 @@ pub enum Command {
     Convert(convert::ConvertArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
+    /// Print the PVS of each level (glTF, OBJ, USD or a Quake .prt), one line per cell as
+    /// `c: v1 v2 ...`; `--report` times every method against the sampled lower bound.
+    Vis(vis::VisArgs),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -87,6 +91,13 @@ pub fn run(cli: Cli) -> i32 {
             )
         }
         Command::Schema(a) => schema::run(&a),
+        Command::Vis(mut a) => {
+            a.files = expand_inputs(&a.files);
+            vis::run(
+                &a,
+                &portcullis::report::style::Style::for_stderr(&cli.color),
+            )
+        }
     }
 }
 

@@ -108,6 +108,17 @@ codes! {
     PORTAL_AUTHORED_WRONG_WAY = Warning, "an authored portal faces the wrong way for its tag convention";
     PORTAL_AUTHORED_AMBIGUOUS = Warning, "an authored portal covers openings between several pairs of rooms";
     PORTAL_NOT_PLANAR = Warning, "an authored portal's vertices are not on one plane";
+
+    // --- visibility ---
+    VIS_ONE_CELL = Info, "the level has one cell, so no visibility is stored";
+
+    // --- prt ---
+    PRT_UNKNOWN_FORMAT = Error, "the .prt file's first line names no portal file format portcullis reads";
+    PRT_SYNTAX = Error, "a line of the .prt file cannot be parsed or the file ends early";
+    PRT_BAD_INDEX = Error, "a .prt portal or cluster names a cell, cluster or leaf that does not exist";
+    PRT_TRAILING_DATA = Warning, "the .prt file has text after its last record";
+    PRT_PORTAL_DEGENERATE = Warning, "a .prt portal has no area or joins a cell to itself; it was skipped";
+    PRT_EXPORT_DROPPED = Warning, "one-way, closed, mirror or teleporter portals cannot be written to a .prt file";
 }
 
 impl fmt::Display for Code {

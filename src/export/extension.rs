@@ -67,6 +67,21 @@ pub fn input_hash(scene: &Scene, tagging: &Tagging) -> String {
 pub struct Annotation {
     pub root: Value,
     pub nodes: Vec<(usize, Value)>,
+    /// Bytes for a buffer view the root refers to (`visibility.bufferView`), appended by the
+    /// writer, which sets the index.
+    pub blob: Option<Vec<u8>>,
+}
+
+impl Annotation {
+    /// Stores the PVS (left out for a level of one cell).
+    pub fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
+        if let Some(e) = super::visibility::encode(pvs, method) {
+            if let Some(o) = self.root.as_object_mut() {
+                o.insert("visibility".into(), e.json);
+            }
+            self.blob = e.blob;
+        }
+    }
 }
 
 /// Builds the extension. `node_index` maps a scene node to its index in the written glTF.
@@ -201,5 +216,6 @@ pub fn build(
     Annotation {
         root: Value::Object(root),
         nodes,
+        blob: None,
     }
 }

@@ -137,11 +137,20 @@ pub fn write(
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let (mut doc, bin) = match &scene.gltf {
+    let (mut doc, mut bin) = match &scene.gltf {
         Some(src) => from_gltf(src, format, out_dir),
         None => from_scene(scene, format),
     };
     annotate(&mut doc, ann);
+    if let Some(blob) = &ann.blob {
+        let view = attach(&mut doc, &mut bin, format, blob);
+        if let Some(v) = doc
+            .pointer_mut(&format!("/extensions/{NAME}/visibility"))
+            .and_then(Value::as_object_mut)
+        {
+            v.insert("bufferView".into(), json!(view));
+        }
+    }
     match format {
         OutFormat::Glb => Ok(glb(&doc, bin.as_deref())),
         OutFormat::Gltf => {
@@ -189,6 +198,54 @@ fn annotate(doc: &mut Value, ann: &Annotation) {
                     e.insert(NAME.into(), v.clone());
                 }
             }
+        }
+    }
+}
+
+/// Appends `blob` as a new buffer view and returns its index: in the BIN chunk (buffer 0) of a
+/// .glb, as a buffer of its own with a data: URI in a .gltf.
+fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &[u8]) -> usize {
+    let buffer = match format {
+        OutFormat::Glb => {
+            let data = bin.get_or_insert_with(Vec::new);
+            while data.len() % 4 != 0 {
+                data.push(0);
+            }
+            let offset = data.len();
+            data.extend_from_slice(blob);
+            let len = data.len();
+            match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                Some(b) if !b.is_empty() => b[0]["byteLength"] = json!(len),
+                _ => doc["buffers"] = json!([{ "byteLength": len }]),
+            }
+            (0, offset)
+        }
+        OutFormat::Gltf => {
+            let entry = json!({"byteLength": blob.len(), "uri": data_uri(blob)});
+            match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                Some(b) => {
+                    b.push(entry);
+                    (b.len() - 1, 0)
+                }
+                None => {
+                    doc["buffers"] = json!([entry]);
+                    (0, 0)
+                }
+            }
+        }
+    };
+    let mut view = json!({"buffer": buffer.0, "byteLength": blob.len()});
+    if buffer.1 != 0 {
+        view["byteOffset"] = json!(buffer.1);
+    }
+    match doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
+        Some(v) => {
+            v.push(view);
+            v.len() - 1
+        }
+        None => {
+            doc["bufferViews"] = json!([view]);
+            0
         }
     }
 }

@@ -8,3 +8,4 @@ pub mod extension;
 pub mod gltf_out;
 pub mod read;
 pub mod svg;
+pub mod visibility;

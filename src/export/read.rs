@@ -19,6 +19,9 @@ pub struct Annotated {
     pub cells: Vec<CellRecord>,
     #[serde(default)]
     pub portals: Vec<PortalRecord>,
+    /// The stored PVS, encoded (see [`super::visibility`]); [`visibility`] decodes it.
+    #[serde(default)]
+    pub visibility: Option<Value>,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -81,6 +84,33 @@ pub fn annotation(doc: &Value) -> Option<Result<Annotated, String>> {
     Some(serde_json::from_value(ext.clone()).map_err(|e| e.to_string()))
 }
 
+/// The stored PVS, decoded. `buffers`: the document's buffers as loaded (for a .glb, buffer 0
+/// is the BIN chunk). `None` when the annotation stores no visibility.
+pub fn visibility(
+    a: &Annotated,
+    doc: &Value,
+    buffers: &[Vec<u8>],
+) -> Option<Result<crate::vis::Pvs, String>> {
+    let v = a.visibility.as_ref()?;
+    let blob = match v.get("bufferView").and_then(Value::as_u64) {
+        None => None,
+        Some(i) => {
+            let view = doc.get("bufferViews").and_then(|b| b.get(i as usize));
+            let bytes = view.and_then(|view| {
+                let b = view.get("buffer")?.as_u64()? as usize;
+                let off = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+                let len = view.get("byteLength")?.as_u64()? as usize;
+                buffers.get(b)?.get(off..off.checked_add(len)?)
+            });
+            match bytes {
+                Some(b) => Some(b),
+                None => return Some(Err(format!("visibility: buffer view {i} cannot be read"))),
+            }
+        }
+    };
+    Some(super::visibility::decode(v, a.cells.len(), blob))
+}
+
 /// Checks what the schema cannot: indices in range and partners mutual. One line per problem.
 pub fn consistency(a: &Annotated, node_count: usize) -> Vec<String> {
     let mut out = Vec::new();
@@ -132,6 +162,13 @@ pub fn consistency(a: &Annotated, node_count: usize) -> Vec<String> {
         if let Some(n) = p.node {
             if n >= node_count {
                 out.push(format!("/portals/{i}: node {n} does not exist"));
+            }
+        }
+    }
+    if let Some(v) = &a.visibility {
+        if v.get("encoding").and_then(Value::as_str) == Some("lists") {
+            if let Err(e) = super::visibility::decode(v, cells, None) {
+                out.push(format!("/visibility: {e}"));
             }
         }
     }

@@ -1,0 +1,151 @@
+//! `portcullis vis FILE...`: the PVS of each level, one line per cell as `c: v1 v2 ...` in the
+//! cell order of the extension (or of the .prt file), or with `--report` a table of run time,
+//! visible pairs and over-estimate against the sampled lower bound for every method.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use portcullis::diag::Diagnostic;
+use portcullis::report::{human, style::Style, Totals};
+use portcullis::vis::{self, load, Method, VisOptions};
+
+use super::LevelArgs;
+
+#[derive(Debug, Args)]
+pub struct VisArgs {
+    /// Levels: .gltf, .glb, .obj, .usd*, or a Quake portal file .prt (PRT1, PRT2, PRT1-AM).
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+
+    /// flood (reachability), fast (Quake's might-see), full (portal flow with separating
+    /// planes, conservative), sampled (random sightlines: a lower bound).
+    #[arg(long, default_value = "full", value_parser = ["flood", "fast", "full", "sampled"])]
+    pub method: String,
+
+    /// Sightlines per directed portal for `sampled` and the report's lower bound.
+    #[arg(long, value_name = "N")]
+    pub samples: Option<usize>,
+
+    /// Worker threads (default: one per core). The result is the same for any count.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+
+    /// Transformed portals (mirrors, teleporters) one sightline may pass through; default from
+    /// `[vis] transform_depth`, else the built-in bound.
+    #[arg(long, value_name = "N")]
+    pub transform_depth: Option<usize>,
+
+    /// Instead of the PVS, print per level and method: run time, visible pairs, and the
+    /// over-estimate against the sampled lower bound (with its sample count).
+    #[arg(long)]
+    pub report: bool,
+
+    /// With --report, the methods to time (comma-separated; default all four).
+    #[arg(long, value_name = "LIST", requires = "report", value_delimiter = ',')]
+    pub methods: Vec<String>,
+
+    #[command(flatten)]
+    pub level: LevelArgs,
+}
+
+fn options(a: &VisArgs, cfg: &portcullis::config::Config, method: Method) -> VisOptions {
+    VisOptions {
+        method,
+        samples: a
+            .samples
+            .or(cfg.vis.samples)
+            .unwrap_or(vis::DEFAULT_SAMPLES),
+        threads: a.threads,
+        transform_depth: a
+            .transform_depth
+            .or(cfg.vis.transform_depth)
+            .unwrap_or(vis::DEFAULT_TRANSFORM_DEPTH),
+        ..Default::default()
+    }
+}
+
+pub fn run(a: &VisArgs, style: &Style) -> i32 {
+    let mut totals = Totals::default();
+    let mut methods = Vec::new();
+    for m in &a.methods {
+        match Method::parse(m) {
+            Some(m) => methods.push(m),
+            None => {
+                eprintln!("error: --methods: `{m}` is not flood, fast, full or sampled");
+                return 2;
+            }
+        }
+    }
+    if methods.is_empty() {
+        methods = Method::ALL.to_vec();
+    }
+    if a.report {
+        println!("| level | cells | portals | method | threads | time | pairs | over lower bound | samples |");
+        println!("|---|---|---|---|---|---|---|---|---|");
+    }
+    for f in &a.files {
+        totals.files += 1;
+        match one(a, f, &methods) {
+            Ok(diags) => {
+                totals.add(diags.iter());
+                eprint!("{}", human::diagnostics(diags.iter(), style));
+            }
+            Err(d) => {
+                totals.failed += 1;
+                totals.add([&d]);
+                eprintln!("{}", human::diagnostic(&d, style));
+            }
+        }
+    }
+    if a.files.len() > 1 || totals.failed > 0 {
+        eprintln!("{}", totals.line());
+    }
+    totals.exit_code(false)
+}
+
+fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Diagnostic> {
+    let loaded = load::load(f, &a.level.load_options())?;
+    let g = &loaded.graph;
+    let method = Method::parse(&a.method).unwrap_or(Method::Full);
+    if !a.report {
+        let pvs = vis::compute(g, &options(a, &loaded.config, method));
+        if a.files.len() > 1 {
+            println!("# {}", f.display());
+        }
+        print!("{}", pvs.to_text());
+        return Ok(loaded.diagnostics.0);
+    }
+    let lower_opts = options(a, &loaded.config, Method::Sampled);
+    let (lower, lower_time) = vis::timed(g, &lower_opts);
+    let threads = a
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    for &m in methods {
+        let (pvs, time) = if m == Method::Sampled {
+            (lower.clone(), lower_time)
+        } else {
+            vis::timed(g, &options(a, &loaded.config, m))
+        };
+        let over = pvs.pairs() as f64 / lower.pairs().max(1) as f64 - 1.0;
+        let missing = lower.missing_from(&pvs).len();
+        println!(
+            "| {} | {} | {} | {} | {} | {:.3} s | {} | {:+.1}%{} | {} |",
+            f.file_name().unwrap_or_default().to_string_lossy(),
+            g.cells,
+            g.portals.len(),
+            m.name(),
+            threads,
+            time.as_secs_f64(),
+            pvs.pairs(),
+            over * 100.0,
+            if missing > 0 && m != Method::Sampled {
+                format!(" ({missing} lower-bound pairs missing)")
+            } else {
+                String::new()
+            },
+            lower_opts.samples,
+        );
+    }
+    Ok(loaded.diagnostics.0)
+}

@@ -1,0 +1,199 @@
+//! The `visibility` property of the extension: the PVS in the smallest encoding that fits.
+//!
+//! - `lists`: per cell the ascending indices it sees (itself included), inline JSON; small
+//!   levels, where a buffer view costs more than the numbers.
+//! - `bits`: one row of `rowBytes = ceil(cells / 8)` bytes per cell in a buffer view, cell `j`
+//!   in bit `j % 8` (least significant first) of byte `j / 8`.
+//! - `bitsZeroRun`: the same rows, concatenated and zero-run compressed as Quake does: a
+//!   non-zero byte stands for itself, a zero byte is followed by one byte counting the zero
+//!   bytes it stands for (1–255). Chosen when it is at most 3/4 of `bits`.
+//!
+//! Left out when the level has one cell (it sees itself; nothing to store).
+
+use serde_json::{json, Value};
+
+use crate::vis::{Method, Pvs};
+
+/// Cells up to which the lists are always used.
+const LISTS_UP_TO: usize = 16;
+
+/// What the glTF writer stores: the JSON object, and the bytes its `bufferView` points at.
+pub struct Encoded {
+    pub json: Value,
+    pub blob: Option<Vec<u8>>,
+}
+
+pub fn row_bytes(pvs: &Pvs, c: usize) -> Vec<u8> {
+    let n = pvs.cells().div_ceil(8);
+    let mut out = vec![0u8; n];
+    for v in pvs.visible(c) {
+        out[v / 8] |= 1 << (v % 8);
+    }
+    out
+}
+
+pub fn zero_run(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] != 0 {
+            out.push(bytes[i]);
+            i += 1;
+            continue;
+        }
+        let mut run = 0;
+        while i < bytes.len() && bytes[i] == 0 && run < 255 {
+            run += 1;
+            i += 1;
+        }
+        out.push(0);
+        out.push(run as u8);
+    }
+    out
+}
+
+/// Undoes [`zero_run`]; `None` if the data is cut short.
+pub fn zero_run_decode(data: &[u8], expected: usize) -> Option<Vec<u8>> {
+    let mut out = Vec::with_capacity(expected);
+    let mut i = 0;
+    while i < data.len() && out.len() < expected {
+        if data[i] != 0 {
+            out.push(data[i]);
+            i += 1;
+        } else {
+            let run = *data.get(i + 1)? as usize;
+            if run == 0 {
+                return None;
+            }
+            out.resize(out.len() + run, 0);
+            i += 2;
+        }
+    }
+    (out.len() == expected).then_some(out)
+}
+
+/// The smallest encoding; `None` for a level of one cell or none.
+pub fn encode(pvs: &Pvs, method: Method) -> Option<Encoded> {
+    let n = pvs.cells();
+    if n < 2 {
+        return None;
+    }
+    let lists: Vec<Vec<usize>> = (0..n).map(|c| pvs.visible(c).collect()).collect();
+    let lists_json = json!(lists);
+    let lists_len = lists_json.to_string().len();
+    let mut bits = Vec::with_capacity(n * n.div_ceil(8));
+    for c in 0..n {
+        bits.extend(row_bytes(pvs, c));
+    }
+    let zr = zero_run(&bits);
+    // A buffer view costs its JSON and padding; numbers inline cost their digits.
+    let (bin_len, compressed) = if zr.len() * 4 <= bits.len() * 3 {
+        (zr.len(), true)
+    } else {
+        (bits.len(), false)
+    };
+    if n <= LISTS_UP_TO || lists_len <= bin_len + 64 {
+        return Some(Encoded {
+            json: json!({"method": method.name(), "encoding": "lists", "lists": lists_json}),
+            blob: None,
+        });
+    }
+    let encoding = if compressed { "bitsZeroRun" } else { "bits" };
+    Some(Encoded {
+        json: json!({
+            "method": method.name(),
+            "encoding": encoding,
+            "rowBytes": n.div_ceil(8),
+            "bufferView": 0,
+        }),
+        blob: Some(if compressed { zr } else { bits }),
+    })
+}
+
+/// Reads an encoded PVS back (`blob`: the bytes of its buffer view). `Err` says what is wrong.
+pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, String> {
+    let enc = json.get("encoding").and_then(Value::as_str).unwrap_or("");
+    let mut pvs = Pvs::identity(cells);
+    pvs.bits = crate::vis::bits::BitMatrix::new(cells);
+    match enc {
+        "lists" => {
+            let lists = json
+                .get("lists")
+                .and_then(Value::as_array)
+                .ok_or("`lists` is missing")?;
+            if lists.len() != cells {
+                return Err(format!("{} lists for {cells} cells", lists.len()));
+            }
+            for (c, l) in lists.iter().enumerate() {
+                for v in l.as_array().ok_or("a list is not an array")? {
+                    let v = v.as_u64().ok_or("a list holds a non-index")? as usize;
+                    if v >= cells {
+                        return Err(format!("/lists/{c}: cell {v} does not exist"));
+                    }
+                    pvs.bits.set(c, v);
+                }
+            }
+        }
+        "bits" | "bitsZeroRun" => {
+            let rb = cells.div_ceil(8);
+            if json.get("rowBytes").and_then(Value::as_u64) != Some(rb as u64) {
+                return Err(format!("rowBytes must be {rb} for {cells} cells"));
+            }
+            let data = blob.ok_or("the buffer view cannot be read")?;
+            let raw = if enc == "bits" {
+                (data.len() >= rb * cells).then(|| data[..rb * cells].to_vec())
+            } else {
+                zero_run_decode(data, rb * cells)
+            }
+            .ok_or("the buffer view holds fewer rows than cells")?;
+            for c in 0..cells {
+                for v in 0..cells {
+                    if raw[c * rb + v / 8] >> (v % 8) & 1 == 1 {
+                        pvs.bits.set(c, v);
+                    }
+                }
+            }
+        }
+        other => return Err(format!("unknown visibility encoding `{other}`")),
+    }
+    Ok(pvs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(n: usize, every: usize) -> Pvs {
+        let mut p = Pvs::identity(n);
+        for c in 0..n {
+            for v in (0..n).step_by(every) {
+                p.bits.set(c, v);
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn every_encoding_round_trips() {
+        for (n, every) in [(3, 1), (40, 1), (300, 97), (300, 3), (2000, 700)] {
+            let p = sample(n, every);
+            let e = encode(&p, Method::Full).unwrap();
+            let back = decode(&e.json, n, e.blob.as_deref()).unwrap();
+            assert_eq!(back, p, "{n} {every} {}", e.json["encoding"]);
+        }
+        assert_eq!(
+            encode(&sample(300, 97), Method::Full).unwrap().json["encoding"],
+            "bitsZeroRun"
+        );
+        assert_eq!(
+            encode(&sample(300, 3), Method::Full).unwrap().json["encoding"],
+            "bits"
+        );
+        assert_eq!(
+            encode(&sample(3, 1), Method::Full).unwrap().json["encoding"],
+            "lists"
+        );
+        assert!(encode(&Pvs::identity(1), Method::Full).is_none());
+        assert_eq!(zero_run(&[0; 600]), vec![0, 255, 0, 255, 0, 90]);
+    }
+}

@@ -1,0 +1,108 @@
+//! `fast`: Quake's "might see" per directed portal. A portal `q` can be seen through `p` only
+//! if part of `q` is in front of `p` and part of `p` is behind `q`; a flood from `p`'s target
+//! through such portals bounds what `p` sees. It is the method's result and the full flow's
+//! starting filter.
+//!
+//! Behind a transformed portal the planes of the world no longer describe the view, so from
+//! there the flood takes every reachable portal: still conservative, still inside `flood`.
+
+use rayon::prelude::*;
+
+use super::bits;
+use super::graph::VisGraph;
+use super::pvs::Pvs;
+
+/// Per directed portal, the portals it might see (a bit row over portals).
+pub fn might_see(g: &VisGraph, depth: usize) -> Vec<Vec<u64>> {
+    (0..g.portals.len())
+        .into_par_iter()
+        .map(|p| one(g, p, depth))
+        .collect()
+}
+
+/// Whether `q` is in front of `p` and `p` partly behind `q`.
+fn in_front(g: &VisGraph, p: usize, q: usize) -> bool {
+    let (pp, qq) = (&g.portals[p], &g.portals[q]);
+    let eps = g.epsilon;
+    qq.winding.iter().any(|v| pp.plane.distance(*v) > eps)
+        && pp.winding.iter().any(|v| qq.plane.distance(*v) < -eps)
+}
+
+fn one(g: &VisGraph, p: usize, depth: usize) -> Vec<u64> {
+    let n = g.portals.len();
+    let mut might = vec![0u64; bits::words(n)];
+    let src = &g.portals[p];
+    if src.transform.is_some() {
+        if depth > 0 {
+            flood_all(g, src.to, &mut might);
+        }
+        return might;
+    }
+    // Quake's filter: one pass over all portals, then the flood through those that pass.
+    let mut front = vec![0u64; bits::words(n)];
+    for q in 0..n {
+        if q != p && in_front(g, p, q) {
+            bits::set(&mut front, q);
+        }
+    }
+    let mut stack = vec![src.to];
+    while let Some(c) = stack.pop() {
+        for &q in &g.leaving[c] {
+            if !bits::get(&front, q) || bits::get(&might, q) {
+                continue;
+            }
+            bits::set(&mut might, q);
+            if g.portals[q].transform.is_some() {
+                if depth > 0 {
+                    flood_all(g, g.portals[q].to, &mut might);
+                }
+            } else {
+                stack.push(g.portals[q].to);
+            }
+        }
+    }
+    might
+}
+
+/// Every portal reachable from `cell`, into `out`. Its own visited set: a portal already in
+/// `out` by the filtered flood may still lead somewhere only this unfiltered one goes.
+fn flood_all(g: &VisGraph, cell: usize, out: &mut [u64]) {
+    let mut seen = vec![0u64; out.len()];
+    let mut stack = vec![cell];
+    while let Some(c) = stack.pop() {
+        for &q in &g.leaving[c] {
+            if !bits::get(&seen, q) {
+                bits::set(&mut seen, q);
+                bits::set(out, q);
+                stack.push(g.portals[q].to);
+            }
+        }
+    }
+}
+
+/// The cell PVS from per-portal sets: a cell sees itself, the cells its portals lead into
+/// (through a transformed one only when `depth` allows one), and the targets of everything
+/// its portals see.
+pub fn cell_pvs(g: &VisGraph, portal_vis: &[Vec<u64>], depth: usize) -> Pvs {
+    let mut out = Pvs::identity(g.cells);
+    let mut row = vec![0u64; bits::words(g.portals.len())];
+    for c in 0..g.cells {
+        row.iter_mut().for_each(|w| *w = 0);
+        for &p in &g.leaving[c] {
+            if g.portals[p].transform.is_none() || depth > 0 {
+                out.bits.set(c, g.portals[p].to);
+            }
+            for (w, v) in row.iter_mut().zip(&portal_vis[p]) {
+                *w |= v;
+            }
+        }
+        for q in bits::ones(&row) {
+            out.bits.set(c, g.portals[q].to);
+        }
+    }
+    out
+}
+
+pub fn pvs(g: &VisGraph, depth: usize) -> Pvs {
+    cell_pvs(g, &might_see(g, depth), depth)
+}

@@ -1,0 +1,252 @@
+//! `full`: Quake's portal flow. From each directed portal (the source) the flow walks into the
+//! cells beyond, and for each further portal keeps only the part that can be seen from the
+//! source through every portal passed so far: the pass portal is clipped by the source's plane,
+//! the source by the pass portal's back, and both by the separating planes between them (an
+//! edge of one and a vertex of the other, with the two on opposite sides), all four ways as in
+//! ericw-tools' `testlevel 4`. A portal with anything left is visible; the flow recurses
+//! through it with what is left. Every sightline through the chain passes through what is
+//! left, so the result is conservative.
+//!
+//! Speed comes from never looking at what cannot matter: the stack carries the "might see"
+//! bits of every portal passed (ANDed), a portal whose might-see adds nothing new to what the
+//! source already sees and that is itself already seen is skipped, and the polygons live in
+//! per-depth buffers reused for the whole run. Portals are processed in waves ordered by their
+//! might-see count; a wave uses the finished results of earlier waves as its (tighter)
+//! might-see, so the result depends only on the wave split, never on the thread count.
+//!
+//! A transformed portal moves the whole stack (source, pass, planes) into the target side's
+//! space, and the might-see of the world no longer applies, so it is reset to every portal;
+//! `depth` bounds how many transformed portals one chain may pass.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::bits;
+use super::graph::{transform_plane, VisGraph};
+use super::pvs::Pvs;
+use super::winding::{chop, chop_how, clip_by, clip_to_separators, separators, Chop};
+use crate::geom::plane::Plane;
+
+/// ericw-tools' tests 2 and 3: also narrow the source by the separators of the target.
+const NARROW_SOURCE: bool = true;
+
+#[derive(Default)]
+struct Frame {
+    source: Vec<DVec3>,
+    pass: Vec<DVec3>,
+    has_pass: bool,
+    /// The plane of the portal this frame went through (facing onwards).
+    pass_plane: Option<Plane>,
+    /// The source portal's plane, in this frame's space.
+    source_plane: Option<Plane>,
+    might: Vec<u64>,
+    transforms: usize,
+    /// The separating planes between this frame's source and pass, computed on first use.
+    seps: Vec<Plane>,
+    seps_ready: bool,
+}
+
+struct Run<'a> {
+    g: &'a VisGraph,
+    flood: &'a [Vec<u64>],
+    done: &'a [Option<Vec<u64>>],
+    depth: usize,
+    all: Vec<u64>,
+}
+
+struct State {
+    frames: Vec<Frame>,
+    vis: Vec<u64>,
+    tmp: Vec<DVec3>,
+    tmp2: Vec<DVec3>,
+    planes: Vec<Plane>,
+}
+
+/// How many waves the sorted portals are split into.
+const WAVES: usize = 24;
+
+/// The cell PVS. `flood`: the `fast` might-see sets, the filter of the flow.
+pub fn pvs(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Pvs {
+    super::fast::cell_pvs(g, &portal_vis(g, flood, depth), depth)
+}
+
+/// Per directed portal, the portals it sees.
+pub fn portal_vis(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Vec<Vec<u64>> {
+    let n = g.portals.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by_key(|&p| (bits::count(&flood[p]), p));
+    let mut done: Vec<Option<Vec<u64>>> = vec![None; n];
+    let wave = n.div_ceil(WAVES).max(1);
+    for chunk in order.chunks(wave) {
+        let run = Run {
+            g,
+            flood,
+            done: &done,
+            depth,
+            all: bits::all(n),
+        };
+        let results: Vec<Vec<u64>> = chunk
+            .par_iter()
+            .map_init(
+                || State {
+                    frames: Vec::new(),
+                    vis: Vec::new(),
+                    tmp: Vec::new(),
+                    tmp2: Vec::new(),
+                    planes: Vec::new(),
+                },
+                |st, &p| run.source(st, p),
+            )
+            .collect();
+        for (&p, r) in chunk.iter().zip(results) {
+            done[p] = Some(r);
+        }
+    }
+    done.into_iter().map(|r| r.unwrap_or_default()).collect()
+}
+
+impl Run<'_> {
+    fn frame(st: &mut State, d: usize, words: usize) {
+        while st.frames.len() <= d {
+            st.frames.push(Frame {
+                might: vec![0; words],
+                ..Default::default()
+            });
+        }
+    }
+
+    fn source(&self, st: &mut State, p: usize) -> Vec<u64> {
+        let g = self.g;
+        let words = bits::words(g.portals.len());
+        st.vis.clear();
+        st.vis.resize(words, 0);
+        let src = &g.portals[p];
+        Self::frame(st, 0, words);
+        let f = &mut st.frames[0];
+        f.source.clear();
+        f.source.extend_from_slice(&src.winding);
+        f.has_pass = false;
+        f.pass_plane = Some(src.plane);
+        f.source_plane = Some(src.plane);
+        f.might.copy_from_slice(&self.flood[p]);
+        f.transforms = 0;
+        f.seps_ready = false;
+        if let Some(m) = src.transform {
+            if self.depth == 0 {
+                return st.vis.clone();
+            }
+            for v in f.source.iter_mut() {
+                *v = m.transform_point3(*v);
+            }
+            let pl = transform_plane(&m, &src.plane);
+            f.pass_plane = Some(pl);
+            f.source_plane = Some(pl);
+            f.might.copy_from_slice(&self.all);
+            f.transforms = 1;
+        }
+        self.flow(st, 0, src.to);
+        st.vis.clone()
+    }
+
+    fn flow(&self, st: &mut State, d: usize, cell: usize) {
+        let g = self.g;
+        let eps = g.epsilon;
+        let words = st.vis.len();
+        Self::frame(st, d + 1, words);
+        for &q in &g.leaving[cell] {
+            let (lo, hi) = st.frames.split_at_mut(d + 1);
+            let cur = &mut lo[d];
+            let next = &mut hi[0];
+            if !bits::get(&cur.might, q) {
+                continue;
+            }
+            let portal = &g.portals[q];
+            if portal.transform.is_some() && cur.transforms >= self.depth {
+                continue;
+            }
+            let test = self.done[q].as_deref().unwrap_or(&self.flood[q]);
+            let mut more = 0u64;
+            for ((m, (a, b)), v) in next
+                .might
+                .iter_mut()
+                .zip(cur.might.iter().zip(test))
+                .zip(&st.vis)
+            {
+                *m = a & b;
+                more |= *m & !v;
+            }
+            if more == 0 && bits::get(&st.vis, q) {
+                continue;
+            }
+            let source_plane = cur.source_plane.expect("set on every frame");
+            let pass_plane = portal.plane;
+            // What of the portal is in front of the source.
+            if !chop(&portal.winding, &source_plane, eps, &mut next.pass) {
+                continue;
+            }
+            // What of the source is behind the portal.
+            let source_cut =
+                match chop_how(&cur.source, &pass_plane.flipped(), eps, &mut next.source) {
+                    Chop::Gone => continue,
+                    Chop::Whole => false,
+                    Chop::Cut => true,
+                };
+            if cur.has_pass {
+                let prev_plane = cur.pass_plane.expect("set on every frame");
+                if !chop(&next.pass, &prev_plane, eps, &mut st.tmp) {
+                    continue;
+                }
+                std::mem::swap(&mut next.pass, &mut st.tmp);
+                let t = &mut st.tmp;
+                // Separators between the source and the previous pass: the frame's own set
+                // while the source is uncut, which is nearly always.
+                let planes = if source_cut {
+                    st.planes.clear();
+                    separators(&next.source, &cur.pass, false, eps, &mut st.planes);
+                    separators(&cur.pass, &next.source, true, eps, &mut st.planes);
+                    &st.planes
+                } else {
+                    if !cur.seps_ready {
+                        cur.seps.clear();
+                        separators(&cur.source, &cur.pass, false, eps, &mut cur.seps);
+                        separators(&cur.pass, &cur.source, true, eps, &mut cur.seps);
+                        cur.seps_ready = true;
+                    }
+                    &cur.seps
+                };
+                if !clip_by(planes, &mut next.pass, t, eps) {
+                    continue;
+                }
+                if NARROW_SOURCE {
+                    // Narrow the source by what the target now allows, both ways; this keeps
+                    // later separators tight.
+                    let t2 = &mut st.tmp2;
+                    t2.clear();
+                    t2.extend_from_slice(&next.source);
+                    if !clip_to_separators(&next.pass, &cur.pass, t2, t, false, eps)
+                        || !clip_to_separators(&cur.pass, &next.pass, t2, t, true, eps)
+                    {
+                        continue;
+                    }
+                    std::mem::swap(&mut next.source, t2);
+                }
+            }
+            next.seps_ready = false;
+            next.has_pass = true;
+            next.pass_plane = Some(pass_plane);
+            next.source_plane = Some(source_plane);
+            next.transforms = cur.transforms;
+            if let Some(m) = portal.transform {
+                for v in next.source.iter_mut().chain(next.pass.iter_mut()) {
+                    *v = m.transform_point3(*v);
+                }
+                next.pass_plane = Some(transform_plane(&m, &pass_plane));
+                next.source_plane = Some(transform_plane(&m, &source_plane));
+                next.might.copy_from_slice(&self.all);
+                next.transforms += 1;
+            }
+            bits::set(&mut st.vis, q);
+            self.flow(st, d + 1, portal.to);
+        }
+    }
+}

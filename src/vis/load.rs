@@ -1,0 +1,41 @@
+//! The portal graph of any input the command line accepts: a .prt file directly, or a level
+//! (glTF, OBJ, USD) through the same import, tags, cells and portals stages `convert` runs.
+
+use std::path::Path;
+
+use crate::diag::{Diagnostic, Diagnostics};
+use crate::pipeline::{self, LoadOptions};
+
+use super::VisGraph;
+
+/// A graph ready for [`super::compute`] and what reading it reported.
+pub struct Loaded {
+    pub graph: VisGraph,
+    pub diagnostics: Diagnostics,
+    pub config: crate::config::Config,
+}
+
+pub fn is_prt(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("prt"))
+}
+
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
+    if is_prt(path) {
+        let config = pipeline::config_for(path, opts)?;
+        let (file, diags) = crate::prt::read(path)?;
+        return Ok(Loaded {
+            graph: file.graph(None),
+            diagnostics: Diagnostics(diags),
+            config,
+        });
+    }
+    let mut t = pipeline::load_tagged(path, opts)?;
+    let cells = pipeline::build_cells(&mut t);
+    let portals = pipeline::build_portals(&mut t, &cells);
+    Ok(Loaded {
+        graph: VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance),
+        diagnostics: t.diagnostics,
+        config: t.config,
+    })
+}

@@ -1,0 +1,128 @@
+//! Visibility: the cell-to-cell potentially visible set (PVS).
+//!
+//! Four methods on one portal graph ([`graph::VisGraph`]), from loose to tight: `flood`
+//! (reachability), `fast` (Quake's per-portal "might see"), `full` (portal flow with
+//! separating-plane clipping, as Quake's vis), and `sampled` (random sightlines walked through
+//! the portals, a lower bound). The conservative three nest: full ⊆ fast ⊆ flood, and every
+//! sampled pair is in full. Transformed portals (mirrors, teleporters) are followed with their
+//! transform applied, through at most [`VisOptions::transform_depth`] of them per sightline.
+//!
+//! Results never depend on the thread count: parallel work is split by source portal and
+//! merged in a fixed order (see `full.rs` and `sampled.rs`).
+
+pub mod bits;
+mod fast;
+mod flood;
+mod full;
+pub mod graph;
+pub mod load;
+pub mod pvs;
+mod sampled;
+pub mod winding;
+
+use std::time::{Duration, Instant};
+
+use crate::portals::PortalSet;
+pub use graph::{VisGraph, VisPortal};
+pub use pvs::Pvs;
+
+/// How many transformed portals (mirrors, teleporters) one sightline may pass through, until
+/// the loop check on main provides the run-time bound (`portals::loops::recursion_depth`);
+/// two covers a mirror seen in a mirror, which is what engines render by default.
+pub const DEFAULT_TRANSFORM_DEPTH: usize = 2;
+
+/// Default sightlines per directed portal for `sampled`.
+pub const DEFAULT_SAMPLES: usize = 2000;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Method {
+    Flood,
+    Fast,
+    Full,
+    Sampled,
+}
+
+impl Method {
+    pub const ALL: [Method; 4] = [Method::Flood, Method::Fast, Method::Full, Method::Sampled];
+
+    pub fn parse(s: &str) -> Option<Method> {
+        Some(match s {
+            "flood" => Method::Flood,
+            "fast" => Method::Fast,
+            "full" => Method::Full,
+            "sampled" => Method::Sampled,
+            _ => return None,
+        })
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Flood => "flood",
+            Method::Fast => "fast",
+            Method::Full => "full",
+            Method::Sampled => "sampled",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct VisOptions {
+    pub method: Method,
+    /// Sightlines per directed portal (`sampled`).
+    pub samples: usize,
+    /// Worker threads; `None`: rayon's default (one per core).
+    pub threads: Option<usize>,
+    /// Transformed portals one sightline may pass through.
+    pub transform_depth: usize,
+    /// Seed of the sampler's generators.
+    pub seed: u64,
+}
+
+impl Default for VisOptions {
+    fn default() -> Self {
+        VisOptions {
+            method: Method::Full,
+            samples: DEFAULT_SAMPLES,
+            threads: None,
+            transform_depth: DEFAULT_TRANSFORM_DEPTH,
+            seed: 1,
+        }
+    }
+}
+
+/// The PVS of a portal graph.
+pub fn compute(g: &VisGraph, opts: &VisOptions) -> Pvs {
+    let run = || match opts.method {
+        Method::Flood => flood::pvs(g),
+        Method::Fast => fast::pvs(g, opts.transform_depth),
+        Method::Full => {
+            let might = fast::might_see(g, opts.transform_depth);
+            full::pvs(g, &might, opts.transform_depth)
+        }
+        Method::Sampled => {
+            let might = fast::might_see(g, opts.transform_depth);
+            sampled::pvs(g, &might, opts.samples, opts.transform_depth, opts.seed)
+        }
+    };
+    // A pool of our own: the requested size, and a deep stack for the flow's recursion
+    // (one level per portal on a chain).
+    let mut b = rayon::ThreadPoolBuilder::new().stack_size(64 << 20);
+    if let Some(t) = opts.threads {
+        b = b.num_threads(t.max(1));
+    }
+    match b.build() {
+        Ok(pool) => pool.install(run),
+        Err(_) => run(),
+    }
+}
+
+/// [`compute`] and how long it took.
+pub fn timed(g: &VisGraph, opts: &VisOptions) -> (Pvs, Duration) {
+    let t = Instant::now();
+    let p = compute(g, opts);
+    (p, t.elapsed())
+}
+
+/// The PVS of a level's cells and portals.
+pub fn of_level(cells: usize, portals: &PortalSet, epsilon: f64, opts: &VisOptions) -> Pvs {
+    compute(&VisGraph::from_portal_set(cells, portals, epsilon), opts)
+}

@@ -1,0 +1,104 @@
+//! The result of every method: one row of cell bits per cell, the row of `c` holding the cells
+//! visible from `c`, `c` included. Ordered pairs, because one-way portals make visibility
+//! asymmetric.
+
+use super::bits::{self, BitMatrix};
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Pvs {
+    pub bits: BitMatrix,
+}
+
+impl Pvs {
+    /// Every cell sees itself and nothing else yet.
+    pub fn identity(cells: usize) -> Pvs {
+        let mut bits = BitMatrix::new(cells);
+        for c in 0..cells {
+            bits.set(c, c);
+        }
+        Pvs { bits }
+    }
+    pub fn cells(&self) -> usize {
+        self.bits.len()
+    }
+    pub fn sees(&self, from: usize, to: usize) -> bool {
+        self.bits.get(from, to)
+    }
+    pub fn visible(&self, from: usize) -> impl Iterator<Item = usize> + '_ {
+        bits::ones(self.bits.row(from))
+    }
+    /// Ordered (cell, cell) pairs, each cell with itself included — the count the Quake
+    /// tools report, so numbers compare directly.
+    pub fn pairs(&self) -> usize {
+        self.bits.count()
+    }
+    pub fn is_subset_of(&self, other: &Pvs) -> bool {
+        self.bits.is_subset_of(&other.bits)
+    }
+    /// Pairs set here and not in `other`, in row order.
+    pub fn missing_from(&self, other: &Pvs) -> Vec<(usize, usize)> {
+        (0..self.cells())
+            .flat_map(|c| {
+                self.visible(c)
+                    .filter(move |&v| other.cells() <= c.max(v) || !other.sees(c, v))
+                    .map(move |v| (c, v))
+            })
+            .collect()
+    }
+
+    /// One line per cell, `c: v1 v2 ...`, ascending (the form of the reference files).
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        for c in 0..self.cells() {
+            s.push_str(&c.to_string());
+            s.push(':');
+            for v in self.visible(c) {
+                s.push(' ');
+                s.push_str(&v.to_string());
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// Reads the `c: v1 v2 ...` form. `Err` names the line (1-based) that does not parse.
+    pub fn parse_text(text: &str, cells: usize) -> Result<Pvs, String> {
+        let mut bits = BitMatrix::new(cells);
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() {
+                continue;
+            }
+            let bad = |what: &str| format!("line {}: {what}", i + 1);
+            let (c, rest) = line.split_once(':').ok_or_else(|| bad("no `:`"))?;
+            let c: usize = c.trim().parse().map_err(|_| bad("bad cell index"))?;
+            if c >= cells {
+                return Err(bad("cell index out of range"));
+            }
+            for t in rest.split_whitespace() {
+                let v: usize = t.parse().map_err(|_| bad("bad visible cell"))?;
+                if v >= cells {
+                    return Err(bad("visible cell out of range"));
+                }
+                bits.set(c, v);
+            }
+        }
+        Ok(Pvs { bits })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn text_round_trips() {
+        let mut p = Pvs::identity(3);
+        p.bits.set(0, 2);
+        let t = p.to_text();
+        assert_eq!(t, "0: 0 2\n1: 1\n2: 2\n");
+        assert_eq!(Pvs::parse_text(&t, 3).unwrap(), p);
+        assert_eq!(p.pairs(), 4);
+        assert!(Pvs::parse_text("0: 5", 3).is_err());
+    }
+}

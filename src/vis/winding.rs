@@ -1,0 +1,234 @@
+//! Convex polygon clipping for the flow, into caller-owned buffers so the inner loop never
+//! allocates.
+//!
+//! The rule is Quake's: a point within `eps` of the plane is on it and kept; a polygon with no
+//! point in front is gone; one with no point behind is kept whole. Cuts are made at the plane
+//! itself, so an on-plane sliver is never manufactured from nothing.
+
+use glam::DVec3;
+
+use crate::geom::plane::Plane;
+
+/// What a chop left.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Chop {
+    Gone,
+    Whole,
+    Cut,
+}
+
+/// Keeps the part of `input` in front of `plane`, written to `out`. False: nothing is left.
+pub fn chop(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> bool {
+    chop_how(input, plane, eps, out) != Chop::Gone
+}
+
+/// [`chop`], saying whether anything was cut.
+pub fn chop_how(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
+    out.clear();
+    let mut front = false;
+    let mut back = false;
+    // Distances are kept for the cut, on the stack for the usual small polygon.
+    let mut buf = [0.0f64; 32];
+    let mut heap = Vec::new();
+    let dists: &mut [f64] = if input.len() <= buf.len() {
+        &mut buf[..input.len()]
+    } else {
+        heap.resize(input.len(), 0.0);
+        &mut heap
+    };
+    for (p, d) in input.iter().zip(dists.iter_mut()) {
+        *d = plane.distance(*p);
+        if *d > eps {
+            front = true;
+        } else if *d < -eps {
+            back = true;
+        }
+    }
+    if !front {
+        return Chop::Gone;
+    }
+    if !back {
+        out.extend_from_slice(input);
+        return Chop::Whole;
+    }
+    let n = input.len();
+    for i in 0..n {
+        let j = if i + 1 == n { 0 } else { i + 1 };
+        let (a, b) = (input[i], input[j]);
+        let (da, db) = (dists[i], dists[j]);
+        let sa = side(da, eps);
+        let sb = side(db, eps);
+        if sa >= 0 {
+            out.push(a);
+        }
+        if sa != 0 && sb != 0 && sa != sb {
+            let t = da / (da - db);
+            out.push(a + (b - a) * t);
+        }
+    }
+    if out.len() >= 3 {
+        Chop::Cut
+    } else {
+        Chop::Gone
+    }
+}
+
+fn side(d: f64, eps: f64) -> i8 {
+    if d > eps {
+        1
+    } else if d < -eps {
+        -1
+    } else {
+        0
+    }
+}
+
+/// Clips `target` by the planes that separate `source` from `pass` (through an edge of one and
+/// a vertex of the other, with `source` wholly behind and `pass` wholly in front): whatever of
+/// `target` is seen from `source` through `pass` is in front of all of them. `flip` swaps the
+/// roles, for planes built from an edge of `pass`. `tmp` is scratch. False: nothing is left.
+pub fn clip_to_separators(
+    source: &[DVec3],
+    pass: &[DVec3],
+    target: &mut Vec<DVec3>,
+    tmp: &mut Vec<DVec3>,
+    flip: bool,
+    eps: f64,
+) -> bool {
+    let mut planes = Vec::new();
+    separators(source, pass, flip, eps, &mut planes);
+    clip_by(&planes, target, tmp, eps)
+}
+
+/// Clips `target` by every plane in turn. False: nothing is left.
+pub fn clip_by(planes: &[Plane], target: &mut Vec<DVec3>, tmp: &mut Vec<DVec3>, eps: f64) -> bool {
+    for plane in planes {
+        match chop_how(target, plane, eps, tmp) {
+            Chop::Gone => return false,
+            Chop::Whole => {}
+            Chop::Cut => std::mem::swap(target, tmp),
+        }
+    }
+    true
+}
+
+/// The separating planes [`clip_to_separators`] clips by, oriented so that what may be seen
+/// is in front, appended to `out`. They depend only on `source` and `pass`, so the flow
+/// computes them once per stack frame and reuses them for every portal beyond.
+pub fn separators(source: &[DVec3], pass: &[DVec3], flip: bool, eps: f64, out: &mut Vec<Plane>) {
+    let ns = source.len();
+    for i in 0..ns {
+        let l = (i + 1) % ns;
+        let v1 = source[l] - source[i];
+        for (j, &pj) in pass.iter().enumerate() {
+            let v2 = pj - source[i];
+            let n = v1.cross(v2);
+            let len2 = n.length_squared();
+            // Degenerate edge/vertex triples make no plane.
+            if len2 < 1e-20 * v1.length_squared() * v2.length_squared() || len2 == 0.0 {
+                continue;
+            }
+            let mut normal = n / len2.sqrt();
+            let mut dist = normal.dot(pj);
+            // Which side is the source on?
+            let mut flip_test = None;
+            for (k, s) in source.iter().enumerate() {
+                if k == i || k == l {
+                    continue;
+                }
+                let d = normal.dot(*s) - dist;
+                if d < -eps {
+                    flip_test = Some(false);
+                    break;
+                } else if d > eps {
+                    flip_test = Some(true);
+                    break;
+                }
+            }
+            let Some(ft) = flip_test else {
+                continue; // planar with the source
+            };
+            if ft {
+                normal = -normal;
+                dist = -dist;
+            }
+            // A separating plane has all of pass on its front side.
+            let mut front = 0;
+            let mut ok = true;
+            for (k, q) in pass.iter().enumerate() {
+                if k == j {
+                    continue;
+                }
+                let d = normal.dot(*q) - dist;
+                if d < -eps {
+                    ok = false;
+                    break;
+                } else if d > eps {
+                    front += 1;
+                }
+            }
+            if !ok || front == 0 {
+                continue;
+            }
+            if flip {
+                normal = -normal;
+                dist = -dist;
+            }
+            out.push(Plane { normal, d: dist });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(x: f64) -> Vec<DVec3> {
+        vec![
+            DVec3::new(x, -1.0, -1.0),
+            DVec3::new(x, 1.0, -1.0),
+            DVec3::new(x, 1.0, 1.0),
+            DVec3::new(x, -1.0, 1.0),
+        ]
+    }
+
+    #[test]
+    fn chop_keeps_front() {
+        let p = Plane {
+            normal: DVec3::Y,
+            d: 0.0,
+        };
+        let mut out = Vec::new();
+        assert!(chop(&square(0.0), &p, 1e-9, &mut out));
+        assert_eq!(out.len(), 4);
+        assert!(out.iter().all(|v| v.y >= -1e-12));
+        assert!(!chop(
+            &square(0.0),
+            &Plane {
+                normal: DVec3::Y,
+                d: 2.0
+            },
+            1e-9,
+            &mut out
+        ));
+    }
+
+    #[test]
+    fn separators_narrow_the_target() {
+        // Source at x=0, pass at x=1 (both 2x2); a target at x=2 shifted far off to the side
+        // is invisible, one straight ahead is kept.
+        let (src, pass) = (square(0.0), square(1.0));
+        let mut tmp = Vec::new();
+        let mut t: Vec<DVec3> = square(2.0);
+        assert!(clip_to_separators(
+            &src, &pass, &mut t, &mut tmp, false, 1e-9
+        ));
+        let mut far: Vec<DVec3> = square(2.0)
+            .iter()
+            .map(|v| *v + DVec3::new(0.0, 10.0, 0.0))
+            .collect();
+        assert!(!clip_to_separators(
+            &src, &pass, &mut far, &mut tmp, false, 1e-9
+        ));
+    }
+}

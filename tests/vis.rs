@@ -1,0 +1,277 @@
+//! Visibility: the methods nest (sampled ⊆ full ⊆ fast ⊆ flood) on every sample and
+//! third-party level; known answers on small graphs built by hand; transformed portals;
+//! the same result for any thread count; and a ray-cast oracle that does not use the vis
+//! code: a clear segment between two cells means the second is in the first's full PVS.
+
+mod common;
+
+use common::{fixture, sample};
+use glam::DVec3;
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+use portcullis::geom::plane::Plane;
+use portcullis::vis::{self, Method, Pvs, VisGraph, VisOptions, VisPortal};
+
+fn levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {
+    vec![
+        (fixture("lportal_tutorial_simple.glb"), None),
+        (fixture("lportal_boxrooms.glb"), None),
+        (fixture("lportal_boxrooms.obj"), None),
+        (fixture("panda3d_culling.glb"), Some("panda3d")),
+        (sample("two_rooms.gltf"), None),
+        (sample("l_room.gltf"), None),
+        (sample("u_room.gltf"), None),
+        (sample("pillar_room.gltf"), None),
+        (sample("bound_boxes.gltf"), None),
+        (sample("door_window.gltf"), None),
+        (sample("thick_wall.gltf"), None),
+        (sample("arch.gltf"), None),
+        (sample("mirror.gltf"), None),
+        (sample("teleporter.gltf"), None),
+        (sample("sloped_hall.gltf"), None),
+    ]
+}
+
+fn run(g: &VisGraph, method: Method) -> Pvs {
+    vis::compute(
+        g,
+        &VisOptions {
+            method,
+            samples: 300,
+            ..Default::default()
+        },
+    )
+}
+
+/// sampled ⊆ full ⊆ fast ⊆ flood, with the pairs that break it named.
+pub fn assert_nested(name: &str, g: &VisGraph) -> [Pvs; 4] {
+    let [flood, fast, full, sampled] = Method::ALL.map(|m| run(g, m));
+    for (small, big, what) in [
+        (&sampled, &full, "sampled ⊆ full"),
+        (&full, &fast, "full ⊆ fast"),
+        (&fast, &flood, "fast ⊆ flood"),
+    ] {
+        let extra = small.missing_from(big);
+        assert!(
+            extra.is_empty(),
+            "{name}: {what} fails for {:?}",
+            &extra[..extra.len().min(10)]
+        );
+    }
+    [flood, fast, full, sampled]
+}
+
+fn graph_of(path: &std::path::Path, preset: Option<&str>) -> VisGraph {
+    let (_, c, p) = common::load_level(path, preset);
+    VisGraph::from_portal_set(c.cells.len(), &p, c.tolerance.distance)
+}
+
+#[test]
+fn methods_nest_on_every_level() {
+    for (f, preset) in levels() {
+        let g = graph_of(&f, preset);
+        let [flood, _, full, sampled] = assert_nested(&f.display().to_string(), &g);
+        assert!(sampled.pairs() <= full.pairs() && full.pairs() <= flood.pairs());
+    }
+}
+
+/// A quad on the plane `axis = at` spanning `(a0..a1)` on the other horizontal axis and
+/// height 0..3, leading from `from` to `to` in the direction `dir` (±1 along `axis`).
+fn door(from: usize, to: usize, axis: usize, at: f64, dir: f64, a0: f64, a1: f64) -> VisPortal {
+    let p = |u: f64, h: f64| {
+        if axis == 0 {
+            DVec3::new(at, h, u)
+        } else {
+            DVec3::new(u, h, at)
+        }
+    };
+    let winding = vec![p(a0, 0.0), p(a1, 0.0), p(a1, 3.0), p(a0, 3.0)];
+    let mut n = DVec3::ZERO;
+    n[if axis == 0 { 0 } else { 2 }] = dir;
+    VisPortal {
+        from,
+        to,
+        plane: Plane::from_point_normal(winding[0], n).unwrap(),
+        winding,
+        transform: None,
+        origin: 0,
+    }
+}
+
+fn both(a: usize, b: usize, axis: usize, at: f64, a0: f64, a1: f64) -> [VisPortal; 2] {
+    [
+        door(a, b, axis, at, 1.0, a0, a1),
+        door(b, a, axis, at, -1.0, a0, a1),
+    ]
+}
+
+/// Four 4 x 4 rooms around a square: A (x 0..4, z 0..4), B (x 4..8, z 0..4), C (x 4..8,
+/// z 4..8), D (x 0..4, z 4..8); doors A|B at x = 4, z 0..1; B|C at z = 4, x 7..8; C|D at x = 4,
+/// z 7..8. A straight line through all three doors would have to turn back, so A and D do not
+/// see each other; every other pair has a sightline (A→C e.g. (3.5, 0.5) → (4, 1) → (7, 4);
+/// B→D e.g. (8, 3) → (7, 4) → (4, 7)).
+#[test]
+fn known_answer_corridor_around_a_corner() {
+    let mut portals = Vec::new();
+    portals.extend(both(0, 1, 0, 4.0, 0.0, 1.0));
+    portals.extend(both(1, 2, 2, 4.0, 7.0, 8.0));
+    // C → D travels towards -x.
+    portals.push(door(2, 3, 0, 4.0, -1.0, 7.0, 8.0));
+    portals.push(door(3, 2, 0, 4.0, 1.0, 7.0, 8.0));
+    let g = VisGraph::new(4, portals, 1e-9);
+    let [flood, fast, full, sampled] = assert_nested("corridor", &g);
+    assert_eq!(flood.pairs(), 16);
+    let want = "0: 0 1 2\n1: 0 1 2 3\n2: 0 1 2 3\n3: 1 2 3\n";
+    assert_eq!(full.to_text(), want);
+    assert_eq!(
+        sampled.to_text(),
+        want,
+        "the sampler finds every real pair here"
+    );
+    assert!(fast.pairs() >= full.pairs());
+}
+
+/// Three rooms in a row, A (x 0..4), B (x 4..8), C (x 8..12), all z 0..8: a two-way door A|B
+/// at x = 4, z 0..1, and a one-way portal C → B at x = 8, z 7..8. Were it two-way, A would see
+/// C ((3.5, 0.25) → (4, 1) → (8, 7)); one-way, nothing in A or B sees C, and C sees both.
+#[test]
+fn known_answer_one_way() {
+    let mut portals = Vec::new();
+    portals.extend(both(0, 1, 0, 4.0, 0.0, 1.0));
+    portals.push(door(2, 1, 0, 8.0, -1.0, 7.0, 8.0));
+    let g = VisGraph::new(3, portals, 1e-9);
+    let [_, _, full, _] = assert_nested("one-way", &g);
+    assert_eq!(full.to_text(), "0: 0 1\n1: 0 1\n2: 0 1 2\n");
+}
+
+#[test]
+fn mirror_and_teleporter_follow_transforms() {
+    // The teleporter joins two rooms that do not touch: a sees b only through it.
+    let g = graph_of(&sample("teleporter.gltf"), None);
+    assert_eq!(g.cells, 2);
+    for depth in [0, 1] {
+        let opts = VisOptions {
+            transform_depth: depth,
+            ..Default::default()
+        };
+        let full = vis::compute(&g, &opts);
+        assert_eq!(full.sees(0, 1), depth > 0, "depth {depth}");
+        let sampled = vis::compute(
+            &g,
+            &VisOptions {
+                method: Method::Sampled,
+                samples: 500,
+                ..opts.clone()
+            },
+        );
+        assert!(sampled.is_subset_of(&full));
+        assert_eq!(sampled.sees(0, 1), depth > 0);
+    }
+    // The mirror leads back into its own room.
+    let g = graph_of(&sample("mirror.gltf"), None);
+    assert!(g.has_transforms());
+    assert_eq!(run(&g, Method::Full).pairs(), 1);
+}
+
+#[test]
+fn the_same_result_for_any_thread_count() {
+    let (file, _) =
+        portcullis::prt::read(&common::root().join("tests/fixtures/prt/light_general.prt"))
+            .unwrap();
+    let g = file.graph(None);
+    for m in [Method::Full, Method::Sampled, Method::Fast] {
+        let one = vis::compute(
+            &g,
+            &VisOptions {
+                method: m,
+                samples: 200,
+                threads: Some(1),
+                ..Default::default()
+            },
+        );
+        let four = vis::compute(
+            &g,
+            &VisOptions {
+                method: m,
+                samples: 200,
+                threads: Some(4),
+                ..Default::default()
+            },
+        );
+        assert_eq!(one, four, "{m:?}");
+    }
+}
+
+/// The oracle: random segments between points of two different cells that hit none of the
+/// level's triangles are sightlines, so the second cell must be in the first's full PVS.
+#[test]
+fn clear_segments_are_in_the_full_pvs() {
+    let mut total = 0;
+    for (file, preset) in levels() {
+        let (t, c, p) = common::load_level(&file, preset);
+        if c.cells.len() < 2 {
+            continue;
+        }
+        let full = vis::of_level(
+            c.cells.len(),
+            &p,
+            c.tolerance.distance,
+            &VisOptions::default(),
+        );
+        let skip: std::collections::HashSet<usize> = t
+            .tagging
+            .portals
+            .iter()
+            .map(|q| q.node)
+            .chain(t.tagging.footprints.iter().map(|f| f.node))
+            .chain(t.tagging.bounds.iter().map(|b| b.node))
+            .collect();
+        let (mut verts, mut idx) = (Vec::new(), Vec::new());
+        for n in t.scene.walk() {
+            if skip.contains(&n) || t.scene.nodes[n].mesh.is_none() {
+                continue;
+            }
+            let w = t.scene.world_positions(n);
+            let m = t.scene.nodes[n].mesh.unwrap();
+            for tri in &t.scene.meshes[m].triangles {
+                let base = verts.len() as u32;
+                verts.extend(tri.iter().map(|&i| w[i as usize]));
+                idx.push([base, base + 1, base + 2]);
+            }
+        }
+        let mesh = TriMesh::new(verts, idx).unwrap();
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..300 {
+            let a = (rnd() * c.cells.len() as f64) as usize % c.cells.len();
+            let b = (rnd() * c.cells.len() as f64) as usize % c.cells.len();
+            if a == b {
+                continue;
+            }
+            let mut pick = |cell: usize| loop {
+                let bb = c.cells[cell].bounds;
+                let q = bb.min + (bb.max - bb.min) * DVec3::new(rnd(), rnd(), rnd());
+                if c.cells[cell].poly.contains_strictly(q, 1e-6) {
+                    return q;
+                }
+            };
+            let (pa, pb) = (pick(a), pick(b));
+            let d = pb - pa;
+            if mesh.intersects_local_ray(&Ray::new(pa, d / d.length()), d.length()) {
+                continue;
+            }
+            assert!(
+                full.sees(a, b),
+                "{}: a clear segment {pa} → {pb} joins cell {a} to cell {b}, not in the full PVS",
+                file.display()
+            );
+            total += 1;
+        }
+    }
+    assert!(total > 100, "only {total} clear segments were judged");
+}
