@@ -49,6 +49,9 @@ struct Frame {
 struct Run<'a> {
     g: &'a VisGraph,
     flood: &'a [Vec<u64>],
+    entering: &'a [Vec<usize>],
+    /// Per portal, a bounding sphere (centre, radius).
+    spheres: &'a [(DVec3, f64)],
     done: &'a [Option<Vec<u64>>],
     depth: usize,
     all: Vec<u64>,
@@ -63,7 +66,7 @@ struct State {
 }
 
 /// How many waves the sorted portals are split into.
-const WAVES: usize = 24;
+const WAVES: usize = 64;
 
 /// The cell PVS. `flood`: the `fast` might-see sets, the filter of the flow.
 pub fn pvs(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Pvs {
@@ -77,10 +80,25 @@ pub fn portal_vis(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Vec<Vec<u64
     order.sort_by_key(|&p| (bits::count(&flood[p]), p));
     let mut done: Vec<Option<Vec<u64>>> = vec![None; n];
     let wave = n.div_ceil(WAVES).max(1);
+    let mut entering = vec![Vec::new(); g.cells];
+    for (i, p) in g.portals.iter().enumerate() {
+        entering[p.to].push(i);
+    }
+    let spheres: Vec<(DVec3, f64)> = g
+        .portals
+        .iter()
+        .map(|p| {
+            let c = p.winding.iter().copied().sum::<DVec3>() / p.winding.len() as f64;
+            let r = p.winding.iter().map(|v| v.distance(c)).fold(0.0, f64::max);
+            (c, r)
+        })
+        .collect();
     for chunk in order.chunks(wave) {
         let run = Run {
             g,
             flood,
+            entering: &entering,
+            spheres: &spheres,
             done: &done,
             depth,
             all: bits::all(n),
@@ -115,6 +133,15 @@ impl Run<'_> {
         }
     }
 
+    /// Marks a cell seen by marking every portal into it: the flow's "anything new?" test then
+    /// skips chains that could only find cells already seen, and the row stays a valid
+    /// might-see filter for later waves (it holds every portal the source can see).
+    fn see(&self, st: &mut State, cell: usize) {
+        for &r in &self.entering[cell] {
+            bits::set(&mut st.vis, r);
+        }
+    }
+
     fn source(&self, st: &mut State, p: usize) -> Vec<u64> {
         let g = self.g;
         let words = bits::words(g.portals.len());
@@ -144,6 +171,7 @@ impl Run<'_> {
             f.might.copy_from_slice(&self.all);
             f.transforms = 1;
         }
+        self.see(st, src.to);
         self.flow(st, 0, src.to);
         st.vis.clone()
     }
@@ -245,8 +273,49 @@ impl Run<'_> {
                 next.might.copy_from_slice(&self.all);
                 next.transforms += 1;
             }
-            bits::set(&mut st.vis, q);
+            self.see(st, portal.to);
+            if !self.prune(st, d + 1) {
+                continue;
+            }
             self.flow(st, d + 1, portal.to);
         }
+    }
+
+    /// Before recursing into frame `d`: drops from its might-see every portal not yet covered
+    /// whose bounding sphere lies wholly behind the source plane, the pass plane or a
+    /// separating plane of the frame (nothing of it can be seen through this chain). False
+    /// when nothing new is left to find, so the recursion is skipped.
+    fn prune(&self, st: &mut State, d: usize) -> bool {
+        let eps = self.g.epsilon;
+        let f = &mut st.frames[d];
+        if !f.seps_ready {
+            f.seps.clear();
+            separators(&f.source, &f.pass, false, eps, &mut f.seps);
+            separators(&f.pass, &f.source, true, eps, &mut f.seps);
+            f.seps_ready = true;
+        }
+        let planes = [f.source_plane, f.pass_plane];
+        let mut any = false;
+        for (w, (m, v)) in f.might.iter_mut().zip(&st.vis).enumerate() {
+            let mut cand = *m & !v;
+            while cand != 0 {
+                let b = cand.trailing_zeros();
+                cand &= cand - 1;
+                let idx = w * 64 + b as usize;
+                let (c, r) = self.spheres[idx];
+                let wind = &self.g.portals[idx].winding;
+                // The sphere first; the polygon's corners when the sphere straddles.
+                let behind = |pl: &Plane| {
+                    let dc = pl.distance(c);
+                    dc < -r - eps || (dc < r && wind.iter().all(|v| pl.distance(*v) < -eps))
+                };
+                if planes.iter().flatten().any(behind) || f.seps.iter().any(behind) {
+                    *m &= !(1u64 << b);
+                } else {
+                    any = true;
+                }
+            }
+        }
+        any
     }
 }
