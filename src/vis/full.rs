@@ -251,9 +251,7 @@ impl Run<'_> {
                     let t2 = &mut st.tmp2;
                     t2.clear();
                     t2.extend_from_slice(&next.source);
-                    if !clip_to_separators(&next.pass, &cur.pass, t2, t, false, eps)
-                        || !clip_to_separators(&cur.pass, &next.pass, t2, t, true, eps)
-                    {
+                    if !clip_to_separators(&next.pass, &cur.pass, t2, t, false, eps) {
                         continue;
                     }
                     std::mem::swap(&mut next.source, t2);
