@@ -23,6 +23,8 @@ pub struct Config {
     pub cells: CellsConfig,
     #[serde(default)]
     pub portals: PortalsConfig,
+    #[serde(default)]
+    pub check: CheckConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -97,6 +99,18 @@ impl Default for PortalsConfig {
             exterior: true,
         }
     }
+}
+
+/// `[check]`: what `check` (and `convert`) treat as a problem.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CheckConfig {
+    /// The level is meant to be closed: every opening to the exterior is a leak (an error).
+    pub sealed: bool,
+    /// Codes never reported for levels this configuration applies to.
+    pub ignore: Vec<String>,
+    /// Severity overrides, `CODE = "error" | "warning" | "info"`.
+    pub severity: std::collections::BTreeMap<String, String>,
 }
 
 /// The configuration next to `input`, if there is one.

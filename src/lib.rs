@@ -5,6 +5,7 @@
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
 
 pub mod cells;
+pub mod check;
 pub mod config;
 pub mod diag;
 pub mod export;

@@ -51,6 +51,11 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "CELL", requires = "svg")]
     pub pvs_of: Option<usize>,
 
+    /// The levels are meant to be closed: openings to the exterior are LEAK errors, and
+    /// --debug draws each leak's path (same as `[check] sealed = true`).
+    #[arg(long)]
+    pub sealed: bool,
+
     /// Exit with 1 when there are warnings, not only errors.
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
     pub deny: Option<String>,
@@ -135,8 +140,17 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("write the glTF with -o OUT.glb instead"));
     }
+    let policy = portcullis::diag::policy::Policy::from_config(&t.config.check).map_err(|e| {
+        Diagnostic::new(
+            Code::CONFIG_INVALID,
+            format!("[check] in the configuration: {e}"),
+            Location::file(t.config.path.clone().unwrap_or_else(|| input.to_path_buf())),
+        )
+        .hint("fix the code or severity name in portcullis.toml")
+    })?;
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
+    let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
     let bytes = pipeline::write_annotated(&t, &cells, &portals, &out, format)?;
     let written = if to_stdout {
         use std::io::Write;
@@ -166,7 +180,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
             overlaps: cells.overlaps.clone(),
-            ..Default::default()
+            leaks,
         };
         let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;
@@ -192,7 +206,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         write_extra(path, svg.as_bytes())?;
     }
     Ok(Outcome {
-        diagnostics: t.diagnostics.0.clone(),
+        diagnostics: policy.apply(t.diagnostics.0.clone()),
         summary: format!(
             "{} -> {}: {} cells, {} portals",
             input.display(),

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+pub mod check;
 pub mod convert;
 pub mod inspect;
 pub mod schema;
@@ -31,6 +32,10 @@ pub enum Command {
     /// Write each level as glTF with the PORTCULLIS_portals extension (cells, portals)
     /// added and nothing else changed.
     Convert(convert::ConvertArgs),
+    /// Check levels for CI: every diagnostic (tags, cells, portals, transforms, the cell
+    /// graph, loops, leaks) as text, JSON, SARIF or JUnit; exit 0 clean, 1 errors (or
+    /// warnings with --deny warnings), 2 could not run.
+    Check(check::CheckArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
 }
@@ -85,6 +90,10 @@ pub fn run(cli: Cli) -> i32 {
                 &a,
                 &portcullis::report::style::Style::for_stderr(&cli.color),
             )
+        }
+        Command::Check(mut a) => {
+            a.files = expand_inputs(&a.files);
+            check::run(&a, &style)
         }
         Command::Schema(a) => schema::run(&a),
     }

@@ -12,7 +12,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection, signed_area};
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area};
+use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
@@ -253,12 +253,11 @@ pub(crate) fn derive(
                             // other way, so A's polygon is the reversed ring.
                             let on_a: Vec<DVec3> =
                                 piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                            let on_b: Vec<DVec3> =
-                                piece.iter().map(|q| f.to3(*q, na * gap)).collect();
-                            let area = polygon_area(&on_a, na);
-                            if area <= eps * eps {
+                            let Some(on_a) = usable_polygon(&on_a, na, eps) else {
                                 continue;
-                            }
+                            };
+                            let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
+                            let area = polygon_area(&on_a, na);
                             let i = set.portals.len();
                             set.portals.push(Portal {
                                 from: a,
@@ -330,10 +329,10 @@ pub(crate) fn derive(
                 for piece in pieces(o, cfg.conservative) {
                     let piece = exact.restore(piece);
                     let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                    let area = polygon_area(&pts, face.plane.normal);
-                    if area <= eps * eps {
+                    let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
                         continue;
-                    }
+                    };
+                    let area = polygon_area(&pts, face.plane.normal);
                     set.portals.push(Portal {
                         from: c,
                         to: None,

@@ -425,7 +425,9 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
             }
         }
     }
-    if t.rooms.is_empty() {
+    // An empty scene is reported by the importer; "no rooms" would only repeat it.
+    let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
+    if t.rooms.is_empty() && has_triangles {
         diags.push(
             Diagnostic::new(
                 Code::TAG_NO_ROOMS,
