@@ -323,6 +323,8 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
                         )
                         .hint("give the node a mesh, or remove the tag"),
                     );
+                    // Nothing to bound with: the room keeps its own geometry's volume.
+                    continue;
                 }
                 if room.is_none() {
                     diags.push(
