@@ -212,7 +212,18 @@ pub fn run(a: &CheckArgs, style: &Style) -> i32 {
                 return 2;
             }
         }
-        _ => print!("{text}"),
+        _ => {
+            use std::io::Write;
+            let mut out = std::io::stdout().lock();
+            // The report first, then the summary on stderr, in that order on a terminal.
+            if out
+                .write_all(text.as_bytes())
+                .and_then(|_| out.flush())
+                .is_err()
+            {
+                return 2;
+            }
+        }
     }
     eprintln!("{}", totals.line());
     totals.exit_code(a.deny.is_some())

@@ -250,6 +250,27 @@ mod tests {
     }
 
     #[test]
+    fn a_teleporter_that_exits_facing_its_own_entry_loops() {
+        // Entry on the west wall (x = 0, front +x), exit on the east wall of the same cell
+        // facing west: walking in at x = 0 comes out at x = 4, looking back at the entry.
+        let set = PortalSet {
+            portals: vec![Portal {
+                kind: PortalKind::Teleporter,
+                normal: DVec3::NEG_X,
+                transform: Some(DMat4::from_translation(DVec3::new(4.0, 0.0, 0.0))),
+                ..mirror(0.0, 1.0)
+            }],
+            ..Default::default()
+        };
+        let loops = find_loops(&set, 12.0);
+        assert_eq!(loops.len(), 1);
+        assert_eq!(loops[0].portals, vec![0]);
+        assert!((loops[0].drift - 4.0).abs() < 1e-12);
+        // 4, 8, 12 m are within the 12 m level; the fourth image, 16 m away, is not.
+        assert_eq!(loops[0].depth, 4);
+    }
+
+    #[test]
     fn a_closed_mirror_breaks_the_loop() {
         let mut b = mirror(5.0, -1.0);
         b.closed = true;
