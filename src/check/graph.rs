@@ -87,7 +87,10 @@ fn list(s: &Subject, cells: &[usize]) -> String {
 }
 
 fn at_cell(s: &Subject, c: usize) -> Location {
-    let loc = Location::file(&s.file);
+    let loc = s
+        .cells
+        .get(c)
+        .map_or_else(|| Location::file(&s.file), |c| c.at.clone());
     match s.cell_point(c) {
         Some(p) => loc.with_position(p.to_array()),
         None => loc,

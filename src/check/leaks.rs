@@ -7,7 +7,7 @@
 use std::collections::VecDeque;
 
 use super::{centroid, edges, Findings, Options, Subject};
-use crate::diag::{Code, Diagnostic, Location};
+use crate::diag::{Code, Diagnostic};
 
 pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], opts: &Options, f: &mut Findings) {
     let ps = &s.portals.portals;
@@ -88,12 +88,7 @@ pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], opts: &Options, f: &m
                     list.iter().map(|&i| ps[i].area).sum::<f64>(),
                     names.join(" -> ")
                 ),
-                s.portal_at
-                    .get(exit)
-                    .filter(|l| l.node.is_some() || l.source.pointer.is_some())
-                    .cloned()
-                    .unwrap_or_else(|| Location::file(&s.file))
-                    .with_position(hole.to_array()),
+                s.at(exit, hole),
             )
             .hint("close the opening here (a missing wall, floor or ceiling, or a gap between meshes), or add the room beyond it; the leak line is in the --debug output"),
         );

@@ -37,6 +37,8 @@ pub struct CellInfo {
     pub poly: Option<ConvexPolyhedron>,
     /// `cell 3 (room `hall`)`.
     pub label: String,
+    /// Where the cell comes from: its room's node, or its place in a stored annotation.
+    pub at: Location,
 }
 
 /// A player start: where leak paths begin.
@@ -86,6 +88,19 @@ impl<'a> Subject<'a> {
                 .and_then(|cell| tagged.tagging.rooms.get(cell.room))
                 .map_or("?", |r| r.name.as_str())
         };
+        let node_at = |n: crate::scene::NodeId| {
+            Location::file(&scene.path)
+                .with_source(scene.nodes[n].source.clone())
+                .with_node(scene.node_path(n))
+        };
+        let room_at = |c: usize| match cells
+            .cells
+            .get(c)
+            .and_then(|cell| tagged.tagging.rooms.get(cell.room))
+        {
+            Some(r) => node_at(r.node),
+            None => Location::file(&scene.path),
+        };
         let cell_infos = cells
             .cells
             .iter()
@@ -93,16 +108,16 @@ impl<'a> Subject<'a> {
             .map(|(i, c)| CellInfo {
                 poly: Some(c.poly.clone()),
                 label: format!("cell {i} (room `{}`)", room(i)),
+                at: room_at(i),
             })
             .collect();
+        // A derived portal has no node of its own: it is located at its source room's.
         let portal_at = portals
             .portals
             .iter()
             .map(|p| match p.authored {
-                Some(n) => Location::file(&scene.path)
-                    .with_source(scene.nodes[n].source.clone())
-                    .with_node(scene.node_path(n)),
-                None => Location::file(&scene.path),
+                Some(n) => node_at(n),
+                None => room_at(p.from),
             })
             .collect();
         let portal_label = portals

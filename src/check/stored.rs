@@ -168,6 +168,7 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
             CellInfo {
                 poly: ConvexPolyhedron::from_planes(&planes, &b, eps),
                 label: format!("cell {i} (room `{}`)", c.room),
+                at: Location::file(&t.scene.path).with_pointer(pointer(&format!("/cells/{i}"))),
             }
         })
         .collect();

@@ -134,7 +134,10 @@ pub(crate) fn link(
     for ap in &tagging.portals {
         let Some(q) = quad(scene, ap.node, eps) else {
             // No mesh is a tag problem, reported there; a mesh without area is reported here.
-            if scene.nodes[ap.node].mesh.is_some() {
+            let node = &scene.nodes[ap.node];
+            if let Some(m) = node.mesh {
+                let pts = &scene.meshes[m].positions;
+                let centre = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
                 set.diagnostics.push(
                     Diagnostic::new(
                         Code::PORTAL_TOO_FEW_POINTS,
@@ -142,7 +145,7 @@ pub(crate) fn link(
                             "portal `{}` has no area: its mesh has fewer than 3 distinct points off one line",
                             scene.node_label(ap.node)
                         ),
-                        loc(ap.node),
+                        loc(ap.node).with_position(node.world.transform_point3(centre).to_array()),
                     )
                     .hint("give the portal a quad (or polygon) covering the opening"),
                 );
