@@ -7,6 +7,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 pub mod check;
 pub mod convert;
+pub mod gen;
 pub mod inspect;
 pub mod schema;
 
@@ -36,6 +37,9 @@ pub enum Command {
     /// graph, loops, leaks) as text, JSON, SARIF or JUnit; exit 0 clean, 1 errors (or
     /// warnings with --deny warnings), 2 could not run.
     Check(check::CheckArgs),
+    /// Generate a building of N rooms on several storeys (doors, windows, L-shaped rooms,
+    /// stairwells, furniture), tagged like a designer would, for benchmarks and trials.
+    Gen(gen::GenArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
 }
@@ -95,6 +99,7 @@ pub fn run(cli: Cli) -> i32 {
             a.files = expand_inputs(&a.files);
             check::run(&a, &style)
         }
+        Command::Gen(a) => gen::run(&a),
         Command::Schema(a) => schema::run(&a),
     }
 }
