@@ -1,29 +1,134 @@
 #!/usr/bin/env python3
-"""Writes docs/diagnostics.md from the code registry in src/diag/codes.rs.
-Run from the repository root after adding a code; a unit test checks the doc lists every code."""
+"""Writes docs/diagnostics.md from the code registry in src/diag/codes.rs, with an example of
+each code: what `portcullis` prints for its level in samples/broken/ (or for the command line
+in samples/broken/README.md when no level file can trigger it). Run from the repository root
+after `cargo build` and `python3 scripts/make_broken.py`; a unit test checks the doc lists every
+code with an example or a reason.
+"""
 import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
 
-src = open('src/diag/codes.rs').read()
-body = src[src.index('codes! {'):]
-rows = []
-for line in body.splitlines():
-    m = re.match(r'\s*// --- (.*) ---', line)
-    if m:
-        rows.append(('##', m.group(1)))
-        continue
-    m = re.match(r'\s*([A-Z0-9_]+) = (\w+), "(.*)";', line)
-    if m:
-        rows.append((m.group(1), m.group(2), m.group(3)))
-out = ["# Diagnostic codes", "",
-       "Every diagnostic portcullis prints has a stable code, a severity, a message, a location (file, "
-       "node path, JSON pointer or line, 3D point where geometric) and a hint that says how to fix it. "
-       "Codes never change meaning. Severities are the defaults.", "",
-       "Exit codes: a diagnostic that stops a file from being read at all (the input section, and "
-       "configuration errors) gives exit 2; other errors mean the level is wrong (exit 1); warnings "
-       "fail the run only with `--deny warnings`.", ""]
-for r in rows:
-    if r[0] == '##':
-        out += ["", f"## {r[1][0].upper() + r[1][1:]}", "", "| code | severity | meaning |", "|---|---|---|"]
-    else:
-        out.append(f"| `{r[0]}` | {r[1].lower()} | {r[2]} |")
-open('docs/diagnostics.md', 'w').write("\n".join(out) + "\n")
+ROOT = Path(__file__).resolve().parent.parent
+EXE = sys.argv[1] if len(sys.argv) > 1 else str(ROOT / "target" / "debug" / "portcullis")
+BROKEN = ROOT / "samples" / "broken"
+
+# Codes a command line triggers, not a level file (see samples/broken/README.md).
+COMMANDS = {
+    "CONFIG_NOT_FOUND": ["check", "--config", "missing.toml", "two_rooms.gltf"],
+    "TAGS_PRESET_UNKNOWN": ["check", "--tags", "unreal", "two_rooms.gltf"],
+    "OUTPUT_FAILED": ["convert", "two_rooms.gltf", "-o", "no/such/folder/out.glb"],
+    "OUTPUT_WOULD_OVERWRITE_INPUT": ["convert", "two_rooms.gltf", "-o", "two_rooms.gltf"],
+    "OUTPUT_FORMAT_UNKNOWN": ["convert", "two_rooms.gltf", "-o", "out.fbx"],
+}
+# Portal files written into the command's folder as bad.prt (the .prt codes).
+PRT_TEXT = {
+    "PRT_UNKNOWN_FORMAT": "PRT3\n1\n0\n",
+    "PRT_SYNTAX": "PRT1\n2\n1\n4 0 1 (0 0 0) (0 1 0) (0 1 1)\n",
+    "PRT_BAD_INDEX": "PRT1\n2\n1\n4 0 7 (0 0 0) (0 1 0) (0 1 1) (0 0 1)\n",
+    "PRT_TRAILING_DATA": "PRT1\n2\n1\n4 0 1 (0 0 0) (0 1 0) (0 1 1) (0 0 1)\nextra\n",
+    "PRT_PORTAL_DEGENERATE": "PRT1\n2\n1\n3 0 1 (0 0 0) (1 1 1) (2 2 2)\n",
+}
+COMMANDS.update({c: ["vis", "bad.prt"] for c in PRT_TEXT})
+COMMANDS["PRT_EXPORT_DROPPED"] = ["convert", "teleporter.gltf", "-o", "teleporter.prt"]
+COMMANDS["VIS_TRANSFORM_DEPTH"] = ["vis", "teleporter.gltf"]
+NO_EXAMPLE = {
+    "TAG_AMBIGUOUS_TARGET": "Reserved. Room names are unique (a second room with a name is "
+                            "`TAG_DUPLICATE_ROOM` and joins the first), so no target can match two rooms today.",
+    "TRANSFORM_NON_FINITE": "No file triggers it: JSON has no NaN or infinity and portcullis builds "
+                            "transforms from finite quads. It guards portal sets built in code by library users.",
+}
+
+
+def sample_for(code):
+    for p in sorted(BROKEN.glob(code + ".*")):
+        return p
+    d = BROKEN / code / "level.gltf"
+    return d if d.exists() else None
+
+
+def block(text, code):
+    """The lines of the first diagnostic with `code` in human output."""
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        if re.match(rf"(error|warning|info)\[{code}\]", line):
+            out = [line]
+            for nxt in lines[i + 1:]:
+                if nxt.startswith("  "):
+                    out.append(nxt)
+                else:
+                    break
+            return out
+    return None
+
+
+def example(code):
+    if code in COMMANDS:
+        with tempfile.TemporaryDirectory() as d:
+            (Path(d) / "two_rooms.gltf").write_bytes((ROOT / "samples" / "two_rooms.gltf").read_bytes())
+            (Path(d) / "teleporter.gltf").write_bytes((ROOT / "samples" / "teleporter.gltf").read_bytes())
+            if code in PRT_TEXT:
+                (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
+            r = subprocess.run([EXE, *COMMANDS[code], "--color", "never"], cwd=d, capture_output=True, text=True)
+            cmd = "portcullis " + " ".join(COMMANDS[code])
+            return cmd, block(r.stdout + r.stderr, code)
+    sample = sample_for(code)
+    if sample is None:
+        return None, None
+    rel = sample.relative_to(BROKEN)
+    r = subprocess.run([EXE, "check", str(rel), "--color", "never"], cwd=BROKEN, capture_output=True, text=True)
+    return f"portcullis check samples/broken/{rel}", block(r.stdout + r.stderr, code)
+
+
+def main():
+    src = (ROOT / "src" / "diag" / "codes.rs").read_text()
+    body = src[src.index("codes! {"):]
+    sections = []
+    for line in body.splitlines():
+        m = re.match(r"\s*// --- (.*) ---", line)
+        if m:
+            sections.append((m.group(1), []))
+            continue
+        m = re.match(r'\s*([A-Z0-9_]+) = (\w+), "(.*)";', line)
+        if m:
+            sections[-1][1].append((m.group(1), m.group(2).lower(), m.group(3)))
+    out = ["# Diagnostic codes", "",
+           "Every diagnostic portcullis prints has a stable code, a severity, a message, a location (file, "
+           "node path, JSON pointer or line, 3D point where geometric) and a hint that says how to fix it. "
+           "Codes never change meaning. Severities are the defaults; `--severity CODE=LEVEL` and `--ignore CODE` "
+           "(or `[check]` in portcullis.toml) change them.", "",
+           "Exit codes: a diagnostic that stops a file from being read at all (the input section, and "
+           "configuration errors) gives exit 2; other errors mean the level is wrong (exit 1); warnings "
+           "fail the run only with `--deny warnings`.", "",
+           "Each code below has an example: what `portcullis` printed for the level named after it in "
+           "`samples/broken/` (generated by `scripts/make_broken.py`; `tests/check.rs` asserts that each "
+           "triggers exactly its code). Regenerate this page with `python3 scripts/gen_diagnostics_doc.py`.", ""]
+    for title, codes in sections:
+        out += ["", f"## {title[0].upper() + title[1:]}", "", "| code | severity | meaning |", "|---|---|---|"]
+        out += [f"| [`{c}`](#{c.lower()}) | {sev} | {meaning} |" for c, sev, meaning in codes]
+    out += ["", "## Examples and fixes", ""]
+    missing = []
+    for title, codes in sections:
+        for c, sev, meaning in codes:
+            out += [f"### `{c}`", "", f"*{sev}* — {meaning}.", ""]
+            if c in NO_EXAMPLE:
+                out += [NO_EXAMPLE[c], ""]
+                continue
+            cmd, lines = example(c)
+            if not lines:
+                missing.append(c)
+                out += ["(no example: regenerate samples/broken)", ""]
+                continue
+            hint = next((ln.split("= hint: ", 1)[1] for ln in lines if "= hint: " in ln), None)
+            out += [f"`{cmd}`:", "", "```text", *lines, "```", ""]
+            if hint:
+                out += [f"**Fix:** {hint[0].upper() + hint[1:]}.", ""]
+    (ROOT / "docs" / "diagnostics.md").write_text("\n".join(out).rstrip() + "\n")
+    if missing:
+        sys.exit("no example for: " + ", ".join(missing))
+
+
+if __name__ == "__main__":
+    main()

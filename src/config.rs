@@ -25,6 +25,8 @@ pub struct Config {
     pub portals: PortalsConfig,
     #[serde(default)]
     pub vis: VisConfig,
+    #[serde(default)]
+    pub check: CheckConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -110,6 +112,18 @@ pub struct VisConfig {
     pub transform_depth: Option<usize>,
     /// Sightlines per directed portal for the `sampled` method.
     pub samples: Option<usize>,
+}
+
+/// `[check]`: what `check` (and `convert`) treat as a problem.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CheckConfig {
+    /// The level is meant to be closed: every opening to the exterior is a leak (an error).
+    pub sealed: bool,
+    /// Codes never reported for levels this configuration applies to.
+    pub ignore: Vec<String>,
+    /// Severity overrides, `CODE = "error" | "warning" | "info"`.
+    pub severity: std::collections::BTreeMap<String, String>,
 }
 
 /// The configuration next to `input`, if there is one.

@@ -5,9 +5,11 @@
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
 
 pub mod cells;
+pub mod check;
 pub mod config;
 pub mod diag;
 pub mod export;
+pub mod gen;
 pub mod geom;
 pub mod import;
 pub mod pipeline;

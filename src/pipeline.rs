@@ -131,3 +131,21 @@ pub fn write_annotated_with_pvs(
     }
     gltf_out::write(scene, &ann, out, format)
 }
+
+/// The checks of a built level (see [`crate::check`]); findings are appended to
+/// `tagged.diagnostics`, and the leak polylines returned for debug output. `sealed` adds to
+/// the configuration's `[check] sealed`.
+pub fn check_level(
+    tagged: &mut Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    sealed: bool,
+) -> Vec<Vec<glam::DVec3>> {
+    let opts = crate::check::Options {
+        sealed: sealed || tagged.config.check.sealed,
+    };
+    let subject = crate::check::Subject::built(tagged, cells, portals);
+    let found = crate::check::run(&subject, &opts);
+    tagged.diagnostics.extend(found.diagnostics);
+    found.leaks
+}

@@ -284,7 +284,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                                 "room `{}` has only upward-facing geometry; it was extruded upward as a footprint",
                                 room.name
                             ),
-                            loc(room.node),
+                            loc(room.node).with_position((mean(tris.iter().flatten()) + origin).to_array()),
                         )
                         .hint("tag the floor as a footprint (extras `\"footprint\"`, or --tags panda3d for cellN) to say so"),
                     );
@@ -314,7 +314,11 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                     match hull(&pts, eps) {
                         Ok(h) => polys.extend(split_by_plan(&h, &tris, eps, extent, &frame)),
                         Err(e) => {
-                            diags.push(degenerate(scene, room.name.as_str(), room.node, &e, &loc))
+                            let mut d = degenerate(scene, room.name.as_str(), room.node, &e, &loc);
+                            if !pts.is_empty() {
+                                d.location.position = Some((mean(pts.iter()) + origin).to_array());
+                            }
+                            diags.push(d)
                         }
                     }
                 }
@@ -360,6 +364,12 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     overlap::check(scene, tagging, cfg, &mut set);
     assign::assign(scene, tagging, &mut set);
     set
+}
+
+/// The mean of some points (the origin for none), for diagnostic positions.
+fn mean<'a>(pts: impl Iterator<Item = &'a DVec3>) -> DVec3 {
+    let (sum, n) = pts.fold((DVec3::ZERO, 0usize), |(s, n), p| (s + *p, n + 1));
+    sum / n.max(1) as f64
 }
 
 fn degenerate(

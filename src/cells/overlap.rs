@@ -4,12 +4,13 @@
 use super::CellSet;
 use crate::config::CellsConfig;
 use crate::diag::{Code, Diagnostic, Location};
+use crate::geom::grid::BoxGrid;
 use crate::scene::Scene;
 use crate::tags::Tagging;
 
 pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &mut CellSet) {
     let eps = set.tolerance.distance;
-    // Sweep along x: only cells whose x ranges overlap are compared (never all pairs).
+    // Only cells whose bounds overlap are compared (never all pairs).
     let mut order: Vec<usize> = (0..set.cells.len()).collect();
     order.sort_by(|&a, &b| {
         set.cells[a]
@@ -18,14 +19,27 @@ pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &m
             .x
             .total_cmp(&set.cells[b].bounds.min.x)
     });
+    let mut rank = vec![0usize; order.len()];
+    for (k, &c) in order.iter().enumerate() {
+        rank[c] = k;
+    }
+    // Candidate pairs from a grid over the bounds, visited in the sweep's order.
+    let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
+    let mut pairs: Vec<(usize, usize)> = grid
+        .pairs(0.0)
+        .into_iter()
+        .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
+        .collect();
+    pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
     let mut found = Vec::new();
     let mut regions = Vec::new();
-    for (i, &a) in order.iter().enumerate() {
+    for (a, b) in pairs {
         let ca = &set.cells[a];
-        for &b in &order[i + 1..] {
+        {
             let cb = &set.cells[b];
-            if cb.bounds.min.x >= ca.bounds.max.x - eps {
-                break;
+            if cb.bounds.min.x >= ca.bounds.max.x - eps || cb.bounds.max.x <= ca.bounds.min.x + eps
+            {
+                continue;
             }
             if ca.room == cb.room
                 || cb.bounds.min.y >= ca.bounds.max.y - eps

@@ -61,6 +61,11 @@ pub struct ConvertArgs {
     #[arg(long, value_name = "OUT.prt")]
     pub prt: Option<PathBuf>,
 
+    /// The levels are meant to be closed: openings to the exterior are LEAK errors, and
+    /// --debug draws each leak's path (same as `[check] sealed = true`).
+    #[arg(long)]
+    pub sealed: bool,
+
     /// Exit with 1 when there are warnings, not only errors.
     #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
     pub deny: Option<String>,
@@ -148,6 +153,14 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("write the glTF with -o OUT.glb instead"));
     }
+    let policy = portcullis::diag::policy::Policy::from_config(&t.config.check).map_err(|e| {
+        Diagnostic::new(
+            Code::CONFIG_INVALID,
+            format!("[check] in the configuration: {e}"),
+            Location::file(t.config.path.clone().unwrap_or_else(|| input.to_path_buf())),
+        )
+        .hint("fix the code or severity name in portcullis.toml")
+    })?;
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
     let method = portcullis::vis::Method::parse(&a.vis_method);
@@ -155,11 +168,11 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
         let opts = portcullis::vis::VisOptions {
             method: pvs_method,
-            transform_depth: t
-                .config
-                .vis
-                .transform_depth
-                .unwrap_or(portcullis::vis::DEFAULT_TRANSFORM_DEPTH),
+            transform_depth: portcullis::vis::level_transform_depth(
+                &cells,
+                &portals,
+                t.config.vis.transform_depth,
+            ),
             samples: t
                 .config
                 .vis
@@ -170,6 +183,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         portcullis::vis::of_level(cells.cells.len(), &portals, cells.tolerance.distance, &opts)
     });
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
+    let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
     let bytes = pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?;
     let written = if to_stdout {
         use std::io::Write;
@@ -199,7 +213,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
             overlaps: cells.overlaps.clone(),
-            ..Default::default()
+            leaks,
         };
         let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;
@@ -234,7 +248,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         write_extra(path, svg.as_bytes())?;
     }
     Ok(Outcome {
-        diagnostics: t.diagnostics.0.clone(),
+        diagnostics: policy.apply(t.diagnostics.0.clone()),
         summary: format!(
             "{} -> {}: {} cells, {} portals",
             input.display(),

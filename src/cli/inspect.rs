@@ -92,31 +92,10 @@ struct VisibilityView {
 fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
     use portcullis::diag::{Code, Location};
     use portcullis::export::{extension, read};
+    let stored = portcullis::check::stored::read(t, validate)?;
+    t.diagnostics.extend(stored.diagnostics);
+    let a = stored.annotated?;
     let doc = t.scene.gltf.as_ref()?.json.clone();
-    let raw = doc.get("extensions")?.get(extension::NAME)?.clone();
-    let at =
-        || Location::file(&t.scene.path).with_pointer(format!("/extensions/{}", extension::NAME));
-    if validate {
-        let mut problems = portcullis::schema::validate(portcullis::schema::Schema::Portals, &raw);
-        if let Some(Ok(a)) = read::annotation(&doc) {
-            let nodes = doc
-                .get("nodes")
-                .and_then(|n| n.as_array())
-                .map_or(0, Vec::len);
-            problems.extend(read::consistency(&a, nodes));
-        }
-        for p in problems {
-            t.diagnostics.push(
-                Diagnostic::new(
-                    Code::ANNOTATION_INVALID,
-                    format!("the stored annotation is invalid: {p}"),
-                    at(),
-                )
-                .hint("convert the level again to rewrite the annotation"),
-            );
-        }
-    }
-    let a = read::annotation(&doc)?.ok()?;
     let buffers = t
         .scene
         .gltf
@@ -135,7 +114,8 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
                     Diagnostic::new(
                         Code::ANNOTATION_INVALID,
                         format!("the stored annotation is invalid: {e}"),
-                        at(),
+                        Location::file(&t.scene.path)
+                            .with_pointer(format!("/extensions/{}/visibility", extension::NAME)),
                     )
                     .hint("convert the level again to rewrite the annotation"),
                 );
@@ -144,21 +124,10 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
         }
         None => None,
     };
-    let stale = a.input_hash != extension::input_hash(&t.scene, &t.tagging);
-    if stale {
-        t.diagnostics.push(
-            Diagnostic::new(
-                Code::ANNOTATION_STALE,
-                "the stored annotation was computed from different geometry or tags",
-                at(),
-            )
-            .hint("convert the level again"),
-        );
-    }
     Some(AnnotationView {
         generator: a.generator,
         input_hash: a.input_hash,
-        stale,
+        stale: stored.stale,
         cells: a.cells.len(),
         portals: a.portals.len(),
         visibility,

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+pub mod check;
 pub mod convert;
+pub mod gen;
 pub mod inspect;
 pub mod schema;
 pub mod vis;
@@ -32,6 +34,13 @@ pub enum Command {
     /// Write each level as glTF with the PORTCULLIS_portals extension (cells, portals)
     /// added and nothing else changed.
     Convert(convert::ConvertArgs),
+    /// Check levels for CI: every diagnostic (tags, cells, portals, transforms, the cell
+    /// graph, loops, leaks) as text, JSON, SARIF or JUnit; exit 0 clean, 1 errors (or
+    /// warnings with --deny warnings), 2 could not run.
+    Check(check::CheckArgs),
+    /// Generate a building of N rooms on several storeys (doors, windows, L-shaped rooms,
+    /// stairwells, furniture), tagged like a designer would, for benchmarks and trials.
+    Gen(gen::GenArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
     /// Print the PVS of each level (glTF, OBJ, USD or a Quake .prt), one line per cell as
@@ -90,6 +99,11 @@ pub fn run(cli: Cli) -> i32 {
                 &portcullis::report::style::Style::for_stderr(&cli.color),
             )
         }
+        Command::Check(mut a) => {
+            a.files = expand_inputs(&a.files);
+            check::run(&a, &style)
+        }
+        Command::Gen(a) => gen::run(&a),
         Command::Schema(a) => schema::run(&a),
         Command::Vis(mut a) => {
             a.files = expand_inputs(&a.files);

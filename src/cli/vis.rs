@@ -49,7 +49,8 @@ pub struct VisArgs {
     pub level: LevelArgs,
 }
 
-fn options(a: &VisArgs, cfg: &portcullis::config::Config, method: Method) -> VisOptions {
+fn options(a: &VisArgs, loaded: &load::Loaded, method: Method) -> VisOptions {
+    let cfg = &loaded.config;
     VisOptions {
         method,
         samples: a
@@ -57,10 +58,7 @@ fn options(a: &VisArgs, cfg: &portcullis::config::Config, method: Method) -> Vis
             .or(cfg.vis.samples)
             .unwrap_or(vis::DEFAULT_SAMPLES),
         threads: a.threads,
-        transform_depth: a
-            .transform_depth
-            .or(cfg.vis.transform_depth)
-            .unwrap_or(vis::DEFAULT_TRANSFORM_DEPTH),
+        transform_depth: a.transform_depth.unwrap_or(loaded.transform_depth),
         ..Default::default()
     }
 }
@@ -105,18 +103,22 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
 }
 
 fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Diagnostic> {
-    let loaded = load::load(f, &a.level.load_options())?;
+    let mut loaded = load::load(f, &a.level.load_options())?;
+    if loaded.graph.has_transforms() {
+        let depth = options(a, &loaded, Method::Full).transform_depth;
+        loaded.diagnostics.push(vis::transform_depth_note(f, depth));
+    }
     let g = &loaded.graph;
     let method = Method::parse(&a.method).unwrap_or(Method::Full);
     if !a.report {
-        let pvs = vis::compute(g, &options(a, &loaded.config, method));
+        let pvs = vis::compute(g, &options(a, &loaded, method));
         if a.files.len() > 1 {
             println!("# {}", f.display());
         }
         print!("{}", pvs.to_text());
         return Ok(loaded.diagnostics.0);
     }
-    let lower_opts = options(a, &loaded.config, Method::Sampled);
+    let lower_opts = options(a, &loaded, Method::Sampled);
     let (lower, lower_time) = vis::timed(g, &lower_opts);
     let threads = a
         .threads
@@ -125,7 +127,7 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
         let (pvs, time) = if m == Method::Sampled {
             (lower.clone(), lower_time)
         } else {
-            vis::timed(g, &options(a, &loaded.config, m))
+            vis::timed(g, &options(a, &loaded, m))
         };
         let over = pvs.pairs() as f64 / lower.pairs().max(1) as f64 - 1.0;
         let missing = lower.missing_from(&pvs).len();

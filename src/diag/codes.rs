@@ -108,9 +108,33 @@ codes! {
     PORTAL_AUTHORED_WRONG_WAY = Warning, "an authored portal faces the wrong way for its tag convention";
     PORTAL_AUTHORED_AMBIGUOUS = Warning, "an authored portal covers openings between several pairs of rooms";
     PORTAL_NOT_PLANAR = Warning, "an authored portal's vertices are not on one plane";
+    PORTAL_TOO_FEW_POINTS = Error, "a portal has fewer than 3 distinct points, so it has no area";
+    PORTAL_NOT_CONVEX = Warning, "a portal's outline is not convex; its convex hull was used";
+    PORTAL_NOT_ON_BOUNDARY = Error, "a portal does not lie on the boundary of its cell";
+    PORTAL_SEPARATES_NOTHING = Warning, "a portal has the same cell on both sides, so it separates nothing";
+    PORTAL_UNPAIRED = Error, "a two-way portal has no partner going back";
+    PORTAL_PARTNER_MISMATCH = Error, "a portal and its partner do not share one polygon between the same cells";
+    PORTAL_DUPLICATE = Warning, "two portals between the same cells overlap";
+
+    // --- transforms (mirrors, teleporters) ---
+    TRANSFORM_NON_FINITE = Error, "a portal transform has NaN or infinite entries";
+    TRANSFORM_NOT_RIGID = Error, "a teleporter's transform scales, shears or mirrors";
+    TRANSFORM_PARTNER_NOT_INVERSE = Error, "a transformed portal's partner does not carry the inverse transform";
+    TRANSFORM_EXIT_MISMATCH = Warning, "a teleporter's exit polygon is not the image of its entry polygon";
+    TRANSFORM_MIRROR_PLANE = Error, "a mirror's reflection plane is not its portal's plane";
+
+    // --- the cell graph ---
+    GRAPH_UNREACHABLE = Warning, "cells that no portal path joins to the rest of the level";
+    GRAPH_ONE_WAY_DEAD_END = Warning, "one-way portals lead into cells with no way back out";
+    GRAPH_TRANSFORM_LOOP = Warning, "sightlines loop through mirrors or teleporters without bound";
+    PLAYER_START_OUTSIDE = Warning, "a player start lies in no cell";
+
+    // --- leaks ---
+    EXTERIOR_OPENINGS = Info, "cells open to the exterior (an error when the level is declared sealed)";
+    LEAK = Error, "a level declared sealed opens to the exterior";
 
     // --- visibility ---
-    VIS_ONE_CELL = Info, "the level has one cell, so no visibility is stored";
+    VIS_TRANSFORM_DEPTH = Info, "sightlines through mirrors and teleporters were followed only up to the depth bound";
 
     // --- prt ---
     PRT_UNKNOWN_FORMAT = Error, "the .prt file's first line names no portal file format portcullis reads";
@@ -141,9 +165,10 @@ mod tests {
     fn every_code_is_documented_and_round_trips() {
         let doc = include_str!("../../docs/diagnostics.md");
         for c in Code::ALL {
+            // Each code has its section with an example (or the reason there is none).
             assert!(
-                doc.contains(&format!("`{c}`")),
-                "docs/diagnostics.md lacks {c}"
+                doc.contains(&format!("### `{c}`")),
+                "docs/diagnostics.md lacks a section for {c}; run scripts/gen_diagnostics_doc.py"
             );
             assert_eq!(Code::parse(c.as_str()), Some(*c));
             assert!(!c.summary().is_empty());

@@ -13,6 +13,7 @@ use serde::Serialize;
 use crate::scene::SourceRef;
 
 pub mod codes;
+pub mod policy;
 
 pub use codes::Code;
 

@@ -167,6 +167,20 @@ pub fn write(
     }
 }
 
+/// A scene portcullis built itself (generated levels), written as plain glTF without an
+/// annotation. Meshes must be in world space, as importers of OBJ leave them.
+pub fn write_plain(scene: &Scene, format: OutFormat) -> Vec<u8> {
+    let (doc, bin) = from_scene(scene, format);
+    match format {
+        OutFormat::Glb => glb(&doc, bin.as_deref()),
+        OutFormat::Gltf => {
+            let mut v = serde_json::to_vec_pretty(&doc).unwrap_or_default();
+            v.push(b'\n');
+            v
+        }
+    }
+}
+
 /// Adds the extension to the document (replacing an earlier annotation by portcullis).
 fn annotate(doc: &mut Value, ann: &Annotation) {
     let Some(obj) = doc.as_object_mut() else {

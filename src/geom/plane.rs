@@ -62,6 +62,15 @@ impl Plane {
         (self.normal - o.normal).length_squared() <= chord * chord && (self.d - o.d).abs() <= dist
     }
 
+    /// The reflection in this plane, as an affine transform (mirrors).
+    pub fn reflection(&self) -> glam::DMat4 {
+        let n = self.normal;
+        let m = glam::DMat3::IDENTITY - 2.0 * glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        let mut out = glam::DMat4::from_mat3(m);
+        out.w_axis = (n * (2.0 * self.d)).extend(1.0);
+        out
+    }
+
     /// Two unit vectors spanning the plane, with `u × v = normal`.
     pub fn basis(&self) -> (DVec3, DVec3) {
         let n = self.normal;

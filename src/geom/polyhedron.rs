@@ -345,6 +345,28 @@ pub fn polygon_area(pts: &[DVec3], normal: DVec3) -> f64 {
     0.5 * n.dot(normal).abs()
 }
 
+/// A polygon as portals need it: vertices closer than `eps` to the previous one merged, and
+/// `None` unless at least three remain and it is wider than `eps` on average (twice its area
+/// over its perimeter) — the one test for "has an area" that building and checking share.
+pub fn usable_polygon(pts: &[DVec3], normal: DVec3, eps: f64) -> Option<Vec<DVec3>> {
+    let mut out: Vec<DVec3> = Vec::with_capacity(pts.len());
+    for p in pts {
+        if out.last().is_none_or(|q| q.distance(*p) > eps) {
+            out.push(*p);
+        }
+    }
+    while out.len() > 1 && out[0].distance(out[out.len() - 1]) <= eps {
+        out.pop();
+    }
+    if out.len() < 3 {
+        return None;
+    }
+    let perimeter: f64 = (0..out.len())
+        .map(|i| out[i].distance(out[(i + 1) % out.len()]))
+        .sum();
+    (2.0 * polygon_area(&out, normal) > eps * perimeter).then_some(out)
+}
+
 /// The convex hull of points lying on `plane`, counter-clockwise about its normal. Exact
 /// orientation predicates decide the hull; near-duplicates (within `eps`) are merged first.
 pub fn convex_ring_on_plane(pts: &[DVec3], plane: &Plane, eps: f64) -> Vec<DVec3> {

@@ -1,7 +1,7 @@
 //! Authored portals: linked to the derived portal they cover (which takes their name, kind and
 //! flags), or, for mirrors and teleporters, made into transformed portals of their own.
 
-use glam::{DMat4, DVec3, DVec4};
+use glam::{DMat4, DVec3};
 
 use super::{Portal, PortalSet};
 use crate::cells::CellSet;
@@ -9,7 +9,7 @@ use crate::config::PortalsConfig;
 use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::boolean2::intersection;
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area};
+use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::{Facing, PortalKind};
 use crate::tags::{AuthoredPortal, Tagging};
@@ -20,6 +20,8 @@ struct Quad {
     normal: DVec3,
     ring: Vec<DVec3>,
     max_off_plane: f64,
+    /// Area of the mesh's triangles: less than the ring's when the outline is not convex.
+    mesh_area: f64,
 }
 
 fn quad(scene: &Scene, node: NodeId, eps: f64) -> Option<Quad> {
@@ -62,11 +64,13 @@ fn quad(scene: &Scene, node: NodeId, eps: f64) -> Option<Quad> {
         .map(|p| *p - normal * plane.distance(*p))
         .collect();
     let ring = convex_ring_on_plane(&flat, &plane, eps);
-    (ring.len() >= 3).then_some(Quad {
+    let ring = usable_polygon(&ring, normal, eps)?;
+    Some(Quad {
         centre,
         normal,
         ring,
         max_off_plane,
+        mesh_area: area,
     })
 }
 
@@ -87,15 +91,6 @@ fn overlap(a: &[DVec3], b: &[DVec3], plane: &Plane, grid: f64) -> f64 {
 
 fn cell_at(cells: &CellSet, p: DVec3, eps: f64) -> Option<usize> {
     (0..cells.cells.len()).find(|&c| cells.cells[c].poly.contains(p, eps))
-}
-
-/// Reflection in a plane, as an affine 4x4.
-fn reflection(p: &Plane) -> DMat4 {
-    let n = p.normal;
-    let m = glam::DMat3::IDENTITY - 2.0 * glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
-    let mut out = DMat4::from_mat3(m);
-    out.w_axis = DVec4::from((n * (2.0 * p.d), 1.0));
-    out
 }
 
 /// A frame at a portal: x along its normal, y up (as close as the plane allows), origin at
@@ -134,10 +129,45 @@ pub(crate) fn link(
     // Which derived portals an authored portal claimed, and with which one-way flag.
     let mut one_way_claim: Vec<Option<bool>> = vec![None; set.portals.len()];
     let mut transformed_done: Vec<NodeId> = Vec::new();
+    // Which authored node claimed each derived portal, to spot two quads in one opening.
+    let mut claimed_by: Vec<Option<NodeId>> = vec![None; set.portals.len()];
     for ap in &tagging.portals {
         let Some(q) = quad(scene, ap.node, eps) else {
+            // No mesh is a tag problem, reported there; a mesh without area is reported here.
+            let node = &scene.nodes[ap.node];
+            if let Some(m) = node.mesh {
+                let pts = &scene.meshes[m].positions;
+                let centre = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_TOO_FEW_POINTS,
+                        format!(
+                            "portal `{}` has no area: its mesh has fewer than 3 distinct points off one line",
+                            scene.node_label(ap.node)
+                        ),
+                        loc(ap.node).with_position(node.world.transform_point3(centre).to_array()),
+                    )
+                    .hint("give the portal a quad (or polygon) covering the opening"),
+                );
+            }
             continue;
         };
+        let ring_area = polygon_area(&q.ring, q.normal);
+        if ring_area > q.mesh_area * 1.001 + eps * eps {
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_NOT_CONVEX,
+                    format!(
+                        "portal `{}` is not convex (or has holes): its outline covers {:.4} m² but its mesh only {:.4} m²; its convex hull was used",
+                        scene.node_label(ap.node),
+                        ring_area,
+                        q.mesh_area
+                    ),
+                    loc(ap.node).with_position(q.centre.to_array()),
+                )
+                .hint("split it into convex portals, one per opening, or make it convex"),
+            );
+        }
         if q.max_off_plane > 10.0 * eps.max(1e-4) {
             set.diagnostics.push(
                 Diagnostic::new(
@@ -206,6 +236,21 @@ pub(crate) fn link(
                 Some(c) => format!("cell {c} (room `{}`)", tagging.rooms[room_of(c)].name),
                 None => "no cell".to_string(),
             };
+            if front.is_some() && front == back {
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_SEPARATES_NOTHING,
+                        format!(
+                            "portal `{}` has {} on both sides ({probe:.3} m in front and behind): it separates nothing",
+                            scene.node_label(ap.node),
+                            side(front)
+                        ),
+                        loc(ap.node).with_position(q.centre.to_array()),
+                    )
+                    .hint("move the portal into the opening between two rooms, or remove it"),
+                );
+                continue;
+            }
             let n = q.normal;
             set.diagnostics.push(
                 Diagnostic::new(
@@ -258,6 +303,24 @@ pub(crate) fn link(
             );
         }
         for &i in &chosen {
+            if let Some(other) = claimed_by[i].filter(|&o| o != ap.node) {
+                let p = &set.portals[i];
+                set.diagnostics.push(
+                    Diagnostic::new(
+                        Code::PORTAL_DUPLICATE,
+                        format!(
+                            "portals `{}` and `{}` both cover the opening from `{}` to `{}`",
+                            scene.node_label(other),
+                            scene.node_label(ap.node),
+                            tagging.rooms[room_of(p.from)].name,
+                            tagging.rooms[room_of(p.to.unwrap_or(p.from))].name
+                        ),
+                        loc(ap.node).with_position(q.centre.to_array()),
+                    )
+                    .hint("remove one of them; one portal per opening is enough"),
+                );
+            }
+            claimed_by[i] = Some(ap.node);
             let p = &mut set.portals[i];
             p.authored = Some(ap.node);
             p.closed |= ap.closed;
@@ -387,7 +450,7 @@ fn transformed(
                 one_way: false,
                 closed: ap.closed,
                 internal: false,
-                transform: Some(reflection(&plane)),
+                transform: Some(plane.reflection()),
                 authored: Some(ap.node),
                 // A reflection is its own inverse: the mirror is its own partner.
                 partner: Some(i),

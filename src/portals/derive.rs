@@ -10,16 +10,18 @@ use crate::cells::{CellSet, ExactVertices};
 use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection, signed_area};
+use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area};
+use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
 
-/// Triangles that block sight, with their bounds (sorted by `min.x` for the sweep).
+/// Triangles that block sight, indexed by their bounds.
 pub(crate) struct Opaque {
-    tris: Vec<([DVec3; 3], Aabb)>,
+    tris: Vec<[DVec3; 3]>,
+    grid: BoxGrid,
 }
 
 impl Opaque {
@@ -46,27 +48,16 @@ impl Opaque {
                 .map(|p| node.world.transform_point3(*p))
                 .collect();
             for t in &mesh.triangles {
-                let tri = t.map(|i| w[i as usize]);
-                tris.push((tri, Aabb::from_points(tri.iter())));
+                tris.push(t.map(|i| w[i as usize]));
             }
         }
-        tris.sort_by(|a, b| a.1.min.x.total_cmp(&b.1.min.x));
-        Opaque { tris }
+        let grid = BoxGrid::new(tris.iter().map(|t| Aabb::from_points(t.iter())).collect());
+        Opaque { tris, grid }
     }
 
-    /// Triangles whose bounds meet `b`.
+    /// Triangles whose bounds meet `b`, in scene order.
     fn near<'a>(&'a self, b: &'a Aabb) -> impl Iterator<Item = &'a [DVec3; 3]> + 'a {
-        let end = self.tris.partition_point(|(_, tb)| tb.min.x <= b.max.x);
-        self.tris[..end]
-            .iter()
-            .filter(move |(_, tb)| {
-                tb.max.x >= b.min.x
-                    && tb.min.y <= b.max.y
-                    && tb.max.y >= b.min.y
-                    && tb.min.z <= b.max.z
-                    && tb.max.z >= b.min.z
-            })
-            .map(|(t, _)| t)
+        self.grid.query(b, 0.0).into_iter().map(|i| &self.tris[i])
     }
 }
 
@@ -161,6 +152,8 @@ pub(crate) fn derive(
         .iter()
         .map(|c| vec![Vec::new(); c.poly.faces.len()])
         .collect();
+    // Cell pairs within reach, in the order of a sweep along x (cells by their lowest x,
+    // then index), so portals are numbered as they always were.
     let mut order: Vec<usize> = (0..cells.cells.len()).collect();
     order.sort_by(|&a, &b| {
         cells.cells[a]
@@ -169,19 +162,21 @@ pub(crate) fn derive(
             .x
             .total_cmp(&cells.cells[b].bounds.min.x)
     });
-    for (k, &a) in order.iter().enumerate() {
+    let mut rank = vec![0usize; order.len()];
+    for (k, &c) in order.iter().enumerate() {
+        rank[c] = k;
+    }
+    let near_cells = BoxGrid::new(cells.cells.iter().map(|c| c.bounds).collect());
+    let mut pairs: Vec<(usize, usize)> = near_cells
+        .pairs(reach)
+        .into_iter()
+        .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
+        .collect();
+    pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
+    for (a, b) in pairs {
         let ca = &cells.cells[a];
-        for &b in &order[k + 1..] {
-            let cb = &cells.cells[b];
-            if cb.bounds.min.x > ca.bounds.max.x + reach {
-                break;
-            }
-            if (0..3).any(|i| {
-                cb.bounds.min[i] > ca.bounds.max[i] + reach
-                    || cb.bounds.max[i] < ca.bounds.min[i] - reach
-            }) {
-                continue;
-            }
+        let cb = &cells.cells[b];
+        {
             for (ia, fa) in ca.poly.faces.iter().enumerate() {
                 for (ib, fb) in cb.poly.faces.iter().enumerate() {
                     let na = fa.plane.normal;
@@ -253,12 +248,11 @@ pub(crate) fn derive(
                             // other way, so A's polygon is the reversed ring.
                             let on_a: Vec<DVec3> =
                                 piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                            let on_b: Vec<DVec3> =
-                                piece.iter().map(|q| f.to3(*q, na * gap)).collect();
-                            let area = polygon_area(&on_a, na);
-                            if area <= eps * eps {
+                            let Some(on_a) = usable_polygon(&on_a, na, eps) else {
                                 continue;
-                            }
+                            };
+                            let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
+                            let area = polygon_area(&on_a, na);
                             let i = set.portals.len();
                             set.portals.push(Portal {
                                 from: a,
@@ -330,10 +324,10 @@ pub(crate) fn derive(
                 for piece in pieces(o, cfg.conservative) {
                     let piece = exact.restore(piece);
                     let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                    let area = polygon_area(&pts, face.plane.normal);
-                    if area <= eps * eps {
+                    let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
                         continue;
-                    }
+                    };
+                    let area = polygon_area(&pts, face.plane.normal);
                     set.portals.push(Portal {
                         from: c,
                         to: None,

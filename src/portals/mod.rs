@@ -26,6 +26,7 @@ use crate::tags::Tagging;
 
 mod authored;
 mod derive;
+pub mod loops;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Portal {

@@ -1,7 +1,11 @@
 //! Rendering diagnostics for people and machines. Stages only produce [`Diagnostic`] values;
 //! how they look is decided here, once.
 
+pub mod file;
 pub mod human;
+pub mod json;
+pub mod junit;
+pub mod sarif;
 pub mod style;
 
 use serde::Serialize;

@@ -323,6 +323,8 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
                         )
                         .hint("give the node a mesh, or remove the tag"),
                     );
+                    // Nothing to bound with: the room keeps its own geometry's volume.
+                    continue;
                 }
                 if room.is_none() {
                     diags.push(
@@ -425,7 +427,9 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
             }
         }
     }
-    if t.rooms.is_empty() {
+    // An empty scene is reported by the importer; "no rooms" would only repeat it.
+    let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
+    if t.rooms.is_empty() && has_triangles {
         diags.push(
             Diagnostic::new(
                 Code::TAG_NO_ROOMS,

@@ -210,7 +210,18 @@ impl RuleSet {
                         .case_insensitive(!spec.case_sensitive)
                         .size_limit(1 << 20)
                         .build()
-                        .map_err(|e| format!("rule `{}` has an invalid pattern: {e}", r.id))?;
+                        .map_err(|e| {
+                            // The regex error draws a caret under the pattern over several
+                            // lines; a diagnostic is one line, so keep the pattern and the reason.
+                            let text = e.to_string();
+                            let why = text
+                                .lines()
+                                .rev()
+                                .find_map(|l| l.strip_prefix("error: "))
+                                .unwrap_or(text.as_str())
+                                .to_string();
+                            format!("rule `{}` has an invalid pattern `{p}`: {why}", r.id)
+                        })?;
                     Some(re)
                 }
             };

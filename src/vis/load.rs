@@ -13,6 +13,8 @@ pub struct Loaded {
     pub graph: VisGraph,
     pub diagnostics: Diagnostics,
     pub config: crate::config::Config,
+    /// The transform depth bound for this input (configured, else the loop check's).
+    pub transform_depth: usize,
 }
 
 pub fn is_prt(path: &Path) -> bool {
@@ -27,6 +29,10 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
         return Ok(Loaded {
             graph: file.graph(None),
             diagnostics: Diagnostics(diags),
+            transform_depth: config
+                .vis
+                .transform_depth
+                .unwrap_or(super::DEFAULT_TRANSFORM_DEPTH),
             config,
         });
     }
@@ -35,6 +41,11 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
     let portals = pipeline::build_portals(&mut t, &cells);
     Ok(Loaded {
         graph: VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance),
+        transform_depth: super::level_transform_depth(
+            &cells,
+            &portals,
+            t.config.vis.transform_depth,
+        ),
         diagnostics: t.diagnostics,
         config: t.config,
     })

@@ -26,9 +26,10 @@ use crate::portals::PortalSet;
 pub use graph::{VisGraph, VisPortal};
 pub use pvs::Pvs;
 
-/// How many transformed portals (mirrors, teleporters) one sightline may pass through, until
-/// the loop check on main provides the run-time bound (`portals::loops::recursion_depth`);
-/// two covers a mirror seen in a mirror, which is what engines render by default.
+/// How many transformed portals (mirrors, teleporters) one sightline may pass through when
+/// there is no level to ask: graphs built by hand or read from .prt files (which have no
+/// transforms). Levels use [`level_transform_depth`], the loop check's run-time bound; two
+/// covers a mirror seen in a mirror.
 pub const DEFAULT_TRANSFORM_DEPTH: usize = 2;
 
 /// Default sightlines per directed portal for `sampled`.
@@ -120,6 +121,38 @@ pub fn timed(g: &VisGraph, opts: &VisOptions) -> (Pvs, Duration) {
     let t = Instant::now();
     let p = compute(g, opts);
     (p, t.elapsed())
+}
+
+/// The depth bound for a level: `configured` (`[vis] transform_depth`), else the bound the loop
+/// check gives renderers (`portals::loops::recursion_depth`), so the PVS covers every view an
+/// engine will draw through mirrors and teleporters.
+pub fn level_transform_depth(
+    cells: &crate::cells::CellSet,
+    portals: &PortalSet,
+    configured: Option<usize>,
+) -> usize {
+    configured.unwrap_or_else(|| {
+        let bounds = cells
+            .cells
+            .iter()
+            .fold(crate::geom::aabb::Aabb::EMPTY, |b, c| b.union(&c.bounds));
+        let extent = if bounds.is_empty() {
+            1.0
+        } else {
+            bounds.size().length()
+        };
+        crate::portals::loops::recursion_depth(portals, extent)
+    })
+}
+
+/// The note that sightlines through transformed portals stop at the depth bound.
+pub fn transform_depth_note(file: &std::path::Path, depth: usize) -> crate::diag::Diagnostic {
+    crate::diag::Diagnostic::new(
+        crate::diag::Code::VIS_TRANSFORM_DEPTH,
+        format!("sightlines through mirrors and teleporters were followed through at most {depth} of them"),
+        crate::diag::Location::file(file),
+    )
+    .hint("set `[vis] transform_depth` (or --transform-depth) to follow them further")
 }
 
 /// The PVS of a level's cells and portals.

@@ -102,14 +102,40 @@ pub fn clip_to_separators(
 
 /// Clips `target` by every plane in turn. False: nothing is left.
 pub fn clip_by(planes: &[Plane], target: &mut Vec<DVec3>, tmp: &mut Vec<DVec3>, eps: f64) -> bool {
+    // A bounding sphere decides most planes with one distance instead of one per corner; the
+    // outcome is the same as the corner test's.
+    let (mut c, mut r) = sphere(target);
     for plane in planes {
+        let dc = plane.distance(c);
+        if dc > r + eps {
+            continue;
+        }
+        if dc < -r - eps {
+            return false;
+        }
         match chop_how(target, plane, eps, tmp) {
             Chop::Gone => return false,
             Chop::Whole => {}
-            Chop::Cut => std::mem::swap(target, tmp),
+            Chop::Cut => {
+                std::mem::swap(target, tmp);
+                (c, r) = sphere(target);
+            }
         }
     }
     true
+}
+
+/// A sphere around a polygon: its corners' centroid and the farthest corner.
+pub fn sphere(poly: &[DVec3]) -> (DVec3, f64) {
+    if poly.is_empty() {
+        return (DVec3::ZERO, 0.0);
+    }
+    let c = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
+    let r2 = poly
+        .iter()
+        .map(|v| v.distance_squared(c))
+        .fold(0.0, f64::max);
+    (c, r2.sqrt() * (1.0 + 1e-12))
 }
 
 /// The separating planes [`clip_to_separators`] clips by, oriented so that what may be seen

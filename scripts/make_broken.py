@@ -1,0 +1,524 @@
+#!/usr/bin/env python3
+"""Writes samples/broken/: one small level per diagnostic code, each triggering exactly that
+code (tests/check.rs asserts it). Run from the repository root after `cargo build`:
+
+    python3 scripts/make_broken.py [path/to/portcullis]
+
+Most levels are the two-room sample with one thing wrong. Levels that need a configuration
+are folders (`CODE/level.gltf` + `CODE/portcullis.toml`). Levels about a stored annotation
+are converted with portcullis first and the annotation is then edited, as a hand edit or
+another tool would. Codes that no level file can trigger (command-line mistakes, output
+problems) are listed in samples/broken/README.md instead.
+"""
+import copy
+import json
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import make_samples as ms  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "samples" / "broken"
+MALFORMED = ROOT / "tests" / "fixtures" / "malformed"
+EXE = sys.argv[1] if len(sys.argv) > 1 else str(ROOT / "target" / "debug" / "portcullis")
+H = ms.H
+
+
+def two_rooms(table=True):
+    t = ms.two_rooms()
+    if not table:
+        kitchen = t["children"][0]
+        kitchen["children"] = [c for c in kitchen["children"] if c["name"] != "Table-detail"]
+    return t
+
+
+def child(tree, *path):
+    node = tree
+    for name in path:
+        node = next(c for c in node["children"] if c["name"] == name)
+    return node
+
+
+def closed_room(name, x0, x1, z0=0.0, z1=4.0, holes=()):
+    """Inward-facing box room; `holes` are (wall, a0, a1, y0, y1) rectangles cut from walls
+    'x0', 'x1' (a = z) or 'z0', 'z1' (a = x)."""
+    tris_floor = ms.quad((x0, 0, z0), (x0, 0, z1), (x1, 0, z1), (x1, 0, z0))
+    tris_ceiling = ms.quad((x0, H, z0), (x1, H, z0), (x1, H, z1), (x0, H, z1))
+    walls = []
+    specs = {
+        "x0": (lambda a, y: (x0, y, a), (z0, z1), (1, 0, 0)),
+        "x1": (lambda a, y: (x1, y, a), (z0, z1), (-1, 0, 0)),
+        "z0": (lambda a, y: (a, y, z0), (x0, x1), (0, 0, 1)),
+        "z1": (lambda a, y: (a, y, z1), (x0, x1), (0, 0, -1)),
+    }
+    for wall, (at, (a0, a1), n) in specs.items():
+        cut = [h[1:] for h in holes if h[0] == wall]
+        us = sorted({a0, a1, *[c for h in cut for c in h[:2]]})
+        vs = sorted({0.0, H, *[c for h in cut for c in h[2:]]})
+        for ua, ub in zip(us, us[1:]):
+            for va, vb in zip(vs, vs[1:]):
+                cu, cv = (ua + ub) / 2, (va + vb) / 2
+                if any(h[0] < cu < h[1] and h[2] < cv < h[3] for h in cut):
+                    continue
+                walls += ms.facing(ms.quad(at(ua, va), at(ub, va), at(ub, vb), at(ua, vb)), n)
+    return ms.room_node(name, tris_floor, tris_ceiling, walls)
+
+
+def door_quad(x, nx, z0=1.5, z1=2.5, h=2.2):
+    return ms.wall_x(x, [ms.rect_zy(z0, 0, z1, h)], nx)
+
+
+def write(tree, name, post=None):
+    path = OUT / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ms.write_gltf(tree, path)
+    if post:
+        doc = json.loads(path.read_text())
+        post(doc)
+        path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
+def node_index(doc, name):
+    return next(i for i, n in enumerate(doc["nodes"]) if n.get("name") == name)
+
+
+def converted(tree, edit):
+    """The level annotated by portcullis, with `edit(doc, ext)` applied to the glTF JSON."""
+    with tempfile.TemporaryDirectory() as d:
+        raw = Path(d) / "raw.gltf"
+        ms.write_gltf(tree, raw)
+        out = Path(d) / "out.gltf"
+        subprocess.run([EXE, "convert", str(raw), "-o", str(out), "--color", "never"],
+                       check=True, capture_output=True)
+        doc = json.loads(out.read_text())
+        # A .gltf output keeps its buffer next to it; embed it so the sample is one file.
+        import base64
+        for b in doc.get("buffers", []):
+            uri = b.get("uri", "")
+            if uri and not uri.startswith("data:"):
+                data = (Path(d) / uri).read_bytes()
+                b["uri"] = "data:application/octet-stream;base64," + base64.b64encode(data).decode()
+        edit(doc, doc["extensions"]["PORTCULLIS_portals"])
+        return doc
+
+
+def write_doc(doc, name):
+    path = OUT / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+
+
+def mat_mul(a, b):
+    """4x4 column-major (glTF order) product a * b."""
+    at = lambda m, r, c: m[c * 4 + r]  # noqa: E731
+    return [sum(at(a, r, k) * at(b, k, c) for k in range(4)) for c in range(4) for r in range(4)]
+
+
+def transform_point(m, p):
+    return [sum(m[c * 4 + r] * (list(p) + [1.0])[c] for c in range(4)) for r in range(3)]
+
+
+def teleporter_portals(ext):
+    return [i for i, p in enumerate(ext["portals"]) if p.get("kind") == "teleporter"]
+
+
+# --- the levels -------------------------------------------------------------------------------
+
+def level_samples():
+    s = {}
+
+    # Input read, with problems.
+    def nan_triangle(doc):
+        # The lamp's second triangle gets a NaN coordinate (JSON cannot hold NaN; the buffer can).
+        pass
+    t = two_rooms()
+    child(t, "kitchen-room")["children"].append({
+        "name": "Lamp-detail", "material": "wood",
+        "tris": [((1.0, 0.0, 3.0), (1.5, 0.0, 3.0), (1.0, 1.0, 3.0)),
+                 ((1.0, 0.0, 3.5), (1.5, 0.0, 3.5), (1.0, 1.0, float("nan")))]})
+    s["GEOM_NON_FINITE.gltf"] = (t, fix_nan_bounds)
+
+    t = two_rooms()
+    # A triangle that repeats a vertex (exporters leave these behind).
+    child(t, "kitchen-room", "Floor")["tris"].append(((0.5, 0, 0.5), (0.5, 0, 0.5), (1.0, 0, 1.0)))
+    s["GEOM_DEGENERATE_TRIANGLES.gltf"] = (t, None)
+
+    def lines(doc):
+        prim = doc["meshes"][0]["primitives"][0]
+        doc["meshes"][0]["primitives"].append({"attributes": dict(prim["attributes"]), "mode": 1})
+    s["GLTF_NON_TRIANGLES_SKIPPED.gltf"] = (two_rooms(), lines)
+
+    def no_scene(doc):
+        del doc["scene"]
+        del doc["scenes"]
+    s["GLTF_NO_SCENE.gltf"] = (two_rooms(), no_scene)
+
+    t = two_rooms()
+    t["children"].append({"name": "Marker", "children": [{"name": "Inner"}]})
+
+    def overflow(doc):
+        # Each scale is finite; their product is not.
+        for name in ("Marker", "Inner"):
+            doc["nodes"][node_index(doc, name)]["scale"] = [1e200, 1e200, 1e200]
+    s["GLTF_TRANSFORM_INVALID.gltf"] = (t, overflow)
+
+    def instancing(doc):
+        table = doc["nodes"][node_index(doc, "Table-detail")]
+        pos = doc["meshes"][table["mesh"]]["primitives"][0]["attributes"]["POSITION"]
+        table["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": pos}}}
+        doc["extensionsUsed"] = ["EXT_mesh_gpu_instancing"]
+    s["GLTF_EXTENSION_IGNORED.gltf"] = (two_rooms(), instancing)
+
+    t = {"name": "Level", "children": [{"name": "Marker"}]}
+    s["EMPTY_SCENE.gltf"] = (t, None)
+
+    # Tags.
+    t = two_rooms()
+    t["children"].append({"name": "hall_room"})
+    s["TAG_NEAR_MISS.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["name"] = "cellar-portal"
+    s["TAG_UNKNOWN_TARGET.gltf"] = (t, None)
+
+    t = two_rooms()
+    # A second node with the kitchen's name, holding a crate inside the kitchen.
+    t["children"].append({"name": "kitchen-room", "children": [
+        {"name": "Crate", "tris": ms.box(2.5, 0, 2.5, 3.0, 0.5, 3.0), "material": "wood"}]})
+    s["TAG_DUPLICATE_ROOM.gltf"] = (t, None)
+
+    t = two_rooms()
+    kitchen = child(t, "kitchen-room")
+    p = child(t, "kitchen-room", "lounge-portal")
+    kitchen["children"].remove(p)
+    t["children"].append(p)
+    s["TAG_PORTAL_NO_SOURCE.gltf"] = (t, None)
+
+    t = two_rooms()
+    del child(t, "kitchen-room", "lounge-portal")["tris"]
+    s["TAG_PORTAL_NO_MESH.gltf"] = (t, None)
+
+    t = two_rooms()
+    t["children"].append({"name": "Volume", "tris": ms.box(20, 0, 0, 24, 3, 4), "material": "bound",
+                          "extras": {"bound": True}})
+    s["TAG_BOUND_NO_ROOM.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room")["children"].append({"name": "Volume", "extras": {"bound": True}})
+    s["TAG_BOUND_NO_MESH.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room")["children"].append({"name": "Spawn", "extras": {"player_start": [1]}})
+    s["TAG_EXTRAS_INVALID.gltf"] = (t, None)
+
+    t = ms.teleporter()
+    child(t, "a-room", "tp_a")["extras"]["teleport_exit"] = "tp_nowhere"
+    s["TAG_TELEPORT_EXIT_UNKNOWN.gltf"] = (t, None)
+
+    t = {"name": "Level", "children": [{"name": "Box", "tris": ms.box(0, 0, 0, 1, 1, 1), "material": "wood"}]}
+    s["TAG_NO_ROOMS.gltf"] = (t, None)
+
+    # Cells.
+    s["TOLERANCE_CAPPED.gltf"] = (two_rooms(), lambda doc: doc["nodes"][0].update(
+        {"translation": [200000.0, 0.0, 0.0]}))
+
+    shell = closed_room("x", 0.0, 4.0)
+    floor, ceiling, walls = (child(shell, n)["tris"] for n in ("Floor", "Ceiling", "Walls"))
+    t = {"name": "Level", "children": [
+        {"name": "hall-room", "children": [{"name": "Floor", "tris": floor, "material": "floor"}]},
+        {"name": "Shell", "children": [{"name": "Walls", "tris": walls, "material": "wall"},
+                                       {"name": "Ceiling", "tris": ceiling, "material": "wall"}]}]}
+    s["CELL_ROOM_FROM_FLOOR.gltf"] = (t, None)
+
+    t = two_rooms()
+    t["children"].append({"name": "cellar-room"})
+    s["CELL_ROOM_EMPTY.gltf"] = (t, None)
+
+    t = two_rooms()
+    t["children"].append({"name": "shelf-room", "children": [
+        {"name": "Board", "tris": ms.wall_x(20.0, [ms.rect_zy(0, 0, 1, 1)], 1), "material": "wood"}]})
+    s["CELL_ROOM_DEGENERATE.gltf"] = (t, None)
+
+    bb = ms.bound_boxes()
+    kitchen_cell = child(bb, "kitchen-cell")
+    # Dent the top of the kitchen's bound: a pyramid pushed down into it, so it is not convex.
+    tris = [tr for tr in kitchen_cell["tris"] if not all(v[1] == H for v in tr)]
+    c = (2.0, H - 0.5, 2.0)
+    top = [(0.0, H, 0.0), (4.0, H, 0.0), (4.0, H, 4.0), (0.0, H, 4.0)]
+    for k in range(4):
+        a, b = top[k], top[(k + 1) % 4]
+        tris += ms.facing([(a, b, c)], (0, 1, 0))
+    kitchen_cell["tris"] = tris
+    s["CELL_BOUND_NOT_CONVEX.gltf"] = (bb, None)
+
+    n = 40
+    ring = [(2 + 2 * math.cos(2 * math.pi * k / n), 2 + 2 * math.sin(2 * math.pi * k / n)) for k in range(n)]
+    floor = ms.facing(ms.fan([(x, 0.0, z) for x, z in ring]), (0, 1, 0))
+    ceiling = ms.facing(ms.fan([(x, H, z) for x, z in ring]), (0, -1, 0))
+    walls = []
+    for k in range(n):
+        (xa, za), (xb, zb) = ring[k], ring[(k + 1) % n]
+        inward = (2 - (xa + xb) / 2, 0, 2 - (za + zb) / 2)
+        walls += ms.facing(ms.quad((xa, 0, za), (xb, 0, zb), (xb, H, zb), (xa, H, za)), inward)
+    s["CELL_TOO_MANY_PLANES.gltf"] = (ms.level(ms.room_node("tower-room", floor, ceiling, walls)), None)
+
+    t = ms.level(closed_room("kitchen-room", 0.0, 4.0), closed_room("lounge-room", 3.0, 7.0))
+    s["CELL_OVERLAP/level.gltf"] = (t, None)
+
+    t = two_rooms()
+    t["children"].append({"name": "Crate", "tris": ms.box(20, 0, 0, 21, 1, 1), "material": "wood"})
+    s["CELL_GEOMETRY_OUTSIDE.gltf"] = (t, None)
+
+    # Authored portals.
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["tris"] = door_quad(0.0, -1)
+    s["PORTAL_AUTHORED_UNMATCHED.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["tris"] = door_quad(4.0, -1)
+    s["PORTAL_AUTHORED_WRONG_WAY.gltf"] = (t, None)
+
+    hall = closed_room("hall-room", 0.0, 8.0, 4.0, 8.0,
+                       holes=[("z0", 1.5, 2.5, 0, 2.2), ("z0", 5.5, 6.5, 0, 2.2)])
+    hall["children"].append({"name": "Doors", "material": "portal", "extras": {"portal": True},
+                             "tris": ms.facing(ms.quad((1.0, 0, 4.0), (7.0, 0, 4.0), (7.0, 2.2, 4.0),
+                                                       (1.0, 2.2, 4.0)), (0, 0, -1))})
+    t = ms.level(closed_room("kitchen-room", 0.0, 4.0, holes=[("z1", 1.5, 2.5, 0, 2.2)]),
+                 closed_room("lounge-room", 4.0, 8.0, holes=[("z1", 5.5, 6.5, 0, 2.2)]), hall)
+    s["PORTAL_AUTHORED_AMBIGUOUS.gltf"] = (t, None)
+
+    t = two_rooms()
+    q = child(t, "kitchen-room", "lounge-portal")
+    q["tris"] = [tuple((x + 0.05, y, z) if (y, z) == (2.2, 2.5) else (x, y, z) for x, y, z in tr)
+                 for tr in q["tris"]]
+    s["PORTAL_NOT_PLANAR.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["tris"] = [((4.0, 0.0, 2.0), (4.0, 2.2, 2.0), (4.0, 1.1, 2.0000005))]
+    s["PORTAL_TOO_FEW_POINTS.gltf"] = (t, None)
+
+    t = two_rooms()
+    # An L: the door rectangle without its top-right quarter.
+    child(t, "kitchen-room", "lounge-portal")["tris"] = ms.wall_x(
+        4.0, [ms.rect_zy(1.5, 0, 2.5, 1.1), ms.rect_zy(1.5, 1.1, 2.0, 2.2)], 1)
+    s["PORTAL_NOT_CONVEX.gltf"] = (t, None)
+
+    t = ms.level(ms.room_node("hall-room", *ms.box_room(0.0, 4.0)))
+    child(t, "hall-room")["children"].append({
+        "name": "Mirror", "tris": ms.wall_x(2.0, [ms.rect_zy(1.0, 0.5, 3.0, 2.5)], 1), "material": "portal",
+        "extras": {"portal": True, "portal_kind": "mirror"}})
+    s["PORTAL_NOT_ON_BOUNDARY.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["tris"] = door_quad(2.0, 1)
+    s["PORTAL_SEPARATES_NOTHING.gltf"] = (t, None)
+
+    t = two_rooms()
+    child(t, "kitchen-room")["children"].append(
+        {"name": "Door", "tris": door_quad(4.0, 1), "material": "portal", "extras": {"portal": "lounge"}})
+    s["PORTAL_DUPLICATE.gltf"] = (t, None)
+
+    t = ms.teleporter()
+    child(t, "b-room", "tp_b")["tris"] = ms.wall_x(10.0, [ms.rect_zy(0.5, 0.0, 3.5, 2.0)], 1)
+    s["TRANSFORM_EXIT_MISMATCH.gltf"] = (t, None)
+
+    # The cell graph.
+    s["GRAPH_UNREACHABLE.gltf"] = (ms.level(closed_room("kitchen-room", 0.0, 4.0),
+                                            closed_room("lounge-room", 4.0, 8.0)), None)
+
+    t = two_rooms()
+    child(t, "kitchen-room", "lounge-portal")["extras"] = {"one_way": True}
+    s["GRAPH_ONE_WAY_DEAD_END.gltf"] = (t, None)
+
+    t = ms.level(ms.room_node("hall-room", *ms.box_room(0.0, 4.0)))
+    for name, x, nx in (("MirrorWest", 0.0, 1), ("MirrorEast", 4.0, -1)):
+        child(t, "hall-room")["children"].append({
+            "name": name, "tris": ms.wall_x(x, [ms.rect_zy(1.0, 0.5, 3.0, 2.5)], nx), "material": "portal",
+            "extras": {"portal": True, "portal_kind": "mirror"}})
+    s["GRAPH_TRANSFORM_LOOP.gltf"] = (t, None)
+
+    t = two_rooms()
+    t["children"].append({"name": "Spawn", "extras": {"player_start": True}})
+    s["PLAYER_START_OUTSIDE.gltf"] = (t, lambda doc: doc["nodes"][node_index(doc, "Spawn")]
+                                      .update({"translation": [20.0, 1.0, 2.0]}))
+
+    # Leaks: a window in the kitchen's outer wall.
+    def windowed():
+        t = ms.level(closed_room("kitchen-room", 0.0, 4.0, holes=[("x1", 1.5, 2.5, 0, 2.2), ("z0", 1.0, 3.0, 1.0, 2.0)]),
+                     closed_room("lounge-room", 4.0, 8.0, holes=[("x0", 1.5, 2.5, 0, 2.2)]))
+        t["children"].append({"name": "Spawn", "extras": {"player_start": True}})
+        return t
+    spawn = lambda doc: doc["nodes"][node_index(doc, "Spawn")].update({"translation": [6.0, 1.0, 2.0]})  # noqa: E731
+    s["EXTERIOR_OPENINGS.gltf"] = (windowed(), spawn)
+    s["LEAK/level.gltf"] = (windowed(), spawn)
+    return s
+
+
+def fix_nan_bounds(doc):
+    for a in doc["accessors"]:
+        for k in ("min", "max"):
+            if k in a:
+                a[k] = [0.0 if (v != v) else v for v in a[k]]
+
+
+def annotated_samples():
+    s = {}
+
+    def bad_cell(doc, ext):
+        ext["portals"][0]["cells"] = [0, 7]
+    s["ANNOTATION_INVALID.gltf"] = converted(two_rooms(), bad_cell)
+
+    def moved(doc, ext):
+        doc["nodes"][node_index(doc, "Table-detail")]["translation"] = [0.1, 0.0, 0.0]
+    s["ANNOTATION_STALE.gltf"] = converted(two_rooms(), moved)
+
+    def unpaired(doc, ext):
+        for p in ext["portals"]:
+            p.pop("partner", None)
+    s["PORTAL_UNPAIRED.gltf"] = converted(two_rooms(), unpaired)
+
+    def shifted(doc, ext):
+        p = ext["portals"][1]
+        p["polygon"] = [[x, y, z + 0.3] for x, y, z in p["polygon"]]
+    s["PORTAL_PARTNER_MISMATCH.gltf"] = converted(two_rooms(), shifted)
+
+    def scaled(doc, ext):
+        i, j = teleporter_portals(ext)
+        pi, pj = ext["portals"][i], ext["portals"][j]
+        exit_centre = [sum(v[k] for v in pj["polygon"]) / len(pj["polygon"]) for k in range(3)]
+        # Twice as large about the exit's centre, and the exit polygon grown to match.
+        to = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, *exit_centre, 1]
+        back = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, *[-c for c in exit_centre], 1]
+        grow = [2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0, 0, 0, 1]
+        m = mat_mul(to, mat_mul(grow, mat_mul(back, pi["transform"])))
+        shrink = [0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1]
+        pi["transform"] = m
+        pj["transform"] = mat_mul(pj["transform"], mat_mul(to, mat_mul(shrink, back)))
+        image = [transform_point(m, v) for v in pi["polygon"]]
+        pj["polygon"] = list(reversed(image))
+    s["TRANSFORM_NOT_RIGID.gltf"] = converted(ms.teleporter(), scaled)
+
+    def not_inverse(doc, ext):
+        i, j = teleporter_portals(ext)
+        ext["portals"][j]["transform"][13] += 1.0
+    s["TRANSFORM_PARTNER_NOT_INVERSE.gltf"] = converted(ms.teleporter(), not_inverse)
+
+    def tilted(doc, ext):
+        p = next(p for p in ext["portals"] if p.get("kind") == "mirror")
+        # The reflection plane moved 25 cm behind the mirror (x = 3.75 instead of 4).
+        p["transform"][12] -= 0.5
+    s["TRANSFORM_MIRROR_PLANE.gltf"] = converted(ms.mirror(), tilted)
+    return s
+
+
+def copies():
+    """Files that cannot be read at all: the malformed fixtures, and a few written here."""
+    c = {
+        "GLB_INVALID.glb": MALFORMED / "gltf" / "truncated.glb",
+        "GLTF_INVALID_JSON.gltf": MALFORMED / "gltf" / "invalid_json.gltf",
+        "GLTF_UNSUPPORTED_VERSION.gltf": MALFORMED / "gltf" / "wrong_version.gltf",
+        "GLTF_BUFFER_MISSING.gltf": MALFORMED / "gltf" / "missing_bin.gltf",
+        "GLTF_ACCESSOR_OUT_OF_BOUNDS.gltf": MALFORMED / "gltf" / "accessor_oob.gltf",
+        "GLTF_NODE_CYCLE.gltf": MALFORMED / "gltf" / "node_cycle.gltf",
+        "MESH_INDEX_OUT_OF_RANGE.gltf": MALFORMED / "gltf" / "index_out_of_range.gltf",
+        "OBJ_NOT_TEXT.obj": MALFORMED / "obj" / "binary.obj",
+        "OBJ_BAD_STATEMENT.obj": MALFORMED / "obj" / "bad_number.obj",
+        "OBJ_BAD_INDEX.obj": MALFORMED / "obj" / "bad_index.obj",
+    }
+    for name, src in c.items():
+        shutil.copyfile(src, OUT / name)
+
+
+def written():
+    (OUT / "INPUT_EMPTY.gltf").write_bytes(b"")
+    (OUT / "INPUT_FORMAT_UNKNOWN.fbx").write_text("; an FBX ASCII file portcullis does not read\n")
+    d = OUT / "IO_READ_FAILED.gltf"
+    d.mkdir(exist_ok=True)
+    (d / "README.md").write_text("A folder named like a level: reading it fails (IO_READ_FAILED).\n")
+    (OUT / "USD_UNSUPPORTED_BUILD.usda").write_text(USDA)
+    base = two_rooms()
+
+    def required(doc):
+        doc["extensionsUsed"] = ["KHR_draco_mesh_compression"]
+        doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+    write(base, "GLTF_REQUIRED_EXTENSION_UNSUPPORTED.gltf", required)
+    write(base, "GLTF_BUFFER_TOO_SHORT.gltf", lambda doc: doc["buffers"][0].update(
+        {"byteLength": doc["buffers"][0]["byteLength"] + 64}))
+    write(base, "GLTF_BAD_INDEX.gltf", lambda doc: doc["nodes"][node_index(doc, "Floor")].update({"mesh": 99}))
+
+    def vec2(doc):
+        pos = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+        doc["accessors"][pos]["type"] = "VEC2"
+        doc["accessors"][pos]["min"] = doc["accessors"][pos]["min"][:2]
+        doc["accessors"][pos]["max"] = doc["accessors"][pos]["max"][:2]
+    write(base, "GLTF_ACCESSOR_INVALID.gltf", vec2)
+
+    obj = OUT / "OBJ_MTL_MISSING.obj"
+    ms.write_obj(base, obj)
+    obj.write_text("mtllib missing.mtl\n" + obj.read_text())
+    obj = OUT / "OBJ_UNSUPPORTED_STATEMENT.obj"
+    ms.write_obj(base, obj)
+    obj.write_text(obj.read_text() + "l 1 2\n")
+    obj = OUT / "OBJ_POLYGON_SELF_INTERSECTING.obj"
+    ms.write_obj(base, obj)
+    text = obj.read_text()
+    n = sum(1 for line in text.splitlines() if line.startswith("v "))
+    obj.write_text(text + "o Level/kitchen-room/Rug-detail\n"
+                   "v 1 0.01 1\nv 2 0.01 2\nv 2 0.01 1\nv 1 0.01 2\n"
+                   f"f {n + 1} {n + 2} {n + 3} {n + 4}\n")
+
+    (OUT / "CONFIG_INVALID").mkdir(exist_ok=True)
+    write(base, "CONFIG_INVALID/level.gltf")
+    (OUT / "CONFIG_INVALID" / "portcullis.toml").write_text("[cells]\nmax_plane = 12  # a typo of max_planes\n")
+    (OUT / "TAGS_RULE_INVALID").mkdir(exist_ok=True)
+    write(base, "TAGS_RULE_INVALID/level.gltf")
+    (OUT / "TAGS_RULE_INVALID" / "portcullis.toml").write_text(
+        "[[tags.rule]]\nid = \"mine.room\"\nkind = \"room\"\npattern = '^(?P<name>.+-zone$'\n")
+    (OUT / "CELL_OVERLAP").mkdir(exist_ok=True)
+    (OUT / "CELL_OVERLAP" / "portcullis.toml").write_text(
+        "# The two rooms overlap and share no opening; only the overlap is under test here.\n"
+        "[check]\nignore = [\"GRAPH_UNREACHABLE\"]\n")
+    (OUT / "LEAK").mkdir(exist_ok=True)
+    (OUT / "LEAK" / "portcullis.toml").write_text("[check]\nsealed = true\n")
+
+
+USDA = """#usda 1.0
+(
+    upAxis = "Y"
+    metersPerUnit = 1
+)
+
+def Xform "Level"
+{
+    def Mesh "room_hall"
+    {
+        int[] faceVertexCounts = [4, 4, 4, 4, 4, 4]
+        int[] faceVertexIndices = [0, 1, 3, 2, 4, 6, 7, 5, 0, 4, 5, 1, 2, 3, 7, 6, 0, 2, 6, 4, 1, 5, 7, 3]
+        point3f[] points = [(0, 0, 0), (0, 0, 4), (0, 3, 0), (0, 3, 4), (4, 0, 0), (4, 0, 4), (4, 3, 0), (4, 3, 4)]
+    }
+}
+"""
+
+
+def main():
+    if OUT.exists():
+        shutil.rmtree(OUT)
+    OUT.mkdir(parents=True)
+    for name, (tree, post) in level_samples().items():
+        write(tree, name, post)
+    for name, doc in annotated_samples().items():
+        write_doc(doc, name)
+    copies()
+    written()
+    shutil.copyfile(ROOT / "scripts" / "broken_README.md", OUT / "README.md")
+    print("wrote", len(list(OUT.iterdir())), "entries in", OUT)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,213 @@
+//! The cell graph: cells no portal path joins to the rest (usually a wall with no doorway
+//! modelled, or a room the designer forgot to connect), and one-way portals into cells with no
+//! way back out (a player who drops down there is stuck).
+
+use super::{edges, Subject};
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+
+/// Union-find root with path halving.
+fn root(parent: &mut [usize], mut a: usize) -> usize {
+    while parent[a] != a {
+        parent[a] = parent[parent[a]];
+        a = parent[a];
+    }
+    a
+}
+
+/// Strongly connected components (Tarjan's algorithm, iterative): a component id per cell.
+fn components(n: usize, adj: &[Vec<usize>]) -> Vec<usize> {
+    const NONE: usize = usize::MAX;
+    let mut index = vec![NONE; n];
+    let mut low = vec![0; n];
+    let mut on_stack = vec![false; n];
+    let mut stack = Vec::new();
+    let mut comp = vec![NONE; n];
+    let mut next_index = 0;
+    let mut next_comp = 0;
+    for start in 0..n {
+        if index[start] != NONE {
+            continue;
+        }
+        // (cell, next neighbour to visit)
+        let mut work = vec![(start, 0usize)];
+        index[start] = next_index;
+        low[start] = next_index;
+        next_index += 1;
+        stack.push(start);
+        on_stack[start] = true;
+        while let Some(&mut (v, ref mut k)) = work.last_mut() {
+            if *k < adj[v].len() {
+                let w = adj[v][*k];
+                *k += 1;
+                if index[w] == NONE {
+                    index[w] = next_index;
+                    low[w] = next_index;
+                    next_index += 1;
+                    stack.push(w);
+                    on_stack[w] = true;
+                    work.push((w, 0));
+                } else if on_stack[w] {
+                    low[v] = low[v].min(index[w]);
+                }
+                continue;
+            }
+            work.pop();
+            if let Some(&(u, _)) = work.last() {
+                low[u] = low[u].min(low[v]);
+            }
+            if low[v] == index[v] {
+                while let Some(w) = stack.pop() {
+                    on_stack[w] = false;
+                    comp[w] = next_comp;
+                    if w == v {
+                        break;
+                    }
+                }
+                next_comp += 1;
+            }
+        }
+    }
+    comp
+}
+
+fn list(s: &Subject, cells: &[usize]) -> String {
+    const SHOWN: usize = 6;
+    let mut names: Vec<&str> = cells.iter().take(SHOWN).map(|&c| s.cell(c)).collect();
+    let more = cells.len().saturating_sub(SHOWN);
+    let extra = if more > 0 {
+        format!(" and {more} more")
+    } else {
+        String::new()
+    };
+    if names.len() == 1 {
+        return format!("{}{extra}", names[0]);
+    }
+    let last = names.pop().unwrap_or_default();
+    format!("{} and {last}{extra}", names.join(", "))
+}
+
+fn at_cell(s: &Subject, c: usize) -> Location {
+    let loc = s
+        .cells
+        .get(c)
+        .map_or_else(|| Location::file(&s.file), |c| c.at.clone());
+    match s.cell_point(c) {
+        Some(p) => loc.with_position(p.to_array()),
+        None => loc,
+    }
+}
+
+/// `seeds`: (start, cell) pairs; the part of the level holding the first start is the main
+/// one, else the part with the most cells.
+pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], out: &mut Diagnostics) {
+    let n = s.cells.len();
+    if n < 2 {
+        return;
+    }
+    let es = edges(s);
+    let mut parent: Vec<usize> = (0..n).collect();
+    for &(a, b, _) in &es {
+        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+        if ra != rb {
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut parts: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for c in 0..n {
+        let r = root(&mut parent, c);
+        parts.entry(r).or_default().push(c);
+    }
+    if parts.len() > 1 {
+        let main = match seeds.first() {
+            Some(&(_, c)) => root(&mut parent, c),
+            None => {
+                let mut best = (0usize, usize::MAX);
+                for (r, cs) in &parts {
+                    if cs.len() > best.0 {
+                        best = (cs.len(), *r);
+                    }
+                }
+                best.1
+            }
+        };
+        let reference = match seeds.first() {
+            Some(&(k, _)) => s.starts[k].label.clone(),
+            None => format!("the largest part ({})", list(s, &parts[&main])),
+        };
+        for (r, cs) in &parts {
+            if *r == main {
+                continue;
+            }
+            out.push(
+                Diagnostic::new(
+                    Code::GRAPH_UNREACHABLE,
+                    format!(
+                        "{} cannot be reached from {reference}: no portal joins {}",
+                        list(s, cs),
+                        if cs.len() == 1 { "it" } else { "them" }
+                    ),
+                    at_cell(s, cs[0]),
+                )
+                .hint("model the doorway between them (an opening in the wall, or an authored portal), or remove the cells if they are not part of the level"),
+            );
+        }
+    }
+    dead_ends(s, n, &es, out);
+}
+
+/// A strongly connected part with a way in from elsewhere but no way out.
+fn dead_ends(s: &Subject, n: usize, es: &[(usize, usize, usize)], out: &mut Diagnostics) {
+    let mut adj = vec![Vec::new(); n];
+    for &(a, b, _) in es {
+        adj[a].push(b);
+    }
+    let comp = components(n, &adj);
+    let count = comp.iter().copied().max().map_or(0, |m| m + 1);
+    let mut has_out = vec![false; count];
+    let mut entries: Vec<Vec<usize>> = vec![Vec::new(); count];
+    for &(a, b, p) in es {
+        if comp[a] != comp[b] {
+            has_out[comp[a]] = true;
+            entries[comp[b]].push(p);
+        }
+    }
+    for k in 0..count {
+        if has_out[k] || entries[k].is_empty() {
+            continue;
+        }
+        let cells: Vec<usize> = (0..n).filter(|&c| comp[c] == k).collect();
+        let mut ways: Vec<usize> = entries[k].clone();
+        ways.sort_unstable();
+        ways.dedup();
+        let names: Vec<&str> = ways.iter().take(4).map(|&p| s.portal(p)).collect();
+        let first = ways[0];
+        out.push(
+            Diagnostic::new(
+                Code::GRAPH_ONE_WAY_DEAD_END,
+                format!(
+                    "one-way {} lead{} into {}, and no portal leads back out",
+                    names.join(", "),
+                    if ways.len() == 1 { "s" } else { "" },
+                    list(s, &cells)
+                ),
+                s.at(first, super::centroid(&s.portals.portals[first].polygon)),
+            )
+            .hint("make one of the portals two-way, or add a way out of those cells"),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::components;
+
+    #[test]
+    fn tarjan_finds_cycles_and_singletons() {
+        // 0 <-> 1 -> 2 -> 3 -> 2
+        let adj = vec![vec![1], vec![0, 2], vec![3], vec![2]];
+        let c = components(4, &adj);
+        assert_eq!(c[0], c[1]);
+        assert_eq!(c[2], c[3]);
+        assert_ne!(c[0], c[2]);
+    }
+}

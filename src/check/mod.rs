@@ -1,0 +1,283 @@
+//! Checks of a level's cells and portals as a whole: portal shape and pairing, transforms,
+//! the cell graph, loops through transforms and leaks. The stages that build cells and
+//! portals report what they see while building; these checks look at the result, so they run
+//! the same on a level portcullis just built ([`Subject::built`]) and on the annotation stored
+//! in a file it wrote earlier ([`stored::subject`]) — the latter is what an engine will load.
+//!
+//! Every finding is a [`Diagnostic`] located at the portal's node (or its JSON pointer in a
+//! stored annotation) with the 3D point it concerns, so a designer can go there.
+
+use std::path::PathBuf;
+
+use glam::DVec3;
+
+use crate::cells::CellSet;
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::pipeline::Tagged;
+use crate::portals::PortalSet;
+
+mod graph;
+mod leaks;
+mod portals;
+pub mod stored;
+mod transforms;
+
+/// What the user asked the checks to assume.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Options {
+    /// The level is meant to be closed: openings to the exterior are leaks (errors).
+    pub sealed: bool,
+}
+
+/// A cell as the checks need it.
+#[derive(Debug, Clone)]
+pub struct CellInfo {
+    /// None when a stored cell's planes do not close a volume.
+    pub poly: Option<ConvexPolyhedron>,
+    /// `cell 3 (room `hall`)`.
+    pub label: String,
+    /// Where the cell comes from: its room's node, or its place in a stored annotation.
+    pub at: Location,
+}
+
+/// A player start: where leak paths begin.
+#[derive(Debug, Clone)]
+pub struct Start {
+    pub point: DVec3,
+    pub label: String,
+    pub at: Location,
+}
+
+/// A level's cells and portals, with what is needed to say where a problem is.
+#[derive(Debug, Clone)]
+pub struct Subject<'a> {
+    pub file: PathBuf,
+    pub cells: Vec<CellInfo>,
+    pub portals: &'a PortalSet,
+    /// Where each portal comes from (its authored node, or its place in a stored annotation);
+    /// the checks add the 3D point.
+    pub portal_at: Vec<Location>,
+    /// `portal 4 (`door_b`)`.
+    pub portal_label: Vec<String>,
+    /// The distance tolerance (m).
+    pub eps: f64,
+    /// The level's bounding-box diagonal (m).
+    pub extent: f64,
+    /// Portals this far across a wall still lie on their cells' boundary (m).
+    pub max_wall_thickness: f64,
+    pub starts: Vec<Start>,
+}
+
+/// What the checks found.
+#[derive(Debug, Clone, Default)]
+pub struct Findings {
+    pub diagnostics: Diagnostics,
+    /// One polyline per leak, from a start through the cells to the exterior, for debug output.
+    pub leaks: Vec<Vec<DVec3>>,
+}
+
+impl<'a> Subject<'a> {
+    /// The subject for cells and portals just built from `tagged`.
+    pub fn built(tagged: &Tagged, cells: &CellSet, portals: &'a PortalSet) -> Subject<'a> {
+        let scene = &tagged.scene;
+        let room = |c: usize| {
+            cells
+                .cells
+                .get(c)
+                .and_then(|cell| tagged.tagging.rooms.get(cell.room))
+                .map_or("?", |r| r.name.as_str())
+        };
+        let node_at = |n: crate::scene::NodeId| {
+            Location::file(&scene.path)
+                .with_source(scene.nodes[n].source.clone())
+                .with_node(scene.node_path(n))
+        };
+        let room_at = |c: usize| match cells
+            .cells
+            .get(c)
+            .and_then(|cell| tagged.tagging.rooms.get(cell.room))
+        {
+            Some(r) => node_at(r.node),
+            None => Location::file(&scene.path),
+        };
+        let cell_infos = cells
+            .cells
+            .iter()
+            .enumerate()
+            .map(|(i, c)| CellInfo {
+                poly: Some(c.poly.clone()),
+                label: format!("cell {i} (room `{}`)", room(i)),
+                at: room_at(i),
+            })
+            .collect();
+        // A derived portal has no node of its own: it is located at its source room's.
+        let portal_at = portals
+            .portals
+            .iter()
+            .map(|p| match p.authored {
+                Some(n) => node_at(n),
+                None => room_at(p.from),
+            })
+            .collect();
+        let portal_label = portals
+            .portals
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let name = p
+                    .authored
+                    .map(|n| format!(" `{}`", scene.node_label(n)))
+                    .unwrap_or_default();
+                let to =
+                    p.to.map_or("the exterior".to_string(), |t| format!("`{}`", room(t)));
+                format!("portal {i}{name} (`{}` -> {to})", room(p.from))
+            })
+            .collect();
+        let bounds = cells
+            .cells
+            .iter()
+            .fold(crate::geom::aabb::Aabb::EMPTY, |b, c| b.union(&c.bounds));
+        Subject {
+            file: scene.path.clone(),
+            cells: cell_infos,
+            portals,
+            portal_at,
+            portal_label,
+            eps: cells.tolerance.distance,
+            extent: if bounds.is_empty() {
+                1.0
+            } else {
+                bounds.size().length()
+            },
+            max_wall_thickness: tagged.config.portals.max_wall_thickness,
+            starts: starts(tagged),
+        }
+    }
+
+    /// The location of portal `i` at point `p`.
+    pub(crate) fn at(&self, i: usize, p: DVec3) -> Location {
+        self.portal_at
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| Location::file(&self.file))
+            .with_position(p.to_array())
+    }
+
+    pub(crate) fn portal(&self, i: usize) -> &str {
+        self.portal_label.get(i).map_or("portal ?", String::as_str)
+    }
+
+    pub(crate) fn cell(&self, c: usize) -> &str {
+        self.cells.get(c).map_or("cell ?", |c| c.label.as_str())
+    }
+
+    /// A point inside cell `c`, for locations.
+    pub(crate) fn cell_point(&self, c: usize) -> Option<DVec3> {
+        self.cells
+            .get(c)
+            .and_then(|c| c.poly.as_ref())
+            .map(ConvexPolyhedron::interior_point)
+    }
+}
+
+/// The player starts of a tagged level, at their nodes' origins.
+pub fn starts(tagged: &Tagged) -> Vec<Start> {
+    let scene = &tagged.scene;
+    tagged
+        .tagging
+        .player_starts
+        .iter()
+        .map(|s| {
+            let n = &scene.nodes[s.node];
+            Start {
+                point: n.world.transform_point3(DVec3::ZERO),
+                label: format!("player start `{}`", scene.node_label(s.node)),
+                at: Location::file(&scene.path)
+                    .with_source(n.source.clone())
+                    .with_node(s.path.clone()),
+            }
+        })
+        .collect()
+}
+
+/// Runs every check.
+pub fn run(s: &Subject, opts: &Options) -> Findings {
+    let mut f = Findings::default();
+    portals::check(s, &mut f.diagnostics);
+    transforms::check(s, &mut f.diagnostics);
+    let seeds = seed_cells(s, &mut f.diagnostics);
+    graph::check(s, &seeds, &mut f.diagnostics);
+    loops(s, &mut f.diagnostics);
+    leaks::check(s, &seeds, opts, &mut f);
+    f
+}
+
+/// Where each player start is: its cell, or a warning that it is in none.
+fn seed_cells(s: &Subject, out: &mut Diagnostics) -> Vec<(usize, usize)> {
+    let mut seeds = Vec::new();
+    for (k, st) in s.starts.iter().enumerate() {
+        let inside = s.cells.iter().position(|c| {
+            c.poly
+                .as_ref()
+                .is_some_and(|p| p.contains(st.point, 10.0 * s.eps))
+        });
+        match inside {
+            Some(c) => seeds.push((k, c)),
+            None => out.push(
+                Diagnostic::new(
+                    Code::PLAYER_START_OUTSIDE,
+                    format!("{} lies in no cell", st.label),
+                    st.at.clone().with_position(st.point.to_array()),
+                )
+                .hint("move it inside a room (above the floor, below the ceiling); leak paths start from every cell instead"),
+            ),
+        }
+    }
+    seeds
+}
+
+fn loops(s: &Subject, out: &mut Diagnostics) {
+    for l in crate::portals::loops::find_loops(s.portals, s.extent) {
+        let chain: Vec<String> = l.portals.iter().map(|&i| s.portal(i).to_string()).collect();
+        let first = l.portals[0];
+        let centre = centroid(&s.portals.portals[first].polygon);
+        let drift = if l.drift > s.eps {
+            format!("; one round moves the image {:.3} m", l.drift)
+        } else {
+            "; one round maps the level onto itself".to_string()
+        };
+        out.push(
+            Diagnostic::new(
+                Code::GRAPH_TRANSFORM_LOOP,
+                format!(
+                    "sightlines loop without bound through {}, back to the first{drift}",
+                    chain.join(" -> ")
+                ),
+                s.at(first, centre),
+            )
+            .hint(format!(
+                "stop recursing after {} portals through transforms at run time (portcullis vis uses this depth), or turn them so they cannot see each other",
+                l.depth
+            )),
+        );
+    }
+}
+
+pub(crate) fn centroid(poly: &[DVec3]) -> DVec3 {
+    poly.iter().copied().sum::<DVec3>() / poly.len().max(1) as f64
+}
+
+/// Directed cell edges of the portal graph: (from, to, portal), closed portals included
+/// (a closed door is still a way through once opened).
+pub(crate) fn edges(s: &Subject) -> Vec<(usize, usize, usize)> {
+    s.portals
+        .portals
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            p.to.filter(|&t| t != p.from && t < s.cells.len() && p.from < s.cells.len())
+                .map(|t| (p.from, t, i))
+        })
+        .collect()
+}

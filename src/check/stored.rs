@@ -1,0 +1,219 @@
+//! A stored `PORTCULLIS_portals` annotation as a check subject: validated against its schema
+//! and its own references first (a broken annotation is reported and not checked further,
+//! since its indices cannot be trusted), compared with the level for staleness, then turned
+//! into cells and portals the geometric checks read like freshly built ones.
+
+use glam::{DMat4, DVec3};
+use serde_json::Value;
+
+use super::{CellInfo, Subject};
+use crate::diag::{Code, Diagnostic, Location};
+use crate::export::extension::{self, NAME};
+use crate::export::read::{self, Annotated};
+use crate::geom::aabb::Aabb;
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
+use crate::pipeline::Tagged;
+use crate::portals::{Portal, PortalSet};
+use crate::tags::rules::PortalKind;
+
+/// What a file's stored annotation holds and what is wrong with it.
+#[derive(Debug, Clone)]
+pub struct Stored {
+    /// Parsed, when it parses.
+    pub annotated: Option<Annotated>,
+    /// ANNOTATION_INVALID (with `validate`) and ANNOTATION_STALE findings.
+    pub diagnostics: Vec<Diagnostic>,
+    pub stale: bool,
+    /// Parsed and free of schema and reference problems: safe to check geometrically.
+    pub sound: bool,
+}
+
+fn pointer(rest: &str) -> String {
+    format!("/extensions/{NAME}{rest}")
+}
+
+/// The annotation of a tagged glTF level, if it has one. With `validate`, schema and
+/// reference problems are reported.
+pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
+    let doc = &t.scene.gltf.as_ref()?.json;
+    let raw = doc.get("extensions")?.get(NAME)?;
+    let at = || Location::file(&t.scene.path).with_pointer(pointer(""));
+    let parsed = read::annotation(doc);
+    let mut problems: Vec<String> = Vec::new();
+    if validate {
+        problems.extend(crate::schema::validate(crate::schema::Schema::Portals, raw));
+    }
+    let annotated = match parsed {
+        Some(Ok(a)) => {
+            if validate {
+                let nodes = doc
+                    .get("nodes")
+                    .and_then(Value::as_array)
+                    .map_or(0, Vec::len);
+                problems.extend(read::consistency(&a, nodes));
+            }
+            Some(a)
+        }
+        Some(Err(e)) => {
+            if validate && problems.is_empty() {
+                problems.push(e);
+            }
+            None
+        }
+        None => None,
+    };
+    let mut diagnostics: Vec<Diagnostic> = problems
+        .iter()
+        .map(|p| {
+            Diagnostic::new(
+                Code::ANNOTATION_INVALID,
+                format!("the stored annotation is invalid: {p}"),
+                at(),
+            )
+            .hint("convert the level again to rewrite the annotation")
+        })
+        .collect();
+    let stale = annotated
+        .as_ref()
+        .is_some_and(|a| a.input_hash != extension::input_hash(&t.scene, &t.tagging));
+    if stale {
+        diagnostics.push(
+            Diagnostic::new(
+                Code::ANNOTATION_STALE,
+                "the stored annotation was computed from different geometry or tags",
+                at(),
+            )
+            .hint("convert the level again"),
+        );
+    }
+    let sound = annotated.is_some() && problems.is_empty();
+    Some(Stored {
+        annotated,
+        diagnostics,
+        stale,
+        sound,
+    })
+}
+
+/// The stored portals as a [`PortalSet`]. Directions come from the polygons' winding
+/// (counter-clockwise seen from the source cell).
+pub fn portal_set(a: &Annotated) -> PortalSet {
+    let portals = a
+        .portals
+        .iter()
+        .map(|r| {
+            let polygon: Vec<DVec3> = r.polygon.iter().map(|v| DVec3::from_array(*v)).collect();
+            let facing = Plane::from_polygon(&polygon).map_or(DVec3::ZERO, |p| p.normal);
+            Portal {
+                from: r.from(),
+                to: r.to(),
+                area: polygon_area(&polygon, facing),
+                polygon,
+                normal: -facing,
+                kind: match r.kind.as_deref() {
+                    Some("mirror") => PortalKind::Mirror,
+                    Some("teleporter") => PortalKind::Teleporter,
+                    _ => PortalKind::Plain,
+                },
+                one_way: r.one_way,
+                closed: r.closed,
+                internal: r.internal,
+                transform: r.transform.map(|m| DMat4::from_cols_array(&m)),
+                authored: None,
+                partner: r.partner,
+            }
+        })
+        .collect();
+    PortalSet {
+        portals,
+        ..Default::default()
+    }
+}
+
+/// The check subject for a sound stored annotation of `t`.
+pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject<'a> {
+    let eps = a.tolerance.max(1e-12);
+    let doc = t.scene.gltf.as_ref().map(|g| &g.json);
+    let node_name = |n: usize| {
+        doc.and_then(|d| d.get("nodes"))
+            .and_then(|ns| ns.get(n))
+            .and_then(|node| node.get("name"))
+            .and_then(Value::as_str)
+            .map_or(format!("#{n}"), str::to_string)
+    };
+    let mut bounds = Aabb::EMPTY;
+    let cells = a
+        .cells
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let b = Aabb {
+                min: DVec3::from_array(c.bounds.min),
+                max: DVec3::from_array(c.bounds.max),
+            };
+            bounds = bounds.union(&b);
+            let planes: Vec<Plane> = c
+                .planes
+                .iter()
+                .filter_map(|[x, y, z, d]| {
+                    let n = DVec3::new(*x, *y, *z);
+                    let len = n.length();
+                    (len > 0.0 && len.is_finite()).then(|| Plane {
+                        normal: n / len,
+                        d: d / len,
+                    })
+                })
+                .collect();
+            CellInfo {
+                poly: ConvexPolyhedron::from_planes(&planes, &b, eps),
+                label: format!("cell {i} (room `{}`)", c.room),
+                at: Location::file(&t.scene.path).with_pointer(pointer(&format!("/cells/{i}"))),
+            }
+        })
+        .collect();
+    let file = t.scene.path.clone();
+    let portal_at = a
+        .portals
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let loc = Location::file(&file).with_pointer(pointer(&format!("/portals/{i}")));
+            match r.node {
+                Some(n) => loc.with_node(node_name(n)),
+                None => loc,
+            }
+        })
+        .collect();
+    let room = |c: usize| a.cells.get(c).map_or("?", |c| c.room.as_str());
+    let portal_label = a
+        .portals
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let name = r
+                .node
+                .map(|n| format!(" `{}`", node_name(n)))
+                .unwrap_or_default();
+            let to = r
+                .to()
+                .map_or("the exterior".to_string(), |t| format!("`{}`", room(t)));
+            format!("portal {i}{name} (`{}` -> {to})", room(r.from()))
+        })
+        .collect();
+    Subject {
+        file,
+        cells,
+        portals,
+        portal_at,
+        portal_label,
+        eps,
+        extent: if bounds.is_empty() {
+            1.0
+        } else {
+            bounds.size().length()
+        },
+        max_wall_thickness: t.config.portals.max_wall_thickness,
+        starts: super::starts(t),
+    }
+}

@@ -1,0 +1,230 @@
+//! `portcullis check FILE|GLOB...`: the CI gate. Every diagnostic of every stage plus the
+//! level checks (portals, transforms, graph, loops, leaks), reported as text, JSON, SARIF or
+//! JUnit. A file portcullis already annotated is checked through its stored annotation — what
+//! an engine will load — unless `--recompute`.
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+
+use portcullis::diag::policy::{self, Policy};
+use portcullis::diag::{Code, Diagnostic, Location};
+use portcullis::pipeline;
+use portcullis::report::file::FileReport;
+use portcullis::report::{human, style::Style, Totals};
+
+use super::LevelArgs;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum CheckFormat {
+    /// Text for people, with colour on a terminal.
+    Human,
+    /// One JSON document: every file's diagnostics and the totals.
+    Json,
+    /// SARIF 2.1.0, for code-scanning services.
+    Sarif,
+    /// JUnit XML, one test case per file, for CI test reports.
+    Junit,
+}
+
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// Level files or glob patterns: .gltf, .glb, .obj (annotated files are checked through
+    /// their stored annotation); `-` reads standard input.
+    #[arg(required = true, value_name = "FILE")]
+    pub files: Vec<PathBuf>,
+
+    /// Report format.
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: CheckFormat,
+
+    /// Write the report to this file (atomically) instead of standard output; the summary
+    /// line still goes to standard error.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Never report this code (repeat, or separate codes with commas). Adds to `[check]
+    /// ignore` in portcullis.toml.
+    #[arg(long, value_name = "CODE", value_delimiter = ',', value_parser = policy::parse_code)]
+    pub ignore: Vec<Code>,
+
+    /// Report CODE at LEVEL (error, warning, info); repeat for several. Wins over `[check]
+    /// severity` in portcullis.toml.
+    #[arg(long, value_name = "CODE=LEVEL", value_parser = policy::parse_override)]
+    pub severity: Vec<(Code, portcullis::diag::Severity)>,
+
+    /// Exit with 1 when there are warnings, not only errors.
+    #[arg(long, value_name = "warnings", value_parser = ["warnings"])]
+    pub deny: Option<String>,
+
+    /// The levels are meant to be closed: every opening to the exterior is a LEAK error with
+    /// the shortest path from a player start (same as `[check] sealed = true`).
+    #[arg(long)]
+    pub sealed: bool,
+
+    /// Rebuild cells and portals from the geometry even when the file carries a stored
+    /// annotation, and check those.
+    #[arg(long)]
+    pub recompute: bool,
+
+    #[command(flatten)]
+    pub level: LevelArgs,
+}
+
+impl CheckArgs {
+    fn policy(&self) -> Policy {
+        let mut p = Policy::default();
+        for c in &self.ignore {
+            p.ignore(*c);
+        }
+        for (c, s) in &self.severity {
+            p.set(*c, *s);
+        }
+        p
+    }
+}
+
+/// Checks one file; never fails, since a file that cannot be read is itself a finding.
+fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
+    let mut report = FileReport {
+        file: input.to_path_buf(),
+        failed: false,
+        annotated: false,
+        cells: None,
+        portals: None,
+        diagnostics: Vec::new(),
+    };
+    let mut t = match pipeline::load_tagged(input, &a.level.load_options()) {
+        Ok(t) => t,
+        Err(d) => {
+            report.failed = true;
+            report.diagnostics = cli_policy.apply([d]);
+            return report;
+        }
+    };
+    let policy = match Policy::from_config(&t.config.check) {
+        Ok(p) => p.merged(cli_policy),
+        Err(e) => {
+            let at = t.config.path.clone().unwrap_or_else(|| input.to_path_buf());
+            report.failed = true;
+            report.diagnostics = vec![Diagnostic::new(
+                Code::CONFIG_INVALID,
+                format!("[check] in the configuration: {e}"),
+                Location::file(at),
+            )
+            .hint("fix the code or severity name in portcullis.toml")];
+            return report;
+        }
+    };
+    let stored = if a.recompute {
+        None
+    } else {
+        portcullis::check::stored::read(&t, true)
+    };
+    match stored {
+        Some(stored) => {
+            report.annotated = true;
+            t.diagnostics.extend(stored.diagnostics.iter().cloned());
+            if let (true, Some(ann)) = (stored.sound, &stored.annotated) {
+                report.cells = Some(ann.cells.len());
+                report.portals = Some(ann.portals.len());
+                let set = portcullis::check::stored::portal_set(ann);
+                let subject = portcullis::check::stored::subject(&t, ann, &set);
+                let opts = portcullis::check::Options {
+                    sealed: a.sealed || t.config.check.sealed,
+                };
+                let found = portcullis::check::run(&subject, &opts);
+                t.diagnostics.extend(found.diagnostics);
+            }
+        }
+        None => {
+            let cells = pipeline::build_cells(&mut t);
+            let portals = pipeline::build_portals(&mut t, &cells);
+            pipeline::check_level(&mut t, &cells, &portals, a.sealed);
+            report.cells = Some(cells.cells.len());
+            report.portals = Some(portals.portals.len());
+        }
+    }
+    report.diagnostics = policy.apply(t.diagnostics);
+    report
+}
+
+fn render(a: &CheckArgs, files: &[FileReport], totals: &Totals, style: &Style) -> String {
+    use portcullis::report::{json, junit, sarif};
+    let pretty = |v: serde_json::Value| {
+        let mut s = serde_json::to_string_pretty(&v).unwrap_or_default();
+        s.push('\n');
+        s
+    };
+    match a.format {
+        CheckFormat::Human => {
+            let mut out = String::new();
+            for f in files {
+                out.push_str(&human::diagnostics(f.diagnostics.iter(), style));
+                let what = match (f.failed, f.cells, f.portals) {
+                    (true, _, _) => "could not be checked".to_string(),
+                    (false, Some(c), Some(p)) => format!(
+                        "{c} cells, {p} portals{}: {}",
+                        if f.annotated { " (stored)" } else { "" },
+                        f.status()
+                    ),
+                    _ => f.status().to_string(),
+                };
+                out.push_str(&format!("{}: {what}\n", f.file.display()));
+            }
+            out
+        }
+        CheckFormat::Json => pretty(json::report(files, totals)),
+        CheckFormat::Sarif => pretty(sarif::report(files)),
+        CheckFormat::Junit => junit::report(files, a.deny.is_some()),
+    }
+}
+
+pub fn run(a: &CheckArgs, style: &Style) -> i32 {
+    let policy = a.policy();
+    let reports: Vec<FileReport> = a
+        .files
+        .par_iter()
+        .map(|f| check_one(a, f, &policy))
+        .collect();
+    let mut totals = Totals::default();
+    for r in &reports {
+        totals.files += 1;
+        totals.failed += usize::from(r.failed);
+        totals.add(r.diagnostics.iter());
+    }
+    let plain = Style::plain();
+    let text = render(
+        a,
+        &reports,
+        &totals,
+        if a.output.is_some() { &plain } else { style },
+    );
+    match &a.output {
+        Some(path) if path != Path::new("-") => {
+            if let Err(e) = portcullis::export::atomic::write(path, text.as_bytes()) {
+                eprintln!(
+                    "error[{}]: cannot write `{}`: {e}",
+                    Code::OUTPUT_FAILED,
+                    path.display()
+                );
+                return 2;
+            }
+        }
+        _ => {
+            use std::io::Write;
+            let mut out = std::io::stdout().lock();
+            // The report first, then the summary on stderr, in that order on a terminal.
+            if out
+                .write_all(text.as_bytes())
+                .and_then(|_| out.flush())
+                .is_err()
+            {
+                return 2;
+            }
+        }
+    }
+    eprintln!("{}", totals.line());
+    totals.exit_code(a.deny.is_some())
+}

@@ -1,0 +1,113 @@
+//! What a user asked to hear: codes ignored and severities changed, from `[check]` in the
+//! configuration and from `--ignore` / `--severity` (which win), applied to findings after
+//! every stage has run — the same model as the Khronos validator's issue overrides.
+
+use std::collections::BTreeMap;
+
+use super::{Code, Diagnostic, Severity};
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Policy {
+    ignore: Vec<Code>,
+    severity: BTreeMap<Code, Severity>,
+}
+
+/// `CODE`, checked against the registry, with the list of codes in the error.
+pub fn parse_code(s: &str) -> Result<Code, String> {
+    Code::parse(s.trim()).ok_or_else(|| {
+        format!("unknown diagnostic code `{s}` (the codes are listed in docs/diagnostics.md)")
+    })
+}
+
+pub fn parse_severity(s: &str) -> Result<Severity, String> {
+    match s.trim().to_ascii_lowercase().as_str() {
+        "error" => Ok(Severity::Error),
+        "warning" | "warn" => Ok(Severity::Warning),
+        "info" | "information" | "note" => Ok(Severity::Info),
+        other => Err(format!(
+            "unknown severity `{other}`: use error, warning or info"
+        )),
+    }
+}
+
+/// `CODE=LEVEL`.
+pub fn parse_override(s: &str) -> Result<(Code, Severity), String> {
+    let (c, l) = s
+        .split_once('=')
+        .ok_or_else(|| format!("`{s}` is not CODE=LEVEL (e.g. CELL_OVERLAP=error)"))?;
+    Ok((parse_code(c)?, parse_severity(l)?))
+}
+
+impl Policy {
+    pub fn ignore(&mut self, code: Code) {
+        if !self.ignore.contains(&code) {
+            self.ignore.push(code);
+        }
+    }
+
+    pub fn set(&mut self, code: Code, severity: Severity) {
+        self.severity.insert(code, severity);
+    }
+
+    /// `self` with `over`'s settings on top.
+    pub fn merged(&self, over: &Policy) -> Policy {
+        let mut out = self.clone();
+        for c in &over.ignore {
+            out.ignore(*c);
+        }
+        for (c, s) in &over.severity {
+            out.set(*c, *s);
+        }
+        out
+    }
+
+    /// The policy a configuration's `[check]` section gives. Unknown names are errors the
+    /// schema cannot catch (codes are not in it), reported as strings.
+    pub fn from_config(cfg: &crate::config::CheckConfig) -> Result<Policy, String> {
+        let mut p = Policy::default();
+        for c in &cfg.ignore {
+            p.ignore(parse_code(c)?);
+        }
+        for (c, s) in &cfg.severity {
+            p.set(parse_code(c)?, parse_severity(s)?);
+        }
+        Ok(p)
+    }
+
+    /// The diagnostics the user wants, with their chosen severities.
+    pub fn apply(&self, diags: impl IntoIterator<Item = Diagnostic>) -> Vec<Diagnostic> {
+        diags
+            .into_iter()
+            .filter(|d| !self.ignore.contains(&d.code))
+            .map(|mut d| {
+                if let Some(s) = self.severity.get(&d.code) {
+                    d.severity = *s;
+                }
+                d
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diag::Location;
+
+    #[test]
+    fn ignores_and_overrides() {
+        let mut p = Policy::default();
+        p.ignore(Code::CELL_OVERLAP);
+        let (c, s) = parse_override("LEAK=warning").unwrap();
+        p.set(c, s);
+        let out = p.apply([
+            Diagnostic::new(Code::CELL_OVERLAP, "x", Location::default()),
+            Diagnostic::new(Code::LEAK, "y", Location::default()),
+        ]);
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].severity, Severity::Warning);
+        assert!(parse_override("LEAK").is_err());
+        assert!(parse_override("NOPE=error").is_err());
+        assert!(parse_override("LEAK=fatal").is_err());
+    }
+}

@@ -1,0 +1,235 @@
+//! A procedural level generator, for benchmarks and scale tests: a building of N rooms on
+//! several storeys, tagged the way a designer would tag it (Godot-style `-room`, `-portal`,
+//! `-detail` names and a `player_start`), with doors between rooms (a spanning tree plus some
+//! loops), windows in the outer walls, L-shaped rooms (three cells of a 2x2 block), a
+//! stairwell joining each storey to the next through an opening in the slab, and furniture.
+//!
+//! The same options give the same level, byte for byte (a seeded generator, no hash-map
+//! order). Walls have no thickness: two rooms sharing a wall each have their own surface on
+//! the same plane, facing into the room, as in many exported levels; storeys stack the same way.
+
+use glam::DVec3;
+
+use crate::scene::{Format, Material, Mesh, Node, Primitive, Scene, SourceRef};
+
+mod layout;
+mod surfaces;
+
+pub use layout::Layout;
+
+/// What to generate.
+#[derive(Debug, Clone)]
+pub struct GenOptions {
+    /// Rooms in the building (at least 1).
+    pub rooms: usize,
+    /// Seed of the layout's choices (sizes, doors, windows, L shapes).
+    pub seed: u64,
+    /// Furniture in every room (two boxes of a table and chair set), tagged `-detail`.
+    pub props: bool,
+}
+
+impl Default for GenOptions {
+    fn default() -> Self {
+        GenOptions {
+            rooms: 10,
+            seed: 1,
+            props: true,
+        }
+    }
+}
+
+/// Storey height (m): floor to the floor above.
+pub const STOREY: f64 = 3.0;
+/// Door size (m).
+pub const DOOR_WIDTH: f64 = 1.0;
+pub const DOOR_HEIGHT: f64 = 2.1;
+
+/// SplitMix64: small, fast, and the same on every platform.
+pub(crate) struct Rng(u64);
+
+impl Rng {
+    pub(crate) fn new(seed: u64) -> Rng {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    pub(crate) fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub(crate) fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub(crate) fn chance(&mut self, p: f64) -> bool {
+        self.unit() < p
+    }
+}
+
+/// Builds the level as a scene (world-space meshes, identity transforms), ready for
+/// [`crate::export::gltf_out::write_plain`].
+pub fn generate(opts: &GenOptions) -> Scene {
+    let layout = Layout::new(opts.rooms.max(1), opts.seed);
+    let mut b = Builder::new();
+    let level = b.node("Level", None, None, None);
+    let mut storey_nodes = Vec::new();
+    for s in 0..layout.storeys {
+        storey_nodes.push(b.node(&format!("storey{s}"), Some(level), None, None));
+    }
+    for (r, room) in layout.rooms.iter().enumerate() {
+        let name = layout.name(r);
+        let node = b.node(
+            &format!("{name}-room"),
+            Some(storey_nodes[room.storey]),
+            None,
+            None,
+        );
+        let s = surfaces::room(&layout, r);
+        b.mesh_node("Floor", node, s.floor, Mat::Floor);
+        b.mesh_node("Ceiling", node, s.ceiling, Mat::Wall);
+        b.mesh_node("Walls", node, s.walls, Mat::Wall);
+        for (target, quad) in s.portals {
+            b.mesh_node(
+                &format!("{}-portal", layout.name(target)),
+                node,
+                quad,
+                Mat::Portal,
+            );
+        }
+        if !s.bound.is_empty() {
+            let m = b.mesh(s.bound);
+            b.node(
+                "Volume",
+                Some(node),
+                Some(m),
+                Some(serde_json::json!({"bound": true})),
+            );
+        }
+        if !s.stairs.is_empty() {
+            b.mesh_node("Stairs-detail", node, s.stairs, Mat::Wood);
+        }
+        if opts.props {
+            let mut rng = Rng::new(opts.seed.wrapping_mul(31).wrapping_add(r as u64));
+            let furniture = surfaces::furniture(&layout, r, &mut rng);
+            if !furniture.is_empty() {
+                b.mesh_node("Furniture-detail", node, furniture, Mat::Wood);
+            }
+        }
+        if r == 0 {
+            let c = layout.cell_centre(room.cells[0], room.storey);
+            let start = b.node(
+                "PlayerStart",
+                Some(node),
+                None,
+                Some(serde_json::json!({"player_start": true})),
+            );
+            b.scene.nodes[start].world = glam::DMat4::from_translation(c + DVec3::Y * 1.0);
+        }
+    }
+    b.scene
+}
+
+#[derive(Clone, Copy)]
+enum Mat {
+    Floor,
+    Wall,
+    Wood,
+    Portal,
+}
+
+struct Builder {
+    scene: Scene,
+}
+
+impl Builder {
+    fn new() -> Builder {
+        let mut scene = Scene::new("generated.glb".into(), Format::Glb);
+        for name in ["floor", "wall", "wood", "portal"] {
+            scene.materials.push(Material {
+                name: Some(name.into()),
+                extras: None,
+                source: SourceRef::default(),
+            });
+        }
+        Builder { scene }
+    }
+
+    fn node(
+        &mut self,
+        name: &str,
+        parent: Option<usize>,
+        mesh: Option<usize>,
+        extras: Option<serde_json::Value>,
+    ) -> usize {
+        self.scene.add_node(Node {
+            name: Some(name.into()),
+            parent,
+            children: Vec::new(),
+            world: glam::DMat4::IDENTITY,
+            mesh,
+            extras,
+            source: SourceRef::default(),
+        })
+    }
+
+    /// A node with a mesh of `tris`.
+    fn mesh_node(&mut self, name: &str, parent: usize, tris: Vec<[DVec3; 3]>, mat: Mat) {
+        let m = self.mesh_with(name, tris, Some(mat));
+        self.node(name, Some(parent), Some(m), None);
+    }
+
+    /// A mesh without material (bound volumes).
+    fn mesh(&mut self, tris: Vec<[DVec3; 3]>) -> usize {
+        self.mesh_with("Volume", tris, None)
+    }
+
+    /// A mesh of `tris`, vertices shared within it.
+    fn mesh_with(&mut self, name: &str, tris: Vec<[DVec3; 3]>, mat: Option<Mat>) -> usize {
+        let mut positions: Vec<DVec3> = Vec::new();
+        let mut index: std::collections::BTreeMap<[u64; 3], u32> = Default::default();
+        let mut triangles = Vec::with_capacity(tris.len());
+        for t in &tris {
+            let mut ids = [0u32; 3];
+            for (k, p) in t.iter().enumerate() {
+                let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+                ids[k] = *index.entry(key).or_insert_with(|| {
+                    positions.push(*p);
+                    (positions.len() - 1) as u32
+                });
+            }
+            triangles.push(ids);
+        }
+        let mesh = self.scene.meshes.len();
+        self.scene.meshes.push(Mesh {
+            name: Some(name.into()),
+            positions,
+            primitives: vec![Primitive {
+                material: mat.map(|m| m as usize),
+                first_triangle: 0,
+                triangle_count: triangles.len(),
+                source: SourceRef::default(),
+            }],
+            triangles,
+            extras: None,
+            source: SourceRef::default(),
+        });
+        mesh
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_same_options_give_the_same_level() {
+        let a = generate(&GenOptions::default());
+        let b = generate(&GenOptions::default());
+        assert_eq!(a.nodes.len(), b.nodes.len());
+        for (x, y) in a.meshes.iter().zip(&b.meshes) {
+            assert_eq!(x.positions, y.positions);
+            assert_eq!(x.triangles, y.triangles);
+        }
+    }
+}

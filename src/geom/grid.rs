@@ -1,0 +1,182 @@
+//! A uniform grid over axis-aligned boxes, for "which boxes meet this one" queries in time
+//! proportional to the answer. A sweep along one axis degrades to all pairs when a level is
+//! wide in the other two (a building's storeys all share the same x range); a grid does not.
+//! Results are always in ascending index order, so callers stay deterministic.
+
+use glam::DVec3;
+
+use super::aabb::Aabb;
+
+pub struct BoxGrid {
+    boxes: Vec<Aabb>,
+    origin: DVec3,
+    cell: f64,
+    dims: [usize; 3],
+    buckets: Vec<Vec<u32>>,
+}
+
+impl BoxGrid {
+    /// Indexes `boxes` (empty boxes are never found).
+    pub fn new(boxes: Vec<Aabb>) -> BoxGrid {
+        let mut all = Aabb::EMPTY;
+        let mut sizes: Vec<f64> = Vec::with_capacity(boxes.len());
+        for b in boxes.iter().filter(|b| !b.is_empty()) {
+            all = all.union(b);
+            sizes.push(b.size().max_element());
+        }
+        if all.is_empty() {
+            return BoxGrid {
+                boxes,
+                origin: DVec3::ZERO,
+                cell: 1.0,
+                dims: [1, 1, 1],
+                buckets: vec![Vec::new()],
+            };
+        }
+        let extent = all.size().max(DVec3::splat(1e-9));
+        // About two buckets per box, but no smaller than a typical box, so most boxes sit in
+        // a handful of buckets.
+        let n = sizes.len().max(1) as f64;
+        let by_count = (extent.x * extent.y * extent.z / (2.0 * n)).cbrt();
+        sizes.sort_by(f64::total_cmp);
+        let median = sizes.get(sizes.len() / 2).copied().unwrap_or(0.0);
+        let mut cell = by_count.max(median).max(extent.max_element() * 1e-6);
+        let dims_for = |cell: f64| {
+            [0, 1, 2].map(|k| ((extent[k] / cell).floor() as usize + 1).clamp(1, 1 << 20))
+        };
+        let mut dims = dims_for(cell);
+        // Never more than a few buckets per box.
+        while dims.iter().product::<usize>() > 4 * sizes.len().max(1) + 64 {
+            cell *= 1.5;
+            dims = dims_for(cell);
+        }
+        let mut g = BoxGrid {
+            boxes: Vec::new(),
+            origin: all.min,
+            cell,
+            dims,
+            buckets: vec![Vec::new(); dims.iter().product()],
+        };
+        for (i, b) in boxes.iter().enumerate() {
+            if b.is_empty() {
+                continue;
+            }
+            let (lo, hi) = g.range(b);
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        let k = g.index(x, y, z);
+                        g.buckets[k].push(i as u32);
+                    }
+                }
+            }
+        }
+        g.boxes = boxes;
+        g
+    }
+
+    fn index(&self, x: usize, y: usize, z: usize) -> usize {
+        (z * self.dims[1] + y) * self.dims[0] + x
+    }
+
+    /// Bucket coordinates covered by `b`, clamped to the grid.
+    fn range(&self, b: &Aabb) -> ([usize; 3], [usize; 3]) {
+        let to = |v: f64, k: usize| {
+            (((v - self.origin[k]) / self.cell).floor().max(0.0) as usize).min(self.dims[k] - 1)
+        };
+        (
+            [0, 1, 2].map(|k| to(b.min[k], k)),
+            [0, 1, 2].map(|k| to(b.max[k], k)),
+        )
+    }
+
+    pub fn boxes(&self) -> &[Aabb] {
+        &self.boxes
+    }
+
+    /// Indices of the boxes that meet `b` grown by `pad` on every side, ascending.
+    pub fn query(&self, b: &Aabb, pad: f64) -> Vec<usize> {
+        if b.is_empty() {
+            return Vec::new();
+        }
+        let q = Aabb {
+            min: b.min - DVec3::splat(pad),
+            max: b.max + DVec3::splat(pad),
+        };
+        let (lo, hi) = self.range(&q);
+        let mut out: Vec<usize> = Vec::new();
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    for &i in &self.buckets[self.index(x, y, z)] {
+                        let c = &self.boxes[i as usize];
+                        if (0..3).all(|k| c.min[k] <= q.max[k] && c.max[k] >= q.min[k]) {
+                            out.push(i as usize);
+                        }
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Every pair `(i, j)`, `i < j`, of boxes within `pad` of each other, in ascending order.
+    pub fn pairs(&self, pad: f64) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for (i, b) in self.boxes.iter().enumerate() {
+            for j in self.query(b, pad) {
+                if j > i {
+                    out.push((i, j));
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn b(x: f64, y: f64, z: f64, s: f64) -> Aabb {
+        Aabb {
+            min: DVec3::new(x, y, z),
+            max: DVec3::new(x + s, y + s, z + s),
+        }
+    }
+
+    #[test]
+    fn answers_like_all_pairs() {
+        // A deterministic scatter of boxes of mixed sizes, some huge.
+        let mut boxes = Vec::new();
+        let mut s = 7u64;
+        for k in 0..400 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let f = |sh: u32| ((s >> sh) & 0xffff) as f64 / 65536.0;
+            let size = if k % 50 == 0 { 30.0 } else { 0.2 + f(48) };
+            boxes.push(b(f(0) * 40.0, f(16) * 10.0, f(32) * 40.0, size));
+        }
+        boxes.push(Aabb::EMPTY);
+        let g = BoxGrid::new(boxes.clone());
+        let meets = |a: &Aabb, c: &Aabb, pad: f64| {
+            !a.is_empty()
+                && !c.is_empty()
+                && (0..3).all(|k| c.min[k] <= a.max[k] + pad && c.max[k] >= a.min[k] - pad)
+        };
+        for pad in [0.0, 0.5] {
+            let mut brute = Vec::new();
+            for i in 0..boxes.len() {
+                for j in i + 1..boxes.len() {
+                    if meets(&boxes[i], &boxes[j], pad) {
+                        brute.push((i, j));
+                    }
+                }
+            }
+            assert_eq!(g.pairs(pad), brute, "pad {pad}");
+        }
+    }
+}

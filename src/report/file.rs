@@ -1,0 +1,41 @@
+//! What one run found in one file, the unit every machine-readable report is built from.
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use crate::diag::{Diagnostic, Severity};
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FileReport {
+    pub file: PathBuf,
+    /// The file could not be checked at all (unreadable, not a level); its diagnostics say why.
+    pub failed: bool,
+    /// Checked from its stored PORTCULLIS_portals annotation rather than rebuilt.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub annotated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cells: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub portals: Option<usize>,
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl FileReport {
+    pub fn count(&self, s: Severity) -> usize {
+        self.diagnostics.iter().filter(|d| d.severity == s).count()
+    }
+
+    /// `failed`, `errors`, `warnings` or `ok`.
+    pub fn status(&self) -> &'static str {
+        if self.failed {
+            "failed"
+        } else if self.count(Severity::Error) > 0 {
+            "errors"
+        } else if self.count(Severity::Warning) > 0 {
+            "warnings"
+        } else {
+            "ok"
+        }
+    }
+}
