@@ -292,7 +292,15 @@ impl Run<'_> {
             separators(&f.pass, &f.source, true, eps, &mut f.seps);
             f.seps_ready = true;
         }
-        let planes = [f.source_plane, f.pass_plane];
+        // In the world's space the rows start from `fast` rows (portals partly in front of the
+        // source), and the separators reject nearly all the pass plane would; behind a
+        // transform the rows hold everything, so both planes are tested there. Dropping a
+        // test only weakens the pruning, never the result.
+        let planes = if f.transforms > 0 {
+            [f.source_plane, f.pass_plane]
+        } else {
+            [None, None]
+        };
         let mut any = false;
         for (w, (m, v)) in f.might.iter_mut().zip(&st.vis).enumerate() {
             let mut cand = *m & !v;

@@ -146,12 +146,13 @@ pub fn separators(source: &[DVec3], pass: &[DVec3], flip: bool, eps: f64, out: &
     for i in 0..ns {
         let l = (i + 1) % ns;
         let v1 = source[l] - source[i];
+        let v1l2 = v1.length_squared();
         for (j, &pj) in pass.iter().enumerate() {
             let v2 = pj - source[i];
             let n = v1.cross(v2);
             let len2 = n.length_squared();
             // Degenerate edge/vertex triples make no plane.
-            if len2 < 1e-20 * v1.length_squared() * v2.length_squared() || len2 == 0.0 {
+            if len2 < 1e-20 * v1l2 * v2.length_squared() || len2 == 0.0 {
                 continue;
             }
             let mut normal = n / len2.sqrt();
