@@ -79,8 +79,8 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
         methods = Method::ALL.to_vec();
     }
     if a.report {
-        println!("| level | cells | portals | method | threads | time | pairs | over lower bound | samples |");
-        println!("|---|---|---|---|---|---|---|---|---|");
+        println!("| level | cells | portals | method | threads | time | cpu | pairs | over lower bound | samples |");
+        println!("|---|---|---|---|---|---|---|---|---|---|");
     }
     for f in &a.files {
         totals.files += 1;
@@ -119,26 +119,31 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
         return Ok(loaded.diagnostics.0);
     }
     let lower_opts = options(a, &loaded, Method::Sampled);
+    let cpu0 = cpu_seconds();
     let (lower, lower_time) = vis::timed(g, &lower_opts);
+    let lower_cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     for &m in methods {
-        let (pvs, time) = if m == Method::Sampled {
-            (lower.clone(), lower_time)
+        let (pvs, time, cpu) = if m == Method::Sampled {
+            (lower.clone(), lower_time, lower_cpu)
         } else {
-            vis::timed(g, &options(a, &loaded, m))
+            let c0 = cpu_seconds();
+            let (p, t) = vis::timed(g, &options(a, &loaded, m));
+            (p, t, cpu_seconds().zip(c0).map(|(b, a)| b - a))
         };
         let over = pvs.pairs() as f64 / lower.pairs().max(1) as f64 - 1.0;
         let missing = lower.missing_from(&pvs).len();
         println!(
-            "| {} | {} | {} | {} | {} | {:.3} s | {} | {:+.1}%{} | {} |",
+            "| {} | {} | {} | {} | {} | {:.3} s | {} | {} | {:+.1}%{} | {} |",
             f.file_name().unwrap_or_default().to_string_lossy(),
             g.cells,
             g.portals.len(),
             m.name(),
             threads,
             time.as_secs_f64(),
+            cpu.map_or("–".to_string(), |c| format!("{c:.2} s")),
             pvs.pairs(),
             over * 100.0,
             if missing > 0 && m != Method::Sampled {
@@ -150,4 +155,16 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
         );
     }
     Ok(loaded.diagnostics.0)
+}
+
+/// CPU time of this process so far (user + system, all threads), from /proc on Linux: the
+/// report shows it beside the wall time, which other load on the machine inflates.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which may hold spaces) in parentheses.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
 }
