@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+pub mod bench;
 pub mod check;
 pub mod convert;
 pub mod gen;
@@ -40,6 +41,9 @@ pub enum Command {
     /// Generate a building of N rooms on several storeys (doors, windows, L-shaped rooms,
     /// stairwells, furniture), tagged like a designer would, for benchmarks and trials.
     Gen(gen::GenArgs),
+    /// Time every stage on generated buildings of several sizes (and the gltf crate's own
+    /// read+write of the same file) and print one table.
+    Bench(bench::BenchArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
 }
@@ -100,6 +104,7 @@ pub fn run(cli: Cli) -> i32 {
             check::run(&a, &style)
         }
         Command::Gen(a) => gen::run(&a),
+        Command::Bench(a) => bench::run(&a),
         Command::Schema(a) => schema::run(&a),
     }
 }
