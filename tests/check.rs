@@ -490,3 +490,39 @@ fn check_reads_many_files_and_globs_in_input_order() {
     assert!(names.len() >= 10);
     assert_eq!(report["summary"]["files"], names.len());
 }
+
+/// Every file in the repository's samples/ and tests/ folders (levels, broken levels, malformed
+/// inputs, and files that are no level at all) goes through `check` without a panic: exit 0, 1
+/// or 2, and a JSON report for every file.
+#[test]
+fn every_file_under_samples_and_tests_checks_without_a_panic() {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&root().join("samples"), &mut files);
+    walk(&root().join("tests"), &mut files);
+    files.sort();
+    assert!(files.len() > 100, "{} files", files.len());
+    let out = exe()
+        .arg("check")
+        .args(&files)
+        .args(["--format", "json"])
+        .output()
+        .unwrap();
+    let code = out.status.code();
+    assert!(
+        matches!(code, Some(0..=2)),
+        "exit {code:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["files"].as_array().unwrap().len(), files.len());
+}
