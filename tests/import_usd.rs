@@ -316,3 +316,51 @@ fn the_test_script_installs_the_pinned_usd_core() {
         portcullis::import::usd::USD_CORE_VERSION
     )));
 }
+
+#[test]
+fn a_level_written_as_usda_reads_back_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, preset) in [
+        ("lportal_tutorial_simple.glb", None),
+        ("panda3d_culling.glb", Some("panda3d")),
+    ] {
+        let out = dir.path().join(name.replace(".glb", ".usda"));
+        let mut cmd = portcullis();
+        cmd.arg("convert").arg(fixture(name)).arg("-o").arg(&out);
+        if let Some(p) = preset {
+            cmd.arg("--tags").arg(p);
+        }
+        let o = cmd.output().unwrap();
+        assert!(
+            o.status.code().is_some_and(|c| c < 2),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let (a, _) = level(&fixture(name), preset);
+        let (b, t) = level(&out, preset);
+        assert_same(name, &a, &b, 1e-4);
+        // The annotation is not level geometry, and converting again replaces it.
+        assert!(t
+            .scene
+            .walk()
+            .iter()
+            .all(|&n| t.scene.nodes[n].name.as_deref() != Some("PortcullisAnnotation")));
+        let again = dir.path().join("again.usda");
+        let mut cmd = portcullis();
+        cmd.arg("convert").arg(&out).arg("-o").arg(&again);
+        if let Some(p) = preset {
+            cmd.arg("--tags").arg(p);
+        }
+        assert!(cmd.output().unwrap().status.code().is_some_and(|c| c < 2));
+        let text = std::fs::read_to_string(&again).unwrap();
+        assert_eq!(
+            text.matches("def Scope \"PortcullisAnnotation\"").count(),
+            1
+        );
+        assert_eq!(
+            text.matches("portcullis:polygon").count(),
+            b.portals.len(),
+            "{name}"
+        );
+    }
+}
