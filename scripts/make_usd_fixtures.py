@@ -8,6 +8,7 @@ script. The level: a row of three 4 x 3 x 4 m rooms with a door in each side wal
 owns its walls (LPortal style), so neighbouring rooms meet in two coplanar door walls.
 
     rooms_y_m.usda       Y-up, metres, geometry authored under each room
+    rooms_y_m.usdc/.usdz the same level in the binary format and as a package
     rooms_z_cm.usda      the same level Z-up in centimetres, rooms placed by xformOps
     rooms_instanced.usda one room prototype, three instanceable references
     rooms_flat.usda      the instanced level with every room written out (its flattened twin)
@@ -19,7 +20,7 @@ owns its walls (LPortal style), so neighbouring rooms meet in two coplanar door 
 import os
 import sys
 
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdUtils, Vt
 
 OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "fixtures", "usd")
 
@@ -164,9 +165,12 @@ def broken():
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     for f in os.listdir(OUT):
-        if f.endswith(".usda"):
+        if f.endswith((".usda", ".usdc", ".usdz")):
             os.remove(os.path.join(OUT, f))
     rooms_y_m()
+    Usd.Stage.Open(os.path.join(OUT, "rooms_y_m.usda")).Export(os.path.join(OUT, "rooms_y_m.usdc"))
+    UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(OUT, "rooms_y_m.usdc")),
+                                  os.path.join(OUT, "rooms_y_m.usdz"))
     rooms_z_cm()
     rooms_instanced(flat=False)
     rooms_instanced(flat=True)

@@ -364,3 +364,39 @@ fn a_level_written_as_usda_reads_back_the_same() {
         );
     }
 }
+
+#[test]
+fn usdc_and_usdz_copies_read_like_the_usda() {
+    let (a, _) = level(&usd("rooms_y_m.usda"), None);
+    for f in ["rooms_y_m.usdc", "rooms_y_m.usdz"] {
+        let (b, _) = level(&usd(f), None);
+        assert_same(f, &a, &b, 1e-12);
+    }
+}
+
+#[test]
+fn a_venv_without_usd_core_says_how_to_install_it() {
+    // A venv-shaped folder whose site-packages lacks pxr, for any Python 3 version.
+    let venv = tempfile::tempdir().unwrap();
+    for minor in 8..=20 {
+        std::fs::create_dir_all(
+            venv.path()
+                .join(format!("lib/python3.{minor}/site-packages")),
+        )
+        .unwrap();
+    }
+    let out = portcullis()
+        .arg("inspect")
+        .arg(usd("rooms_y_m.usda"))
+        .env("VIRTUAL_ENV", venv.path())
+        .env_remove("PYTHONPATH")
+        .output()
+        .unwrap();
+    let err =
+        String::from_utf8_lossy(&out.stderr).to_string() + &String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("USD_CORE_MISSING"), "{err}");
+    assert!(err.contains("No module named 'pxr'"), "{err}");
+    assert!(err.contains("from VIRTUAL_ENV"), "{err}");
+    assert!(!err.contains("Traceback"), "{err}");
+}

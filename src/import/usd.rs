@@ -29,9 +29,10 @@ pub fn install_command() -> String {
     format!("python3 -m venv .venv && .venv/bin/pip install usd-core=={USD_CORE_VERSION}")
 }
 
-#[cfg(not(feature = "usd"))]
-pub fn import(path: &Path, _opts: &ImportOptions) -> Result<Imported, Diagnostic> {
-    Err(Diagnostic::new(
+/// What a build without the `usd` feature says about a USD input.
+#[cfg_attr(feature = "usd", allow(dead_code))]
+fn unsupported_build(path: &Path) -> Diagnostic {
+    Diagnostic::new(
         Code::USD_UNSUPPORTED_BUILD,
         format!(
             "`{}` is a USD file, and this portcullis was built without USD support",
@@ -39,7 +40,16 @@ pub fn import(path: &Path, _opts: &ImportOptions) -> Result<Imported, Diagnostic
         ),
         Location::file(path),
     )
-    .hint("rebuild with `cargo build --release --features usd`, or export the level as glTF"))
+    .hint(format!(
+        "rebuild with `cargo build --features usd` (add `--release` for speed) after `{}`, or \
+         export the level as glTF",
+        install_command()
+    ))
+}
+
+#[cfg(not(feature = "usd"))]
+pub fn import(path: &Path, _opts: &ImportOptions) -> Result<Imported, Diagnostic> {
+    Err(unsupported_build(path))
 }
 
 #[cfg(feature = "usd")]
@@ -63,4 +73,21 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic>
     }
     let raw = python::read_stage(path, opts.python_venv.as_deref())?;
     Ok(stage::build(path, raw))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_build_without_usd_says_how_to_build_with_it() {
+        let d = unsupported_build(Path::new("level.usda"));
+        assert_eq!(d.code, Code::USD_UNSUPPORTED_BUILD);
+        let hint = d.hint.unwrap();
+        assert!(hint.contains("`cargo build --features usd`"), "{hint}");
+        assert!(
+            hint.contains(&format!("usd-core=={USD_CORE_VERSION}")),
+            "{hint}"
+        );
+    }
 }

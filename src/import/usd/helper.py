@@ -187,6 +187,8 @@ def _mesh(mesh, time, material_of, UsdGeom):
         return empty if v is None else v
 
     points = get(mesh.GetPointsAttr(), array("f"))
+    if memoryview(points).format != "f":  # points authored with the wrong type (point3d[])
+        points = array("f", [c for p in points for c in p])
     counts = get(mesh.GetFaceVertexCountsAttr(), array("i"))
     indices = get(mesh.GetFaceVertexIndicesAttr(), array("i"))
     holes = get(mesh.GetHoleIndicesAttr(), array("i"))
