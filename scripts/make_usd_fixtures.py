@@ -13,6 +13,7 @@ owns its walls (LPortal style), so neighbouring rooms meet in two coplanar door 
     rooms_instanced.usda one room prototype, three instanceable references
     rooms_flat.usda      the instanced level with every room written out (its flattened twin)
     portal_light.usda    a room with a UsdLuxPortalLight named like a portal
+    point_instancer.usda a room with crates placed by a PointInstancer (one instance invisible)
     tags_and_hidden.usda tags in customData and custom attributes, a hidden and a guide prim,
                          an n-gon floor with a hole face, a leftHanded wall
     broken.usda          a syntax error
@@ -121,6 +122,30 @@ def portal_light():
     stage.Save()
 
 
+def point_instancer():
+    stage = new_stage("point_instancer.usda")
+    UsdGeom.Xform.Define(stage, "/World/room_a")
+    for name, polys in room_faces():
+        write_mesh(stage, f"/World/room_a/{name}", polys)
+    inst = UsdGeom.PointInstancer.Define(stage, "/World/room_a/crates")
+    inst.AddTranslateOp().Set(Gf.Vec3d(1, 0, 0))
+    UsdGeom.Scope.Define(stage, "/World/room_a/crates/Prototypes")
+    c = 0.25
+    cube = [[(-c, -c, -c), (-c, c, -c), (c, c, -c), (c, -c, -c)],
+            [(-c, -c, c), (c, -c, c), (c, c, c), (-c, c, c)],
+            [(-c, -c, -c), (c, -c, -c), (c, -c, c), (-c, -c, c)],
+            [(-c, c, -c), (-c, c, c), (c, c, c), (c, c, -c)],
+            [(-c, -c, -c), (-c, -c, c), (-c, c, c), (-c, c, -c)],
+            [(c, -c, -c), (c, c, -c), (c, c, c), (c, -c, c)]]
+    crate = write_mesh(stage, "/World/room_a/crates/Prototypes/crate", cube)
+    crate.AddTranslateOp().Set(Gf.Vec3d(0, c, 0))
+    inst.CreatePrototypesRel().SetTargets([crate.GetPath()])
+    inst.CreateProtoIndicesAttr(Vt.IntArray([0, 0, 0]))
+    inst.CreatePositionsAttr(Vt.Vec3fArray([(1, 0, 1), (2, 0, 2), (3, 0, 3)]))
+    inst.CreateInvisibleIdsAttr(Vt.Int64Array([2]))
+    stage.Save()
+
+
 def tags_and_hidden():
     stage = new_stage("tags_and_hidden.usda")
     kitchen = UsdGeom.Xform.Define(stage, "/World/Kitchen").GetPrim()
@@ -175,6 +200,7 @@ if __name__ == "__main__":
     rooms_instanced(flat=False)
     rooms_instanced(flat=True)
     portal_light()
+    point_instancer()
     tags_and_hidden()
     broken()
     print("wrote", sorted(os.listdir(OUT)), file=sys.stderr)

@@ -400,3 +400,39 @@ fn a_venv_without_usd_core_says_how_to_install_it() {
     assert!(err.contains("from VIRTUAL_ENV"), "{err}");
     assert!(!err.contains("Traceback"), "{err}");
 }
+
+#[test]
+fn a_point_instancer_places_its_prototypes_and_only_there() {
+    let (lvl, t) = level(&usd("point_instancer.usda"), None);
+    assert_eq!(lvl.rooms, ["a"]);
+    let s = &t.scene;
+    let crates: Vec<usize> = s
+        .walk()
+        .into_iter()
+        .filter(|&n| s.nodes[n].name.as_deref() == Some("crate"))
+        .collect();
+    // Three instances, one of them invisible; the prototype itself is not drawn.
+    assert_eq!(crates.len(), 2);
+    let mesh = s.nodes[crates[0]].mesh;
+    assert!(mesh.is_some());
+    assert_eq!(s.nodes[crates[1]].mesh, mesh, "instances share the mesh");
+    let mut centres: Vec<DVec3> = crates
+        .iter()
+        .map(|&n| {
+            let w = s.world_positions_used(n);
+            w.iter().copied().sum::<DVec3>() / w.len() as f64
+        })
+        .collect();
+    centres.sort_by(|a, b| a.x.total_cmp(&b.x));
+    // instancer at x + 1, positions (1,0,1) and (2,0,2), the prototype lifted by 0.25
+    assert!(
+        centres[0].distance(DVec3::new(2.0, 0.25, 1.0)) < 1e-6,
+        "{centres:?}"
+    );
+    assert!(
+        centres[1].distance(DVec3::new(3.0, 0.25, 2.0)) < 1e-6,
+        "{centres:?}"
+    );
+    // The crates are props of the room, inside its cell.
+    assert!(t.tagging.rooms[0].structure.len() + t.tagging.rooms[0].detail.len() >= 6);
+}

@@ -91,7 +91,8 @@ def _extras(prim, time):
 def load(path):
     """Returns (up_axis, meters_per_unit, prims, materials, notes).
 
-    prims: one tuple per kept prim, parents before children:
+    prims: one tuple per kept prim (a PointInstancer's prototypes once per instance, their
+      paths suffixed `[k]`), parents before children:
       (path, name, parent index or -1, type name, world matrix (Gf.Matrix4d, row vectors),
        extras JSON or None, mesh key or None, mesh or None)
     mesh (sent once per key; instance proxies share their prototype's key):
@@ -135,36 +136,30 @@ def load(path):
         return material_index[key]
 
     prims = []
-    index = {}
     sent = set()
-    it = iter(Usd.PrimRange(stage.GetPseudoRoot(),
-                            Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
-    for prim in it:
-        if prim.IsPseudoRoot():
-            continue
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+
+    def left_out(prim, it):
+        """Whether `prim` is not a node; prunes what is below it where that goes too."""
         type_name = str(prim.GetTypeName())
         if type_name in _SHADING or str(prim.GetPath()) == ANNOTATION:
             it.PruneChildren()
-            continue
+            return True
         if prim.HasAPI(UsdLux.LightAPI):
             if prim.IsA(UsdLux.PortalLight):
                 notes.append(("portal_light", str(prim.GetPath())))
-            continue
+            return True
         if prim.IsA(UsdGeom.Imageable):
             img = UsdGeom.Imageable(prim)
             if (img.ComputeVisibility(time) == UsdGeom.Tokens.invisible
                     or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)):
                 notes.append(("hidden", str(prim.GetPath())))
                 it.PruneChildren()
-                continue
-        parent = -1
-        p = prim.GetParent()
-        while p and not p.IsPseudoRoot():
-            k = str(p.GetPath())
-            if k in index:
-                parent = index[k]
-                break
-            p = p.GetParent()
+                return True
+        return False
+
+    def emit(prim, parent, world, path):
+        type_name = str(prim.GetTypeName())
         key = None
         mesh = None
         if prim.IsA(UsdGeom.Mesh):
@@ -173,11 +168,60 @@ def load(path):
                 sent.add(key)
                 mesh = _mesh(UsdGeom.Mesh(prim), time, material_of, UsdGeom)
         elif prim.IsA(UsdGeom.Gprim):
-            notes.append(("gprim:" + type_name, str(prim.GetPath())))
+            notes.append(("gprim:" + type_name, path))
         name = prim.GetDisplayName() if prim.HasAuthoredDisplayName() else prim.GetName()
-        index[str(prim.GetPath())] = len(prims)
-        prims.append((str(prim.GetPath()), name, parent, type_name,
-                      xforms.GetLocalToWorldTransform(prim), _extras(prim, time), key, mesh))
+        prims.append((path, name, parent, type_name, world, _extras(prim, time), key, mesh))
+        return len(prims) - 1
+
+    def walk(root, parent_index, world_of, path_of, include_root):
+        """Emits `root`'s subtree; prims under a PointInstancer are emitted per instance."""
+        index = {}
+        it = iter(Usd.PrimRange(root, predicate))
+        for prim in it:
+            if prim == root and not include_root:
+                continue
+            if left_out(prim, it):
+                continue
+            parent = parent_index
+            p = prim.GetParent() if prim != root else None
+            while p and p != root.GetParent() and not p.IsPseudoRoot():
+                k = str(p.GetPath())
+                if k in index:
+                    parent = index[k]
+                    break
+                p = p.GetParent()
+            world = world_of(prim)
+            i = emit(prim, parent, world, path_of(prim))
+            index[str(prim.GetPath())] = i
+            if prim.IsA(UsdGeom.PointInstancer):
+                # Its prototypes are drawn only where the instancer places them.
+                it.PruneChildren()
+                instances(UsdGeom.PointInstancer(prim), i, world)
+
+    def instances(pi, parent_index, inst_world):
+        P = UsdGeom.PointInstancer
+        mats = pi.ComputeInstanceTransformsAtTime(time, time, P.IncludeProtoXform, P.IgnoreMask)
+        ids = pi.GetProtoIndicesAttr().Get(time) or []
+        targets = pi.GetPrototypesRel().GetTargets()
+        mask = pi.ComputeMaskAtTime(time) or []
+        for k, m in enumerate(mats or []):
+            if (k < len(mask) and not mask[k]) or k >= len(ids) or not 0 <= ids[k] < len(targets):
+                continue
+            proto = stage.GetPrimAtPath(targets[ids[k]])
+            if not proto:
+                continue
+            base = m * inst_world  # row vectors: instance space, then the instancer's world
+
+            def world_of(p, proto=proto, base=base):
+                if p == proto:
+                    return base
+                rel, _ = xforms.ComputeRelativeTransform(p, proto)
+                return rel * base
+
+            walk(proto, parent_index, world_of, lambda p, k=k: f"{p.GetPath()}[{k}]", True)
+
+    walk(stage.GetPseudoRoot(), -1, xforms.GetLocalToWorldTransform, lambda p: str(p.GetPath()),
+         False)
     return up, mpu, prims, materials, notes
 
 
