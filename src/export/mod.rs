@@ -3,6 +3,7 @@
 //! plan), and the annotated level as a USD layer.
 
 pub mod atomic;
+pub mod bake;
 pub mod debug;
 pub mod extension;
 pub mod gltf_out;

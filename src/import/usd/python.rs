@@ -29,8 +29,9 @@ struct Venv {
 
 fn choose_venv(explicit: Option<&Path>) -> Option<Venv> {
     if let Some(dir) = explicit {
+        // Absolute, so `sys.path` does not depend on Python's idea of the current folder.
         return Some(Venv {
-            dir: dir.to_path_buf(),
+            dir: std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf()),
             from: "--python-venv",
         });
     }
