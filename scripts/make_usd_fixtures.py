@@ -17,6 +17,7 @@ owns its walls (LPortal style), so neighbouring rooms meet in two coplanar door 
     tags_and_hidden.usda tags in customData and custom attributes, a hidden and a guide prim,
                          an n-gon floor with a hole face, a leftHanded wall
     broken.usda          a syntax error
+    missing_reference.usda  a room referencing a file that does not exist
 """
 import os
 import sys
@@ -187,6 +188,13 @@ def broken():
                 '    def Mesh "floor"\n    {\n        int[] faceVertexCounts = [4\n    }\n}\n')
 
 
+def missing_reference():
+    stage = new_stage("missing_reference.usda")
+    room = UsdGeom.Xform.Define(stage, "/World/room_a").GetPrim()
+    room.GetReferences().AddReference("./no_such_room.usda")
+    stage.Save()
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     for f in os.listdir(OUT):
@@ -203,4 +211,5 @@ if __name__ == "__main__":
     point_instancer()
     tags_and_hidden()
     broken()
+    missing_reference()
     print("wrote", sorted(os.listdir(OUT)), file=sys.stderr)

@@ -487,3 +487,14 @@ fn a_usd_level_converts_to_a_valid_annotated_glb() {
         );
     }
 }
+
+#[test]
+fn a_missing_reference_is_reported() {
+    let (_, t) = level(&usd("missing_reference.usda"), None);
+    let d = t
+        .diagnostics
+        .iter()
+        .find(|d| d.code == Code::USD_COMPOSITION_ERROR)
+        .expect("composition error reported");
+    assert!(d.message.contains("no_such_room.usda"), "{}", d.message);
+}

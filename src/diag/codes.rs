@@ -119,6 +119,7 @@ codes! {
     USD_PRIMS_HIDDEN = Info, "invisible prims and prims with guide or proxy purpose were left out";
     USD_GPRIM_UNSUPPORTED = Info, "geometry prims other than Mesh (Cube, Sphere, ...) were left out";
     USD_PORTAL_LIGHT_IGNORED = Info, "a UsdLuxPortalLight is a light, not a visibility portal; it was left out";
+    USD_COMPOSITION_ERROR = Warning, "a reference, payload or sublayer of the stage could not be opened; what it holds is missing";
 }
 
 impl fmt::Display for Code {

@@ -99,7 +99,7 @@ def load(path):
       (points Vec3fArray, faceVertexCounts, faceVertexIndices, holeIndices, left_handed,
        per-face material index array or None)
     notes: (kind, prim path) pairs for things Rust reports: "portal_light", "hidden",
-      "gprim:<type>", "units_default".
+      "gprim:<type>", "units_default", and ("composition", USD's message).
     """
     try:
         from pxr import Usd, UsdGeom, UsdLux, UsdShade
@@ -118,6 +118,9 @@ def load(path):
     mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
 
     notes = []
+    # A reference, payload or sublayer that could not be opened: what it held is missing.
+    for err in list(stage.GetCompositionErrors())[:20]:
+        notes.append(("composition", str(err)))
     if not stage.HasAuthoredMetadata("metersPerUnit"):
         notes.append(("units_default", "/"))
     materials = []

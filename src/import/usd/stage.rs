@@ -387,6 +387,20 @@ fn report_faces(path: &Path, prim: &RawPrim, node: &str, b: &BuiltMesh, diags: &
 fn report_notes(path: &Path, notes: &[(String, String)], diags: &mut Diagnostics) {
     let mut groups: Vec<(&str, Vec<&str>)> = Vec::new();
     for (kind, prim) in notes {
+        if kind == "composition" {
+            diags.push(
+                Diagnostic::new(
+                    Code::USD_COMPOSITION_ERROR,
+                    format!("USD could not compose part of the stage: {prim}"),
+                    Location::file(path),
+                )
+                .hint(
+                    "what the reference, payload or sublayer holds is missing from the level; \
+                     fix its path or copy the file next to the stage",
+                ),
+            );
+            continue;
+        }
         if kind == "portal_light" {
             diags.push(
                 Diagnostic::new(
