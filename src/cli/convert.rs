@@ -15,8 +15,9 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Level files: .gltf, .glb, .obj; `-` reads standard input (glTF/GLB recognised by their
-    /// first bytes, anything else read as OBJ).
+    /// Level files: .gltf, .glb, .obj (and .usd/.usda/.usdc/.usdz with the `usd` feature);
+    /// `-` reads standard input (glTF/GLB recognised by their first bytes, anything else read
+    /// as OBJ).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
