@@ -18,6 +18,7 @@ owns its walls (LPortal style), so neighbouring rooms meet in two coplanar door 
                          an n-gon floor with a hole face, a leftHanded wall
     broken.usda          a syntax error
     missing_reference.usda  a room referencing a file that does not exist
+    bad_meshes.usda      meshes whose arrays do not fit together, a NaN point, a 2-corner face
 """
 import os
 import sys
@@ -195,6 +196,25 @@ def missing_reference():
     stage.Save()
 
 
+def bad_meshes():
+    stage = new_stage("bad_meshes.usda")
+    UsdGeom.Xform.Define(stage, "/World/room_a")
+    for name, polys in room_faces():
+        write_mesh(stage, f"/World/room_a/{name}", polys)
+    m = write_mesh(stage, "/World/room_a/out_of_range", [[(0, 0, 0), (1, 0, 0), (1, 1, 0)]])
+    m.GetFaceVertexIndicesAttr().Set(Vt.IntArray([0, 1, 7]))
+    m = write_mesh(stage, "/World/room_a/short_indices", [[(0, 0, 0), (1, 0, 0), (1, 1, 0)]])
+    m.GetFaceVertexCountsAttr().Set(Vt.IntArray([4]))
+    m = write_mesh(stage, "/World/room_a/nan_point",
+                   [[(0, 0, 0), (1, 0, 0), (1, 1, 0)], [(2, 0, 0), (3, 0, 0), (3, 1, 0)]])
+    pts = m.GetPointsAttr().Get()
+    pts[0] = Gf.Vec3f(float("nan"), 0, 0)
+    m.GetPointsAttr().Set(pts)
+    m = write_mesh(stage, "/World/room_a/two_corners", [[(0, 0, 0), (1, 0, 0)],
+                                                        [(0, 0, 0), (1, 0, 0), (1, 1, 0)]])
+    stage.Save()
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     for f in os.listdir(OUT):
@@ -212,4 +232,5 @@ if __name__ == "__main__":
     tags_and_hidden()
     broken()
     missing_reference()
+    bad_meshes()
     print("wrote", sorted(os.listdir(OUT)), file=sys.stderr)

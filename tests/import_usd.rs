@@ -498,3 +498,36 @@ fn a_missing_reference_is_reported() {
         .expect("composition error reported");
     assert!(d.message.contains("no_such_room.usda"), "{}", d.message);
 }
+
+#[test]
+fn broken_meshes_are_reported_and_the_rest_of_the_level_is_read() {
+    let (lvl, t) = level(&usd("bad_meshes.usda"), None);
+    assert_eq!(lvl.rooms, ["a"]);
+    assert_eq!(lvl.cells.len(), 1);
+    let with = |code: Code| t.diagnostics.iter().filter(|d| d.code == code).count();
+    assert_eq!(with(Code::USD_MESH_INVALID), 2, "{:?}", t.diagnostics);
+    assert_eq!(with(Code::GEOM_NON_FINITE), 1);
+    assert_eq!(with(Code::GEOM_DEGENERATE_TRIANGLES), 1);
+    let s = &t.scene;
+    let mesh_of = |name: &str| {
+        s.walk()
+            .into_iter()
+            .find(|&n| s.nodes[n].name.as_deref() == Some(name))
+            .and_then(|n| s.nodes[n].mesh)
+    };
+    assert_eq!(mesh_of("out_of_range"), None);
+    assert_eq!(mesh_of("short_indices"), None);
+    assert_eq!(s.meshes[mesh_of("nan_point").unwrap()].triangles.len(), 1);
+    assert_eq!(s.meshes[mesh_of("two_corners").unwrap()].triangles.len(), 1);
+    let invalid = t
+        .diagnostics
+        .iter()
+        .find(|d| d.code == Code::USD_MESH_INVALID)
+        .unwrap();
+    assert!(invalid
+        .location
+        .source
+        .prim
+        .as_deref()
+        .is_some_and(|p| p.starts_with("/World/room_a/")));
+}
