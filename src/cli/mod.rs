@@ -70,6 +70,11 @@ pub struct LevelArgs {
     /// OBJ: do not treat `/` in object names as a node hierarchy.
     #[arg(long)]
     pub obj_flat_names: bool,
+
+    /// USD: the Python virtual environment holding usd-core (else $VIRTUAL_ENV, else the
+    /// project's .venv). Needs a build with `--features usd`.
+    #[arg(long, value_name = "DIR")]
+    pub python_venv: Option<PathBuf>,
 }
 
 impl LevelArgs {
@@ -79,6 +84,7 @@ impl LevelArgs {
             config: self.config.clone(),
             import: portcullis::import::ImportOptions {
                 obj_split_paths: !self.obj_flat_names,
+                python_venv: self.python_venv.clone(),
             },
         }
     }

@@ -139,7 +139,7 @@ pub fn write(
         .unwrap_or(Path::new("."));
     let (mut doc, bin) = match &scene.gltf {
         Some(src) => from_gltf(src, format, out_dir),
-        None => from_scene(scene, format),
+        None => from_scene(&super::bake::world_space(scene), format),
     };
     annotate(&mut doc, ann);
     match format {
