@@ -57,14 +57,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(rules) = portcullis::config::rule_set(&config, None) else {
         return;
     };
-    let tagging = portcullis::tags::recognise(&imported.scene, &rules);
-    let mut tagged = portcullis::pipeline::Tagged {
-        scene: imported.scene,
-        config,
-        rules,
-        tagging,
-        diagnostics: imported.diagnostics,
-    };
+    let mut tagged = portcullis::pipeline::tag(imported, config, rules);
     let cells = portcullis::pipeline::build_cells(&mut tagged);
     let portals = portcullis::pipeline::build_portals(&mut tagged, &cells);
     portcullis::pipeline::check_level(&mut tagged, &cells, &portals, true);

@@ -127,15 +127,8 @@ fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
         .sum();
     let config = portcullis::config::Config::default();
     let rules = portcullis::config::rule_set(&config, None).map_err(|d| d.to_string())?;
-    let (tagging, t) = timed(|| portcullis::tags::recognise(&imported.scene, &rules));
+    let (mut tagged, t) = timed(|| portcullis::pipeline::tag(imported, config, rules));
     row.tags = t;
-    let mut tagged = portcullis::pipeline::Tagged {
-        scene: imported.scene,
-        config,
-        rules,
-        tagging,
-        diagnostics: imported.diagnostics,
-    };
     let (cells, t) = timed(|| portcullis::pipeline::build_cells(&mut tagged));
     row.cells_s = t;
     let (portals, t) = timed(|| portcullis::pipeline::build_portals(&mut tagged, &cells));

@@ -369,7 +369,13 @@ fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec<u8>>) {
             .parent
             .map(|p| placed[p])
             .unwrap_or(glam::DVec3::ZERO);
-        placed[n] = scene.nodes[n].mesh.map(|m| mesh_centre[m]).unwrap_or(up);
+        // A node without a mesh keeps its own place (a player start, a marker); a group with
+        // an identity transform is where its parent is.
+        let own = scene.nodes[n].world.w_axis.truncate();
+        placed[n] = scene.nodes[n]
+            .mesh
+            .map(|m| mesh_centre[m])
+            .unwrap_or(if own == glam::DVec3::ZERO { up } else { own });
     }
     let nodes: Vec<Value> = scene
         .nodes

@@ -17,7 +17,6 @@ use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
-use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
 
 /// Triangles that block sight, indexed by their bounds.
@@ -185,34 +184,18 @@ pub(crate) fn derive(
         let internal = cells.cells[a].room == cells.cells[b].room;
         for (on_a, on_b, na, area) in found.portals {
             let i = set.portals.len();
-            set.portals.push(Portal {
-                from: a,
-                to: Some(b),
-                polygon: reversed(&on_a),
-                normal: na,
+            let back = Portal::plain(b, Some(a), on_b, -na, area, internal, Some(i));
+            let polygon = reversed(&on_a);
+            set.portals.push(Portal::plain(
+                a,
+                Some(b),
+                polygon,
+                na,
                 area,
-                kind: PortalKind::Plain,
-                one_way: false,
-                closed: false,
                 internal,
-                transform: None,
-                authored: None,
-                partner: Some(i + 1),
-            });
-            set.portals.push(Portal {
-                from: b,
-                to: Some(a),
-                polygon: on_b,
-                normal: -na,
-                area,
-                kind: PortalKind::Plain,
-                one_way: false,
-                closed: false,
-                internal,
-                transform: None,
-                authored: None,
-                partner: Some(i),
-            });
+                Some(i + 1),
+            ));
+            set.portals.push(back);
         }
     }
     if !cfg.exterior {
@@ -270,20 +253,8 @@ pub(crate) fn derive(
         .collect();
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
-            set.portals.push(Portal {
-                from: c,
-                to: None,
-                polygon,
-                normal,
-                area,
-                kind: PortalKind::Plain,
-                one_way: false,
-                closed: false,
-                internal: false,
-                transform: None,
-                authored: None,
-                partner: None,
-            });
+            set.portals
+                .push(Portal::plain(c, None, polygon, normal, area, false, None));
         }
     }
 }
