@@ -2,7 +2,8 @@
 """Writes docs/diagnostics.md from the code registry in src/diag/codes.rs, with an example of
 each code: what `portcullis` prints for its level in samples/broken/ (or for the command line
 in samples/broken/README.md when no level file can trigger it). Run from the repository root
-after `cargo build` and `python3 scripts/make_broken.py`; a unit test checks the doc lists every
+after `cargo build --features usd`, `cargo build --release` (a build without USD, for
+USD_UNSUPPORTED_BUILD) and `python3 scripts/make_broken.py`; a unit test checks the doc lists every
 code with an example or a reason.
 """
 import re
@@ -13,6 +14,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 EXE = sys.argv[1] if len(sys.argv) > 1 else str(ROOT / "target" / "debug" / "portcullis")
+# USD_UNSUPPORTED_BUILD needs a build without the `usd` feature (the test suite's debug build
+# has it): by default the release build of `cargo build --release`.
+EXE_NO_USD = sys.argv[2] if len(sys.argv) > 2 else str(ROOT / "target" / "release" / "portcullis")
 BROKEN = ROOT / "samples" / "broken"
 
 # Codes a command line triggers, not a level file (see samples/broken/README.md).
@@ -35,6 +39,11 @@ COMMANDS.update({c: ["vis", "bad.prt"] for c in PRT_TEXT})
 COMMANDS["PRT_EXPORT_DROPPED"] = ["convert", "teleporter.gltf", "-o", "teleporter.prt"]
 COMMANDS["VIS_TRANSFORM_DEPTH"] = ["vis", "teleporter.gltf"]
 NO_EXAMPLE = {
+    "USD_CORE_MISSING": "No level file triggers it: it is about the machine. Run a `usd` build with "
+                        "`--python-venv` pointing at a venv without usd-core to see it; the fix is "
+                        "`python3 -m venv .venv && .venv/bin/pip install usd-core==26.11`.",
+    "USD_PYTHON_FAILED": "No known file triggers it: it reports a Python exception inside usd-core that "
+                         "portcullis did not foresee, with its message. Please report it with the file.",
     "TAG_AMBIGUOUS_TARGET": "Reserved. Room names are unique (a second room with a name is "
                             "`TAG_DUPLICATE_ROOM` and joins the first), so no target can match two rooms today.",
     "TRANSFORM_NON_FINITE": "No file triggers it: JSON has no NaN or infinity and portcullis builds "
@@ -78,7 +87,8 @@ def example(code):
     if sample is None:
         return None, None
     rel = sample.relative_to(BROKEN)
-    r = subprocess.run([EXE, "check", str(rel), "--color", "never"], cwd=BROKEN, capture_output=True, text=True)
+    exe = EXE_NO_USD if code == "USD_UNSUPPORTED_BUILD" else EXE
+    r = subprocess.run([exe, "check", str(rel), "--color", "never"], cwd=BROKEN, capture_output=True, text=True)
     return f"portcullis check samples/broken/{rel}", block(r.stdout + r.stderr, code)
 
 

@@ -442,6 +442,8 @@ def written():
     d.mkdir(exist_ok=True)
     (d / "README.md").write_text("A folder named like a level: reading it fails (IO_READ_FAILED).\n")
     (OUT / "USD_UNSUPPORTED_BUILD.usda").write_text(USDA)
+    for code, text in USD_SAMPLES.items():
+        (OUT / f"{code}.usda").write_text(text)
     base = two_rooms()
 
     def required(doc):
@@ -486,6 +488,75 @@ def written():
         "[check]\nignore = [\"GRAPH_UNREACHABLE\"]\n")
     (OUT / "LEAK").mkdir(exist_ok=True)
     (OUT / "LEAK" / "portcullis.toml").write_text("[check]\nsealed = true\n")
+
+
+def usda(extra="", meta='upAxis = "Y"\n    metersPerUnit = 1', mesh_extra="", indices=None):
+    """A closed 4 x 3 x 4 m room `room_hall` as USD text, with `extra` prims under /Level."""
+    idx = indices or "[0, 1, 3, 2, 4, 6, 7, 5, 0, 4, 5, 1, 2, 3, 7, 6, 0, 2, 6, 4, 1, 5, 7, 3]"
+    return f"""#usda 1.0
+(
+    {meta}
+)
+
+def Xform "Level"
+{{
+    def Mesh "room_hall"
+    {{
+        int[] faceVertexCounts = [4, 4, 4, 4, 4, 4]
+        int[] faceVertexIndices = {idx}
+        point3f[] points = [(0, 0, 0), (0, 0, 4), (0, 3, 0), (0, 3, 4), (4, 0, 0), (4, 0, 4), (4, 3, 0), (4, 3, 4)]
+{mesh_extra}    }}
+{extra}}}
+"""
+
+
+# A prop inside the room, as its own mesh prim (the room is the mesh `room_hall`; the prop is a
+# detail so it never shapes the room).
+def usd_prop(name, body):
+    return f"""    def Mesh "{name}"
+    {{
+{body}    }}
+"""
+
+
+USD_SAMPLES = {
+    # Not a stage at all: a syntax error on line 1.
+    "USD_OPEN_FAILED": "#usda 1.0\n(\n    upAxis = \"Y\"\n\ndef Xform \"Level\" {\n",
+    # An index past the last point.
+    "USD_MESH_INVALID": usda(extra=usd_prop("Crate", """        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 9]
+        point3f[] points = [(1, 0, 1), (2, 0, 1), (1, 1, 1)]
+""")),
+    # A bow tie face.
+    "USD_POLYGON_NOT_SIMPLE": usda(extra=usd_prop("Rug", """        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(1, 0.01, 1), (2, 0.01, 2), (2, 0.01, 1), (1, 0.01, 2)]
+""")),
+    # No stage metadata: Y up and centimetres are USD's fallbacks.
+    "USD_UNITS_ASSUMED": usda(meta='doc = "no upAxis, no metersPerUnit"'),
+    "USD_PRIMS_HIDDEN": usda(extra=usd_prop("Ghost", """        token visibility = "invisible"
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(1, 0, 1), (2, 0, 1), (1, 1, 1)]
+""")),
+    "USD_GPRIM_UNSUPPORTED": usda(extra="""    def Cube "Crate"
+    {
+        double size = 0.5
+        double3 xformOp:translate = (2, 0.25, 2)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+"""),
+    "USD_PORTAL_LIGHT_IGNORED": usda(extra="""    def PortalLight "portal_window"
+    {
+    }
+"""),
+    "USD_COMPOSITION_ERROR": usda(extra="""    def Xform "Shelf" (
+        prepend references = @./no_such_file.usda@
+    )
+    {
+    }
+"""),
+}
 
 
 USDA = """#usda 1.0

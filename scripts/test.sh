@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, as the README gives it and .ci/run calls it.
-# Sets up what the tests need (the npm Khronos glTF-Validator) and caches it in ignored folders,
-# then runs formatting, lint and every test. Needs the Rust toolchain and Node (npm).
+# Sets up what the tests need (the npm Khronos glTF-Validator, and Pixar's usd-core in a Python
+# venv for the `usd` feature) and caches them in ignored folders, then runs formatting, lint
+# (with and without the feature) and every test with the feature on. Needs the Rust toolchain,
+# Node (npm) and Python 3 built with a shared libpython (python3 -m venv, pip).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,9 +17,23 @@ else
   echo "warning: npm not found; tests that run the glTF validator will fail under CI=true and skip otherwise" >&2
 fi
 
+# usd-core (PyPI, pinned; the same version as USD_CORE_VERSION in src/import/usd.rs), cached in
+# .venv. The embedded interpreter finds it there (its fallback when neither --python-venv nor
+# VIRTUAL_ENV is given), and pyo3 is configured against the venv's interpreter so the versions
+# match.
+USD_CORE="usd-core==26.11"
+if ! .venv/bin/python -c "import importlib.metadata as m, sys; sys.exit(m.version('usd-core') != '${USD_CORE#usd-core==}')" 2>/dev/null; then
+  echo "== installing $USD_CORE into .venv"
+  python3 -m venv .venv
+  .venv/bin/pip install --quiet --disable-pip-version-check "$USD_CORE"
+fi
+export PYO3_PYTHON="$PWD/.venv/bin/python"
+unset VIRTUAL_ENV
+
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
-echo "== cargo clippy"
+echo "== cargo clippy (default features, then --features usd)"
 cargo clippy --all-targets --locked -- -D warnings
-echo "== cargo test"
-cargo test --all-targets --locked
+cargo clippy --all-targets --locked --features usd -- -D warnings
+echo "== cargo test --features usd"
+cargo test --all-targets --locked --features usd

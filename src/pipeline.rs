@@ -52,16 +52,21 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
     };
     let config = config_for(input, opts)?;
     let rules = config::rule_set(&config, opts.preset.as_deref())?;
+    Ok(tag(imported, config, rules))
+}
+
+/// Tags an imported level with `rules` (library callers that import themselves use this).
+pub fn tag(imported: import::Imported, config: Config, rules: RuleSet) -> Tagged {
     let tagging = tags::recognise(&imported.scene, &rules);
     let mut diagnostics = imported.diagnostics;
     diagnostics.extend(tagging.diagnostics.iter().cloned());
-    Ok(Tagged {
+    Tagged {
         scene: imported.scene,
         config,
         rules,
         tagging,
         diagnostics,
-    })
+    }
 }
 
 /// A level piped in: glTF and GLB are recognised by their first bytes, anything else is read
@@ -129,7 +134,34 @@ pub fn write_annotated_with_pvs(
     if let Some((p, m)) = pvs {
         ann.set_visibility(p, m);
     }
+    if scene.gltf.is_none() {
+        // A new glTF (from OBJ or USD) is not the input: hash what a reader of the written
+        // file will import, or the annotation would read back as stale.
+        if let Some(h) = written_hash(tagged, out, format) {
+            ann.root["inputHash"] = serde_json::json!(h);
+        }
+    }
     gltf_out::write(scene, &ann, out, format)
+}
+
+/// The input hash of the glTF written for a non-glTF level: written without annotation, read
+/// back and tagged with the same rules.
+fn written_hash(
+    tagged: &Tagged,
+    out: &Path,
+    format: crate::export::gltf_out::OutFormat,
+) -> Option<String> {
+    use crate::export::{bake, gltf_out};
+    let bytes = gltf_out::write_plain(&bake::world_space(&tagged.scene), format);
+    let scene_format = match format {
+        gltf_out::OutFormat::Glb => crate::scene::Format::Glb,
+        gltf_out::OutFormat::Gltf => crate::scene::Format::Gltf,
+    };
+    let dir = out.parent().unwrap_or(Path::new("."));
+    let back =
+        import::import_bytes(&bytes, out, scene_format, dir, &ImportOptions::default()).ok()?;
+    let tagging = tags::recognise(&back.scene, &tagged.rules);
+    Some(crate::export::extension::input_hash(&back.scene, &tagging))
 }
 
 /// The checks of a built level (see [`crate::check`]); findings are appended to

@@ -255,6 +255,7 @@ fn path_splitting() {
         &src,
         &ImportOptions {
             obj_split_paths: false,
+            ..Default::default()
         },
     )
     .expect("imports");

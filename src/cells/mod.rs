@@ -151,7 +151,7 @@ fn level_frame(scene: &Scene) -> (Aabb, f64) {
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     let (level, max_abs) = level_frame(scene);
     let extent = level.size().length();
-    let single = matches!(scene.format, Format::Gltf | Format::Glb);
+    let single = matches!(scene.format, Format::Gltf | Format::Glb | Format::Usd);
     let tol = Tolerance::derive(extent, max_abs, single, cfg.max_tolerance);
     let origin = if level.is_empty() {
         DVec3::ZERO

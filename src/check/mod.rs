@@ -125,13 +125,8 @@ impl<'a> Subject<'a> {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                let name = p
-                    .authored
-                    .map(|n| format!(" `{}`", scene.node_label(n)))
-                    .unwrap_or_default();
-                let to =
-                    p.to.map_or("the exterior".to_string(), |t| format!("`{}`", room(t)));
-                format!("portal {i}{name} (`{}` -> {to})", room(p.from))
+                let name = p.authored.map(|n| scene.node_label(n));
+                portal_label(i, name.as_deref(), room(p.from), p.to.map(room))
             })
             .collect();
         let bounds = cells
@@ -179,6 +174,13 @@ impl<'a> Subject<'a> {
             .and_then(|c| c.poly.as_ref())
             .map(ConvexPolyhedron::interior_point)
     }
+}
+
+/// `portal 4 `door` (`hall` -> `kitchen`)`, the way every check names a portal.
+pub(crate) fn portal_label(i: usize, name: Option<&str>, from: &str, to: Option<&str>) -> String {
+    let name = name.map(|n| format!(" `{n}`")).unwrap_or_default();
+    let to = to.map_or("the exterior".to_string(), |t| format!("`{t}`"));
+    format!("portal {i}{name} (`{from}` -> {to})")
 }
 
 /// The player starts of a tagged level, at their nodes' origins.

@@ -191,14 +191,8 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
         .iter()
         .enumerate()
         .map(|(i, r)| {
-            let name = r
-                .node
-                .map(|n| format!(" `{}`", node_name(n)))
-                .unwrap_or_default();
-            let to = r
-                .to()
-                .map_or("the exterior".to_string(), |t| format!("`{}`", room(t)));
-            format!("portal {i}{name} (`{}` -> {to})", room(r.from()))
+            let name = r.node.map(node_name);
+            super::portal_label(i, name.as_deref(), room(r.from()), r.to().map(room))
         })
         .collect();
     Subject {

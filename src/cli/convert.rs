@@ -15,13 +15,14 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Level files: .gltf, .glb, .obj; `-` reads standard input (glTF/GLB recognised by their
-    /// first bytes, anything else read as OBJ).
+    /// Level files: .gltf, .glb, .obj (and .usd/.usda/.usdc/.usdz with the `usd` feature);
+    /// `-` reads standard input (glTF/GLB recognised by their first bytes, anything else read
+    /// as OBJ).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
-    /// Output file (.gltf or .glb), for a single input; `-` writes to standard output (in
-    /// --out-format).
+    /// Output file (.gltf, .glb, or .usda for USD with cells and portals as `portcullis:`
+    /// attributes), for a single input; `-` writes to standard output (in --out-format).
     #[arg(short, long, value_name = "OUT", conflicts_with_all = ["out_dir", "in_place"])]
     pub output: Option<PathBuf>,
 
@@ -113,7 +114,11 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         return convert_to_prt(a, input, &out);
     }
     let to_stdout = out == Path::new("-");
-    let format = if to_stdout {
+    // A .usda output is written by its own writer; the glTF format below is then unused.
+    let usda = !to_stdout && portcullis::export::usd_out::is_usda(&out);
+    let format = if usda {
+        Some(OutFormat::Glb)
+    } else if to_stdout {
         Some(if a.out_format == "gltf" {
             OutFormat::Gltf
         } else {
@@ -126,12 +131,12 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         Diagnostic::new(
             Code::OUTPUT_FORMAT_UNKNOWN,
             format!(
-                "cannot write `{}`: portcullis writes .gltf and .glb",
+                "cannot write `{}`: portcullis writes .gltf, .glb and .usda",
                 out.display()
             ),
             Location::file(&out),
         )
-        .hint("name the output .glb or .gltf")
+        .hint("name the output .glb, .gltf or .usda")
     })?;
     if !a.in_place && same_file(&out, input) {
         return Err(Diagnostic::new(
@@ -184,7 +189,11 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     });
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
-    let bytes = pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?;
+    let bytes = if usda {
+        portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals).into_bytes()
+    } else {
+        pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?
+    };
     let written = if to_stdout {
         use std::io::Write;
         let mut so = std::io::stdout().lock();

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+pub mod bench;
 pub mod check;
 pub mod convert;
 pub mod gen;
@@ -41,6 +42,9 @@ pub enum Command {
     /// Generate a building of N rooms on several storeys (doors, windows, L-shaped rooms,
     /// stairwells, furniture), tagged like a designer would, for benchmarks and trials.
     Gen(gen::GenArgs),
+    /// Time every stage on generated buildings of several sizes (and the gltf crate's own
+    /// read+write of the same file) and print one table.
+    Bench(bench::BenchArgs),
     /// Print a JSON Schema portcullis ships (config, tags), or a built-in tag preset.
     Schema(schema::SchemaArgs),
     /// Print the PVS of each level (glTF, OBJ, USD or a Quake .prt), one line per cell as
@@ -70,6 +74,11 @@ pub struct LevelArgs {
     /// OBJ: do not treat `/` in object names as a node hierarchy.
     #[arg(long)]
     pub obj_flat_names: bool,
+
+    /// USD: the Python virtual environment holding usd-core (else $VIRTUAL_ENV, else the
+    /// project's .venv). Needs a build with `--features usd`.
+    #[arg(long, value_name = "DIR")]
+    pub python_venv: Option<PathBuf>,
 }
 
 impl LevelArgs {
@@ -79,6 +88,7 @@ impl LevelArgs {
             config: self.config.clone(),
             import: portcullis::import::ImportOptions {
                 obj_split_paths: !self.obj_flat_names,
+                python_venv: self.python_venv.clone(),
             },
         }
     }
@@ -104,6 +114,7 @@ pub fn run(cli: Cli) -> i32 {
             check::run(&a, &style)
         }
         Command::Gen(a) => gen::run(&a),
+        Command::Bench(a) => bench::run(&a),
         Command::Schema(a) => schema::run(&a),
         Command::Vis(mut a) => {
             a.files = expand_inputs(&a.files);

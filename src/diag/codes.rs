@@ -133,6 +133,18 @@ codes! {
     EXTERIOR_OPENINGS = Info, "cells open to the exterior (an error when the level is declared sealed)";
     LEAK = Error, "a level declared sealed opens to the exterior";
 
+    // --- usd ---
+    USD_CORE_MISSING = Error, "USD input needs Pixar's usd-core Python package, which the embedded Python cannot import";
+    USD_OPEN_FAILED = Error, "USD could not open the stage (syntax error, missing layer, unknown format)";
+    USD_PYTHON_FAILED = Error, "reading the stage through usd-core failed unexpectedly";
+    USD_MESH_INVALID = Error, "a USD mesh's points, faceVertexCounts and faceVertexIndices do not fit together; the mesh was skipped";
+    USD_POLYGON_NOT_SIMPLE = Warning, "a USD polygon face is self-intersecting; it was fan-triangulated";
+    USD_UNITS_ASSUMED = Info, "the stage's metersPerUnit or upAxis is unset or unusable; a fallback was used";
+    USD_PRIMS_HIDDEN = Info, "invisible prims and prims with guide or proxy purpose were left out";
+    USD_GPRIM_UNSUPPORTED = Info, "geometry prims other than Mesh (Cube, Sphere, ...) were left out";
+    USD_PORTAL_LIGHT_IGNORED = Info, "a UsdLuxPortalLight is a light, not a visibility portal; it was left out";
+    USD_COMPOSITION_ERROR = Warning, "a reference, payload or sublayer of the stage could not be opened; what it holds is missing";
+
     // --- visibility ---
     VIS_TRANSFORM_DEPTH = Info, "sightlines through mirrors and teleporters were followed only up to the depth bound";
 

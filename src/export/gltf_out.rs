@@ -139,7 +139,7 @@ pub fn write(
         .unwrap_or(Path::new("."));
     let (mut doc, mut bin) = match &scene.gltf {
         Some(src) => from_gltf(src, format, out_dir),
-        None => from_scene(scene, format),
+        None => from_scene(&super::bake::world_space(scene), format),
     };
     annotate(&mut doc, ann);
     if let Some(blob) = &ann.blob {
@@ -426,7 +426,13 @@ fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec<u8>>) {
             .parent
             .map(|p| placed[p])
             .unwrap_or(glam::DVec3::ZERO);
-        placed[n] = scene.nodes[n].mesh.map(|m| mesh_centre[m]).unwrap_or(up);
+        // A node without a mesh keeps its own place (a player start, a marker); a group with
+        // an identity transform is where its parent is.
+        let own = scene.nodes[n].world.w_axis.truncate();
+        placed[n] = scene.nodes[n]
+            .mesh
+            .map(|m| mesh_centre[m])
+            .unwrap_or(if own == glam::DVec3::ZERO { up } else { own });
     }
     let nodes: Vec<Value> = scene
         .nodes

@@ -1,11 +1,13 @@
 //! Writing results: the annotated glTF with the `PORTCULLIS_portals` extension, written
 //! atomically, reading it back, and the debug outputs (a glTF of cells and portals, an SVG
-//! plan).
+//! plan), and the annotated level as a USD layer.
 
 pub mod atomic;
+pub mod bake;
 pub mod debug;
 pub mod extension;
 pub mod gltf_out;
 pub mod read;
 pub mod svg;
+pub mod usd_out;
 pub mod visibility;

@@ -20,12 +20,16 @@ pub struct ImportOptions {
     /// OBJ: treat `/` in object and group names as a hierarchy (`Level/room_a/Floor` becomes
     /// nodes `Level` > `room_a` > `Floor`), as exporters that flatten a scene tree write them.
     pub obj_split_paths: bool,
+    /// USD: the Python venv holding usd-core (`--python-venv`); else `VIRTUAL_ENV`, else the
+    /// project's own `.venv`. Unused by other formats and by builds without the `usd` feature.
+    pub python_venv: Option<PathBuf>,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
         ImportOptions {
             obj_split_paths: true,
+            python_venv: None,
         }
     }
 }
@@ -79,7 +83,7 @@ pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagno
         .hint("use a .gltf, .glb, .obj, .usd, .usda, .usdc or .usdz file")
     })?;
     if format == Format::Usd {
-        return usd::import(path, opts);
+        return usd::import(path, opts).map(|i| note_empty(i, path));
     }
     let bytes = std::fs::read(path).map_err(|e| {
         Diagnostic::new(
@@ -113,11 +117,16 @@ pub fn import_bytes(
         )
         .hint("the export may have failed; export the level again"));
     }
-    let mut imported = match format {
+    let imported = match format {
         Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir)?,
         Format::Obj => obj::import(bytes, path, base_dir, opts)?,
         Format::Usd => usd::import(path, opts)?,
     };
+    Ok(note_empty(imported, path))
+}
+
+/// Adds a warning when a scene that was read holds no triangles.
+fn note_empty(mut imported: Imported, path: &Path) -> Imported {
     if imported.scene.triangle_count() == 0 {
         imported.diagnostics.push(
             Diagnostic::new(
@@ -128,5 +137,5 @@ pub fn import_bytes(
             .hint("check that the export included the level's meshes"),
         );
     }
-    Ok(imported)
+    imported
 }

@@ -7,7 +7,9 @@ use super::{Portal, PortalSet};
 use crate::cells::CellSet;
 use crate::config::PortalsConfig;
 use crate::diag::{Code, Diagnostic, Location};
+use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::intersection;
+use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
@@ -129,6 +131,13 @@ pub(crate) fn link(
     // Which derived portals an authored portal claimed, and with which one-way flag.
     let mut one_way_claim: Vec<Option<bool>> = vec![None; set.portals.len()];
     let mut transformed_done: Vec<NodeId> = Vec::new();
+    // The derived portals, by their bounds: an authored quad is compared with those near it.
+    let near = BoxGrid::new(
+        set.portals
+            .iter()
+            .map(|p| Aabb::from_points(p.polygon.iter()))
+            .collect(),
+    );
     // Which authored node claimed each derived portal, to spot two quads in one opening.
     let mut claimed_by: Vec<Option<NodeId>> = vec![None; set.portals.len()];
     for ap in &tagging.portals {
@@ -205,7 +214,9 @@ pub(crate) fn link(
             d: 0.0,
         });
         let mut candidates: Vec<usize> = Vec::new();
-        for (i, p) in set.portals.iter().enumerate() {
+        let around = Aabb::from_points(q.ring.iter());
+        for i in near.query(&around, cfg.max_wall_thickness + 10.0 * eps) {
+            let p = &set.portals[i];
             if p.to.is_none() || p.transform.is_some() || p.normal.dot(q.normal).abs() < cos_tol {
                 continue;
             }

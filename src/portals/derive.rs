@@ -3,6 +3,8 @@
 
 use std::collections::HashSet;
 
+use rayon::prelude::*;
+
 use glam::{DVec2, DVec3};
 
 use super::{reversed, Portal, PortalSet};
@@ -15,7 +17,6 @@ use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, usable_polygon};
 use crate::scene::{NodeId, Scene};
-use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
 
 /// Triangles that block sight, indexed by their bounds.
@@ -140,12 +141,9 @@ pub(crate) fn derive(
     cfg: &PortalsConfig,
     set: &mut PortalSet,
 ) {
-    let eps = cells.tolerance.distance;
-    let grid = eps * 0.5;
-    let min_width = 10.0 * eps;
+    let k = Limits::new(cells.tolerance.distance, cfg);
+    let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
     let opaque = Opaque::new(scene, tagging, cells);
-    let reach = cfg.max_wall_thickness + eps;
-    let cos_tol = (1e-4f64).cos();
     // For each cell face, the regions other cells claim (in that face's frame).
     let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
         .cells
@@ -173,177 +171,219 @@ pub(crate) fn derive(
         .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
         .collect();
     pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
-    for (a, b) in pairs {
-        let ca = &cells.cells[a];
-        let cb = &cells.cells[b];
-        {
-            for (ia, fa) in ca.poly.faces.iter().enumerate() {
-                for (ib, fb) in cb.poly.faces.iter().enumerate() {
-                    let na = fa.plane.normal;
-                    if na.dot(fb.plane.normal) > -cos_tol {
-                        continue;
-                    }
-                    // fb: nb·p = db with nb ≈ -na, so along na it sits at -db.
-                    let gap = -fb.plane.d - fa.plane.d;
-                    if gap < -eps || gap > reach {
-                        continue;
-                    }
-                    let gap = gap.max(0.0);
-                    let f = Frame2::new(&fa.plane);
-                    let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
-                    let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
-                    let shared = intersection(&[ra], &[rb], grid);
-                    if shared.is_empty() {
-                        continue;
-                    }
-                    // A wall is bridged only if no other cell fills the gap (then the faces do
-                    // not face each other across a wall, but across that cell).
-                    if gap > eps {
-                        let big = shared.iter().max_by(|x, y| x.area().total_cmp(&y.area()));
-                        if let Some(big) = big {
-                            let c2 =
-                                big.outer.iter().copied().sum::<DVec2>() / big.outer.len() as f64;
-                            let mid = f.to3(c2, na * (gap * 0.5));
-                            let filled = cells.cells.iter().enumerate().any(|(k, c)| {
-                                k != a && k != b && c.poly.contains_strictly(mid, eps)
-                            });
-                            if filled {
-                                continue;
-                            }
-                        }
-                    }
-                    let fb2 = Frame2::new(&fb.plane);
-                    for s in &shared {
-                        claimed[a][ia].push(s.outer.clone());
-                        let back: Vec<DVec2> = s
-                            .outer
-                            .iter()
-                            .map(|q| fb2.to2(f.to3(*q, na * gap)))
-                            .collect();
-                        claimed[b][ib].push(back);
-                    }
-                    // What blocks: everything on the plane, or inside the wall slab.
-                    let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
-                    let mut bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()));
-                    bb.min -= DVec3::splat(eps);
-                    bb.max += DVec3::splat(eps);
-                    let blockers: Vec<Vec<DVec2>> = opaque
-                        .near(&bb)
-                        .filter_map(|t| slab_shadow(t, na, lo, hi, &f))
-                        .collect();
-                    let open = difference(&shared, &blockers, grid);
-                    let exact = ExactVertices::new(
-                        fa.points
-                            .iter()
-                            .chain(fb.points.iter())
-                            .map(|p| f.to2(*p))
-                            .chain(blockers.iter().flatten().copied()),
-                        grid,
-                    );
-                    let internal = ca.room == cb.room;
-                    for o in open.iter().filter(|o| mean_width(o) >= min_width) {
-                        for piece in pieces(o, cfg.conservative) {
-                            let piece = exact.restore(piece);
-                            // CCW about na in 2D: seen from A (behind the plane) it turns the
-                            // other way, so A's polygon is the reversed ring.
-                            let on_a: Vec<DVec3> =
-                                piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                            let Some(on_a) = usable_polygon(&on_a, na, eps) else {
-                                continue;
-                            };
-                            let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
-                            let area = polygon_area(&on_a, na);
-                            let i = set.portals.len();
-                            set.portals.push(Portal {
-                                from: a,
-                                to: Some(b),
-                                polygon: reversed(&on_a),
-                                normal: na,
-                                area,
-                                kind: PortalKind::Plain,
-                                one_way: false,
-                                closed: false,
-                                internal,
-                                transform: None,
-                                authored: None,
-                                partner: Some(i + 1),
-                            });
-                            set.portals.push(Portal {
-                                from: b,
-                                to: Some(a),
-                                polygon: on_b,
-                                normal: -na,
-                                area,
-                                kind: PortalKind::Plain,
-                                one_way: false,
-                                closed: false,
-                                internal,
-                                transform: None,
-                                authored: None,
-                                partner: Some(i),
-                            });
-                        }
-                    }
-                }
-            }
+    // Each pair's openings are computed in parallel; they are applied in pair order, so the
+    // portals are numbered the same whatever the thread count.
+    let found: Vec<PairOpenings> = pairs
+        .par_iter()
+        .map(|&(a, b)| pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k))
+        .collect();
+    for ((a, b), found) in pairs.into_iter().zip(found) {
+        for (cell, face, ring) in found.claims {
+            claimed[cell][face].push(ring);
+        }
+        let internal = cells.cells[a].room == cells.cells[b].room;
+        for (on_a, on_b, na, area) in found.portals {
+            let i = set.portals.len();
+            let back = Portal::plain(b, Some(a), on_b, -na, area, internal, Some(i));
+            let polygon = reversed(&on_a);
+            set.portals.push(Portal::plain(
+                a,
+                Some(b),
+                polygon,
+                na,
+                area,
+                internal,
+                Some(i + 1),
+            ));
+            set.portals.push(back);
         }
     }
     if !cfg.exterior {
         return;
     }
-    for (c, cell) in cells.cells.iter().enumerate() {
-        for (i, face) in cell.poly.faces.iter().enumerate() {
-            let f = Frame2::new(&face.plane);
-            let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
-            let whole = intersection(
-                std::slice::from_ref(&ring),
-                std::slice::from_ref(&ring),
-                grid,
-            );
-            let mut covered: Vec<Vec<DVec2>> = claimed[c][i].clone();
-            let mut bb = Aabb::from_points(face.points.iter());
+    let exterior: Vec<Vec<(Vec<DVec3>, DVec3, f64)>> = cells
+        .cells
+        .par_iter()
+        .enumerate()
+        .map(|(c, cell)| {
+            let mut out = Vec::new();
+            for (i, face) in cell.poly.faces.iter().enumerate() {
+                let f = Frame2::new(&face.plane);
+                let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
+                let whole = intersection(
+                    std::slice::from_ref(&ring),
+                    std::slice::from_ref(&ring),
+                    grid,
+                );
+                let mut covered: Vec<Vec<DVec2>> = claimed[c][i].clone();
+                let mut bb = Aabb::from_points(face.points.iter());
+                bb.min -= DVec3::splat(eps);
+                bb.max += DVec3::splat(eps);
+                let d = face.plane.d;
+                covered.extend(
+                    opaque
+                        .near(&bb)
+                        .filter_map(|t| slab_shadow(t, face.plane.normal, d - eps, d + eps, &f)),
+                );
+                let exact = ExactVertices::new(
+                    face.points
+                        .iter()
+                        .map(|p| f.to2(*p))
+                        .chain(covered.iter().flatten().copied()),
+                    grid,
+                );
+                for o in difference(&whole, &covered, grid)
+                    .iter()
+                    .filter(|o| mean_width(o) >= min_width)
+                {
+                    for piece in pieces(o, cfg.conservative) {
+                        let piece = exact.restore(piece);
+                        let pts: Vec<DVec3> =
+                            piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                        let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
+                            continue;
+                        };
+                        let area = polygon_area(&pts, face.plane.normal);
+                        out.push((reversed(&pts), face.plane.normal, area));
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for (c, list) in exterior.into_iter().enumerate() {
+        for (polygon, normal, area) in list {
+            set.portals
+                .push(Portal::plain(c, None, polygon, normal, area, false, None));
+        }
+    }
+}
+
+/// The distances derivation works with, all from the one tolerance.
+struct Limits {
+    eps: f64,
+    /// The i_overlay snapping grid.
+    grid: f64,
+    /// Openings thinner than this on average are float noise.
+    min_width: f64,
+    /// Faces this far apart face each other across a wall.
+    reach: f64,
+}
+
+impl Limits {
+    fn new(eps: f64, cfg: &PortalsConfig) -> Limits {
+        Limits {
+            eps,
+            grid: eps * 0.5,
+            min_width: 10.0 * eps,
+            reach: cfg.max_wall_thickness + eps,
+        }
+    }
+}
+
+/// What one pair of cells contributes: the regions of their faces they claim from each other
+/// (cell, face, ring in that face's frame), and the openings between them (A's polygon on
+/// A's face, B's on B's, A's normal, the area).
+#[derive(Default)]
+struct PairOpenings {
+    claims: Vec<(usize, usize, Vec<DVec2>)>,
+    portals: Vec<(Vec<DVec3>, Vec<DVec3>, DVec3, f64)>,
+}
+
+fn pair_openings(
+    a: usize,
+    b: usize,
+    cells: &CellSet,
+    opaque: &Opaque,
+    near_cells: &BoxGrid,
+    cfg: &PortalsConfig,
+    k: &Limits,
+) -> PairOpenings {
+    let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
+    // Faces this close to opposite are treated as facing each other.
+    let cos_tol = (1e-4f64).cos();
+    let mut out = PairOpenings::default();
+    let ca = &cells.cells[a];
+    let cb = &cells.cells[b];
+    for (ia, fa) in ca.poly.faces.iter().enumerate() {
+        for (ib, fb) in cb.poly.faces.iter().enumerate() {
+            let na = fa.plane.normal;
+            if na.dot(fb.plane.normal) > -cos_tol {
+                continue;
+            }
+            // fb: nb·p = db with nb ≈ -na, so along na it sits at -db.
+            let gap = -fb.plane.d - fa.plane.d;
+            if gap < -eps || gap > reach {
+                continue;
+            }
+            let gap = gap.max(0.0);
+            let f = Frame2::new(&fa.plane);
+            let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
+            let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
+            let shared = intersection(&[ra], &[rb], grid);
+            if shared.is_empty() {
+                continue;
+            }
+            // A wall is bridged only if no other cell fills the gap (then the faces do
+            // not face each other across a wall, but across that cell).
+            if gap > eps {
+                let big = shared.iter().max_by(|x, y| x.area().total_cmp(&y.area()));
+                if let Some(big) = big {
+                    let c2 = big.outer.iter().copied().sum::<DVec2>() / big.outer.len() as f64;
+                    let mid = f.to3(c2, na * (gap * 0.5));
+                    let probe = Aabb { min: mid, max: mid };
+                    let filled = near_cells.query(&probe, 0.0).into_iter().any(|k| {
+                        k != a && k != b && cells.cells[k].poly.contains_strictly(mid, eps)
+                    });
+                    if filled {
+                        continue;
+                    }
+                }
+            }
+            let fb2 = Frame2::new(&fb.plane);
+            for s in &shared {
+                out.claims.push((a, ia, s.outer.clone()));
+                let back: Vec<DVec2> = s
+                    .outer
+                    .iter()
+                    .map(|q| fb2.to2(f.to3(*q, na * gap)))
+                    .collect();
+                out.claims.push((b, ib, back));
+            }
+            // What blocks: everything on the plane, or inside the wall slab.
+            let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
+            let mut bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()));
             bb.min -= DVec3::splat(eps);
             bb.max += DVec3::splat(eps);
-            let d = face.plane.d;
-            covered.extend(
-                opaque
-                    .near(&bb)
-                    .filter_map(|t| slab_shadow(t, face.plane.normal, d - eps, d + eps, &f)),
-            );
+            let blockers: Vec<Vec<DVec2>> = opaque
+                .near(&bb)
+                .filter_map(|t| slab_shadow(t, na, lo, hi, &f))
+                .collect();
+            let open = difference(&shared, &blockers, grid);
             let exact = ExactVertices::new(
-                face.points
+                fa.points
                     .iter()
+                    .chain(fb.points.iter())
                     .map(|p| f.to2(*p))
-                    .chain(covered.iter().flatten().copied()),
+                    .chain(blockers.iter().flatten().copied()),
                 grid,
             );
-            for o in difference(&whole, &covered, grid)
-                .iter()
-                .filter(|o| mean_width(o) >= min_width)
-            {
+            for o in open.iter().filter(|o| mean_width(o) >= min_width) {
                 for piece in pieces(o, cfg.conservative) {
                     let piece = exact.restore(piece);
-                    let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                    let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
+                    // CCW about na in 2D: seen from A (behind the plane) it turns the
+                    // other way, so A's polygon is the reversed ring.
+                    let on_a: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                    let Some(on_a) = usable_polygon(&on_a, na, eps) else {
                         continue;
                     };
-                    let area = polygon_area(&pts, face.plane.normal);
-                    set.portals.push(Portal {
-                        from: c,
-                        to: None,
-                        polygon: reversed(&pts),
-                        normal: face.plane.normal,
-                        area,
-                        kind: PortalKind::Plain,
-                        one_way: false,
-                        closed: false,
-                        internal: false,
-                        transform: None,
-                        authored: None,
-                        partner: None,
-                    });
+                    let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
+                    let area = polygon_area(&on_a, na);
+                    out.portals.push((on_a, on_b, na, area));
                 }
             }
         }
     }
+
+    out
 }

@@ -55,6 +55,34 @@ pub struct Portal {
     pub partner: Option<usize>,
 }
 
+impl Portal {
+    /// A plain (untransformed, open, two-way unless unpartnered) portal as derivation makes it.
+    pub(crate) fn plain(
+        from: usize,
+        to: Option<usize>,
+        polygon: Vec<DVec3>,
+        normal: DVec3,
+        area: f64,
+        internal: bool,
+        partner: Option<usize>,
+    ) -> Portal {
+        Portal {
+            from,
+            to,
+            polygon,
+            normal,
+            area,
+            kind: PortalKind::Plain,
+            one_way: false,
+            closed: false,
+            internal,
+            transform: None,
+            authored: None,
+            partner,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct PortalSet {
     pub portals: Vec<Portal>,

@@ -124,13 +124,23 @@ pub struct Tagging {
     pub near_misses: Vec<NearMiss>,
     #[serde(skip)]
     pub diagnostics: Diagnostics,
+    /// Rooms by name as the rules compare names (lower case unless case-sensitive), so a level
+    /// of many rooms resolves names in constant time. Kept by `add_room`.
+    #[serde(skip)]
+    room_index: std::collections::HashMap<String, RoomId>,
 }
 
 impl Tagging {
     pub fn room_by_name(&self, rules: &RuleSet, name: &str) -> Option<RoomId> {
-        self.rooms
-            .iter()
-            .position(|r| rules.same_name(&r.name, name))
+        match self.room_index.get(&rules.name_key(name)) {
+            Some(&r) => Some(r),
+            // Rooms added without the index (a Tagging built by hand) are still found.
+            None if self.room_index.len() < self.rooms.len() => self
+                .rooms
+                .iter()
+                .position(|r| rules.same_name(&r.name, name)),
+            None => None,
+        }
     }
 }
 
@@ -177,6 +187,7 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
         unassigned: Vec::new(),
         near_misses: Vec::new(),
         diagnostics: Diagnostics::default(),
+        room_index: Default::default(),
     };
 
     // Pass 1: rooms and groups, so later references by name can resolve in any order.
@@ -473,6 +484,7 @@ fn add_room(
         );
         return existing;
     }
+    t.room_index.insert(rules.name_key(&name), t.rooms.len());
     t.rooms.push(Room {
         name,
         node,
@@ -601,9 +613,7 @@ fn make_portal(
     let target_name = c.first(|m| m.target.clone());
     let mut resolve = |name: &Option<String>, what: &str| -> Option<RoomId> {
         let name = name.as_ref()?;
-        let hits: Vec<RoomId> = (0..t.rooms.len())
-            .filter(|&r| rules.same_name(&t.rooms[r].name, name))
-            .collect();
+        let hits: Vec<RoomId> = t.room_by_name(rules, name).into_iter().collect();
         match hits.as_slice() {
             [one] => Some(*one),
             [] => {

@@ -285,6 +285,15 @@ impl RuleSet {
     }
 
     /// Whether two room names are the same under this rule set's case rule.
+    /// A name as `same_name` compares it: two names are the same when their keys are equal.
+    pub fn name_key(&self, a: &str) -> String {
+        if self.case_sensitive {
+            a.to_string()
+        } else {
+            a.to_lowercase()
+        }
+    }
+
     pub fn same_name(&self, a: &str, b: &str) -> bool {
         if self.case_sensitive {
             a == b

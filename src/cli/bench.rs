@@ -1,0 +1,262 @@
+//! `portcullis bench`: times every stage on generated buildings of several sizes and prints
+//! one Markdown table, with the floor — reading and writing the same file with the gltf crate
+//! alone — so "how close to the read/write floor" is a number, not a feeling.
+//!
+//! Each size runs in a child process (`bench --one N`), so its peak memory is its own.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use serde::{Deserialize, Serialize};
+
+use portcullis::export::gltf_out::{self, OutFormat};
+use portcullis::gen::{self, GenOptions};
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Building sizes in rooms, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000")]
+    pub rooms: Vec<usize>,
+
+    /// Layout seed of the generated buildings.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+
+    /// Folder for the generated levels (default: a temporary folder, removed afterwards).
+    #[arg(long, value_name = "DIR")]
+    pub keep: Option<PathBuf>,
+
+    /// Run one size and print its measurements as JSON (used by the parent process).
+    #[arg(long, hide = true)]
+    pub one: Option<usize>,
+}
+
+/// Seconds per stage for one size, and the peak memory.
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct Row {
+    rooms: usize,
+    triangles: usize,
+    file_bytes: usize,
+    cells: usize,
+    portals: usize,
+    floor: f64,
+    import: f64,
+    tags: f64,
+    cells_s: f64,
+    portals_s: f64,
+    check: f64,
+    export: f64,
+    peak_rss_bytes: Option<u64>,
+}
+
+/// The process's peak resident memory (Linux `VmHWM`), if the platform says.
+fn peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
+}
+
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let v = f();
+    (v, t.elapsed().as_secs_f64())
+}
+
+/// Reading and writing the file with the gltf crate alone: parse the GLB (JSON and BIN chunk)
+/// into the crate's document, serialise it back, write it.
+fn floor(input: &Path, out: &Path) -> Result<f64, String> {
+    let t = Instant::now();
+    let bytes = std::fs::read(input).map_err(|e| e.to_string())?;
+    let g = gltf::Gltf::from_slice(&bytes).map_err(|e| e.to_string())?;
+    let json = gltf::json::serialize::to_vec(&g.document.clone().into_json())
+        .map_err(|e| e.to_string())?;
+    let glb = gltf::binary::Glb {
+        header: gltf::binary::Header {
+            magic: *b"glTF",
+            version: 2,
+            length: 0,
+        },
+        json: std::borrow::Cow::Owned(json),
+        bin: g.blob.as_deref().map(std::borrow::Cow::Borrowed),
+    };
+    let written = glb.to_vec().map_err(|e| e.to_string())?;
+    std::fs::write(out, written).map_err(|e| e.to_string())?;
+    Ok(t.elapsed().as_secs_f64())
+}
+
+fn level_path(dir: &Path, rooms: usize, seed: u64) -> PathBuf {
+    dir.join(format!("building_{rooms}_{seed}.glb"))
+}
+
+/// Writes the generated building of `rooms` rooms (kept between runs in `--keep DIR`).
+fn generate(dir: &Path, rooms: usize, seed: u64) -> Result<(), String> {
+    let path = level_path(dir, rooms, seed);
+    if path.is_file() {
+        return Ok(());
+    }
+    let scene = gen::generate(&GenOptions {
+        rooms,
+        seed,
+        props: true,
+    });
+    std::fs::write(&path, gltf_out::write_plain(&scene, OutFormat::Glb)).map_err(|e| e.to_string())
+}
+
+fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
+    // The parent generated the file, so this process's peak memory is the pipeline's alone.
+    let input = level_path(dir, rooms, seed);
+    let file_bytes = std::fs::metadata(&input).map_err(|e| e.to_string())?.len() as usize;
+    let mut row = Row {
+        rooms,
+        file_bytes,
+        ..Default::default()
+    };
+    row.floor = floor(&input, &dir.join(format!("floor_{rooms}.glb")))?;
+    let (imported, t) = timed(|| {
+        portcullis::import::import_path(&input, &portcullis::import::ImportOptions::default())
+    });
+    let imported = imported.map_err(|d| d.to_string())?;
+    row.import = t;
+    row.triangles = imported
+        .scene
+        .meshes
+        .iter()
+        .map(|m| m.triangles.len())
+        .sum();
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, None).map_err(|d| d.to_string())?;
+    let (mut tagged, t) = timed(|| portcullis::pipeline::tag(imported, config, rules));
+    row.tags = t;
+    let (cells, t) = timed(|| portcullis::pipeline::build_cells(&mut tagged));
+    row.cells_s = t;
+    let (portals, t) = timed(|| portcullis::pipeline::build_portals(&mut tagged, &cells));
+    row.portals_s = t;
+    let (_, t) = timed(|| portcullis::pipeline::check_level(&mut tagged, &cells, &portals, false));
+    row.check = t;
+    row.cells = cells.cells.len();
+    row.portals = portals.portals.len();
+    let out = dir.join(format!("annotated_{rooms}.glb"));
+    let (written, t) = timed(|| {
+        portcullis::pipeline::write_annotated(&tagged, &cells, &portals, &out, OutFormat::Glb)
+            .map_err(|d| d.to_string())
+            .and_then(|b| portcullis::export::atomic::write(&out, &b).map_err(|e| e.to_string()))
+    });
+    written?;
+    row.export = t;
+    row.peak_rss_bytes = peak_rss();
+    Ok(row)
+}
+
+fn table(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "| rooms | triangles | file | cells | portals | floor (gltf read+write) | import | tags | cells | portals | check | export | convert total | total / floor | peak memory | memory / file |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mb = |b: f64| format!("{:.1} MB", b / 1e6);
+    for r in rows {
+        let total = r.import + r.tags + r.cells_s + r.portals_s + r.check + r.export;
+        let peak = r.peak_rss_bytes.map(|b| b as f64);
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.1} | {} | {} |\n",
+            r.rooms,
+            r.triangles,
+            mb(r.file_bytes as f64),
+            r.cells,
+            r.portals,
+            r.floor,
+            r.import,
+            r.tags,
+            r.cells_s,
+            r.portals_s,
+            r.check,
+            r.export,
+            total,
+            total / r.floor.max(1e-9),
+            peak.map_or("n/a".into(), mb),
+            peak.map_or("n/a".into(), |p| format!("{:.1}", p / r.file_bytes as f64)),
+        ));
+    }
+    s
+}
+
+pub fn run(a: &BenchArgs) -> i32 {
+    // Without --keep: a folder of our own under the system's temporary folder, removed at the end.
+    let own = a.keep.is_none() && a.one.is_none();
+    let dir: PathBuf = match &a.keep {
+        Some(d) => d.clone(),
+        None => std::env::temp_dir().join(format!("portcullis-bench-{}", std::process::id())),
+    };
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        eprintln!("error: cannot make `{}`: {e}", dir.display());
+        return 2;
+    }
+    let code = run_in(a, &dir);
+    if own {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    code
+}
+
+fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
+    if let Some(n) = a.one {
+        return match one(n, a.seed, dir) {
+            Ok(row) => {
+                println!("{}", serde_json::to_string(&row).unwrap_or_default());
+                0
+            }
+            Err(e) => {
+                eprintln!("error: benchmark of {n} rooms failed: {e}");
+                2
+            }
+        };
+    }
+    let Ok(exe) = std::env::current_exe() else {
+        eprintln!("error: cannot find the portcullis executable to run each size");
+        return 2;
+    };
+    let mut rows = Vec::new();
+    for &n in &a.rooms {
+        eprintln!("{n} rooms...");
+        if let Err(e) = generate(dir, n, a.seed) {
+            eprintln!("error: cannot write the {n}-room building: {e}");
+            return 2;
+        }
+        let out = std::process::Command::new(&exe)
+            .args([
+                "bench",
+                "--one",
+                &n.to_string(),
+                "--seed",
+                &a.seed.to_string(),
+                "--keep",
+            ])
+            .arg(dir)
+            .output();
+        match out {
+            Ok(o) if o.status.success() => match serde_json::from_slice::<Row>(&o.stdout) {
+                Ok(r) => rows.push(r),
+                Err(e) => {
+                    eprintln!("error: unreadable measurements for {n} rooms: {e}");
+                    return 2;
+                }
+            },
+            Ok(o) => {
+                eprint!("{}", String::from_utf8_lossy(&o.stderr));
+                return 2;
+            }
+            Err(e) => {
+                eprintln!("error: cannot run `{}`: {e}", exe.display());
+                return 2;
+            }
+        }
+    }
+    println!(
+        "portcullis {} bench, {} thread(s), seed {}\n",
+        env!("CARGO_PKG_VERSION"),
+        rayon::current_num_threads(),
+        a.seed
+    );
+    print!("{}", table(&rows));
+    0
+}

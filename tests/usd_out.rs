@@ -1,0 +1,93 @@
+//! `convert IN -o OUT.usda`: the annotated level as a USD text layer, written atomically, with
+//! cells and portals as `portcullis:` custom attributes. Needs no `usd` feature (the layer is
+//! written as text); reading it back through usd-core is checked in tests/import_usd.rs.
+
+mod common;
+
+use assert_cmd::Command;
+use common::sample;
+
+fn portcullis() -> Command {
+    let mut c = Command::cargo_bin("portcullis").unwrap();
+    c.env("NO_COLOR", "1");
+    c
+}
+
+#[test]
+fn convert_writes_a_usda_layer_with_cells_and_portals() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("two_rooms.usda");
+    let o = portcullis()
+        .arg("convert")
+        .arg(sample("two_rooms.gltf"))
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with("#usda 1.0\n"));
+    assert!(text.contains("upAxis = \"Y\""));
+    assert!(text.contains("metersPerUnit = 1"));
+    assert!(text.contains("def Scope \"PortcullisAnnotation\""));
+    let (t, c, p) = common::load_level(&sample("two_rooms.gltf"), None);
+    let _ = t;
+    assert_eq!(
+        text.matches("custom double4[] portcullis:planes").count(),
+        c.cells.len()
+    );
+    assert_eq!(
+        text.matches("custom double3[] portcullis:polygon").count(),
+        p.portals.len()
+    );
+    assert!(text.contains("def Mesh"));
+    // Written atomically: nothing but the output in the folder.
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+    assert_eq!(names.len(), 1);
+    // The same input gives the same bytes.
+    let again = dir.path().join("again.usda");
+    portcullis()
+        .arg("convert")
+        .arg(sample("two_rooms.gltf"))
+        .arg("-o")
+        .arg(&again)
+        .assert()
+        .success();
+    let text2 = std::fs::read_to_string(&again).unwrap();
+    assert_eq!(
+        text.replace("two_rooms.usda", ""),
+        text2.replace("again.usda", "")
+    );
+}
+
+#[test]
+fn names_that_are_not_usd_identifiers_keep_their_spelling_as_display_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::write(
+        dir.path(),
+        "names.gltf",
+        &common::gltf(&[
+            common::n("kitchen-room", None, false),
+            common::n("1 floor", Some(0), true),
+            common::n("1 floor", Some(0), true),
+        ]),
+    );
+    let out = dir.path().join("names.usda");
+    portcullis()
+        .arg("convert")
+        .arg(&input)
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .code(predicates::ord::lt(2));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("def Xform \"kitchen_room\" ("), "{text}");
+    assert!(text.contains("displayName = \"kitchen-room\""));
+    assert!(text.contains("def Mesh \"_1_floor\" ("));
+    assert!(text.contains("def Mesh \"_1_floor_1\" ("));
+}
