@@ -106,29 +106,6 @@ pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> 
     out
 }
 
-fn node_bounds(scene: &Scene, n: NodeId, origin: DVec3) -> Aabb {
-    Aabb::from_points(
-        scene
-            .world_positions_used(n)
-            .iter()
-            .map(|p| *p - origin)
-            .collect::<Vec<_>>()
-            .iter(),
-    )
-}
-
-fn level_corners(b: &Aabb) -> [DVec3; 8] {
-    let mut out = [DVec3::ZERO; 8];
-    for (i, c) in out.iter_mut().enumerate() {
-        *c = DVec3::new(
-            if i & 1 == 0 { b.min.x } else { b.max.x },
-            if i & 2 == 0 { b.min.y } else { b.max.y },
-            if i & 4 == 0 { b.min.z } else { b.max.z },
-        );
-    }
-    out
-}
-
 /// The level's extent, centre and largest stored coordinate, for the tolerance policy.
 fn level_frame(scene: &Scene) -> (Aabb, f64) {
     let mut b = Aabb::EMPTY;
@@ -182,9 +159,14 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     let mut room_cells = vec![Vec::new(); tagging.rooms.len()];
     let mut props = Vec::new();
     let frame = Frame::new(cfg.up);
-    let top = level_corners(&level)
-        .iter()
-        .map(|c| (*c - origin).dot(frame.up))
+    // The highest point of the level along up, over its vertices: the corners of the
+    // world-axis box overshoot when the level is turned off its axes, which raised outdoor
+    // footprints higher on a turned level (tests/metamorphic.rs, panda3d_culling).
+    let top = scene
+        .walk()
+        .into_iter()
+        .flat_map(|n| scene.world_positions_used(n))
+        .map(|p| (p - origin).dot(frame.up))
         .fold(f64::NEG_INFINITY, f64::max);
     // Structure of rooms made only of floor: extruded like footprints (see `floor_only`).
     let floors: Vec<NodeId> = tagging
@@ -259,7 +241,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         } else {
             let mut structure: Vec<NodeId> = room.structure.clone();
             if cfg.detect_props && structure.len() >= 2 {
-                let found = detect_props(scene, &structure, origin, extent);
+                let found = detect_props(scene, &structure, origin, extent, &frame);
                 structure.retain(|n| !found.contains(n));
                 props.extend(found);
             }
@@ -413,10 +395,31 @@ fn on_hull_boundary(h: &ConvexPolyhedron, t: &[DVec3; 3], eps: f64) -> bool {
 
 /// Room meshes that touch fewer than two sides of the box around the rest of the room: a
 /// crate on the floor touches one, a lamp none, a wall at least two.
-fn detect_props(scene: &Scene, structure: &[NodeId], origin: DVec3, extent: f64) -> Vec<NodeId> {
+///
+/// The boxes are taken in the level's frame (plan axes and up), not in world axes: a wall
+/// standing on the floor reaches the room's bottom and top along up whichever way the level is
+/// turned, while world-axis boxes of a level turned off its axes made walls look like props and
+/// changed its cells (found by tests/metamorphic.rs on lportal_tutorial_simple).
+fn detect_props(
+    scene: &Scene,
+    structure: &[NodeId],
+    origin: DVec3,
+    extent: f64,
+    frame: &Frame,
+) -> Vec<NodeId> {
     let boxes: Vec<Aabb> = structure
         .iter()
-        .map(|&n| node_bounds(scene, n, origin))
+        .map(|&n| {
+            let pts: Vec<DVec3> = scene
+                .world_positions_used(n)
+                .iter()
+                .map(|p| {
+                    let q = *p - origin;
+                    DVec3::new(q.dot(frame.u), q.dot(frame.up), q.dot(frame.v))
+                })
+                .collect();
+            Aabb::from_points(pts.iter())
+        })
         .collect();
     let touch = 1e-4 * extent.max(1e-3);
     let mut props = Vec::new();

@@ -47,6 +47,8 @@ struct Row {
     portals_s: f64,
     check: f64,
     export: f64,
+    /// (method, seconds, visible pairs) for flood, fast, full and sampled.
+    vis: Vec<(String, f64, usize)>,
     peak_rss_bytes: Option<u64>,
 }
 
@@ -137,6 +139,21 @@ fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
     row.check = t;
     row.cells = cells.cells.len();
     row.portals = portals.portals.len();
+    let graph = portcullis::vis::VisGraph::from_portal_set(
+        cells.cells.len(),
+        &portals,
+        cells.tolerance.distance,
+    );
+    for method in portcullis::vis::Method::ALL {
+        let opts = portcullis::vis::VisOptions {
+            method,
+            ..Default::default()
+        };
+        let (pvs, t) = portcullis::vis::timed(&graph, &opts);
+        row.vis
+            .push((method.name().to_string(), t.as_secs_f64(), pvs.pairs()));
+    }
+    drop(graph);
     let out = dir.join(format!("annotated_{rooms}.glb"));
     let (written, t) = timed(|| {
         portcullis::pipeline::write_annotated(&tagged, &cells, &portals, &out, OutFormat::Glb)
@@ -151,7 +168,7 @@ fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
 
 fn table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| rooms | triangles | file | cells | portals | floor (gltf read+write) | import | tags | cells | portals | check | export | convert total | total / floor | peak memory | memory / file |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| rooms | triangles | file | cells | portals | floor (gltf read+write) | import | tags | cells | portals | check | export | convert total (no PVS) | total / floor | peak memory | memory / file |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mb = |b: f64| format!("{:.1} MB", b / 1e6);
     for r in rows {
@@ -258,5 +275,29 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         a.seed
     );
     print!("{}", table(&rows));
+    println!("\nVisibility (PVS) per method: time, and the visible (cell, cell) pairs it finds; sampled is a lower bound, every other method must contain it.\n");
+    println!("| rooms | cells | flood | fast | full | sampled | full over sampled |\n|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let cell = |m: &str| {
+            r.vis
+                .iter()
+                .find(|v| v.0 == m)
+                .map_or("n/a".to_string(), |v| format!("{:.3} s, {} pairs", v.1, v.2))
+        };
+        let pairs = |m: &str| r.vis.iter().find(|v| v.0 == m).map(|v| v.2 as f64);
+        let over = match (pairs("full"), pairs("sampled")) {
+            (Some(f), Some(s)) if s > 0.0 => format!("+{:.1}%", (f / s - 1.0) * 100.0),
+            _ => "n/a".into(),
+        };
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {over} |",
+            r.rooms,
+            r.cells,
+            cell("flood"),
+            cell("fast"),
+            cell("full"),
+            cell("sampled")
+        );
+    }
     0
 }

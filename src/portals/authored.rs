@@ -502,6 +502,11 @@ fn transformed(
             // normal: entry frame, half a turn about up, exit frame.
             let half_turn = DMat4::from_rotation_y(std::f64::consts::PI);
             let t = frame(&xq) * half_turn * frame(q).inverse();
+            // A teleporter whose exit is itself: the transform is a half turn about the
+            // portal's own axis, its own inverse, so the portal is its own partner (as a mirror
+            // is) rather than a second copy of itself, which was reported as PORTAL_DUPLICATE
+            // (tests/stiff.rs, teleporter_into_itself).
+            let into_itself = exit == ap.node;
             let i = set.portals.len();
             set.portals.push(Portal {
                 from,
@@ -515,9 +520,13 @@ fn transformed(
                 internal: false,
                 transform: Some(t),
                 authored: Some(ap.node),
-                partner: (!ap.one_way).then_some(i + 1),
+                partner: if into_itself {
+                    Some(i)
+                } else {
+                    (!ap.one_way).then_some(i + 1)
+                },
             });
-            if !ap.one_way {
+            if !ap.one_way && !into_itself {
                 set.portals.push(Portal {
                     from: to,
                     to: Some(from),

@@ -117,8 +117,42 @@ fn mean_width(p: &Polygon2) -> f64 {
     }
 }
 
+/// A ring without the vertices that lie within `tol` of the chord between their neighbours
+/// (and between them along it). The booleans snap to a grid: on a level turned off its axes, a
+/// T-junction on a door's edge (a wall tile's corner) comes back a fraction of the grid off the
+/// edge, and exact convexity tests then cut a rectangular door in two. Such a vertex moves the
+/// outline by less than the tolerance, so it is dropped (tests/metamorphic.rs, random rotation
+/// of door_window and arch).
+fn drop_near_collinear(ring: &[DVec2], tol: f64) -> Vec<DVec2> {
+    let mut r = ring.to_vec();
+    let mut i = 0;
+    while r.len() > 3 && i < r.len() {
+        let n = r.len();
+        let (a, b, c) = (r[(i + n - 1) % n], r[i], r[(i + 1) % n]);
+        let ac = c - a;
+        let len = ac.length();
+        let between = (b - a).dot(ac) > 0.0 && (c - b).dot(ac) > 0.0;
+        if len > 0.0 && between && (b - a).perp_dot(ac).abs() / len <= tol {
+            r.remove(i);
+            i = i.saturating_sub(1);
+        } else {
+            i += 1;
+        }
+    }
+    r
+}
+
 /// Convex pieces of an opening (or its convex hull when the conservative shape is asked for).
-fn pieces(p: &Polygon2, conservative: bool) -> Vec<Vec<DVec2>> {
+/// Vertices within `tol` of a straight edge are dropped first (see [`drop_near_collinear`]).
+fn pieces(p: &Polygon2, conservative: bool, tol: f64) -> Vec<Vec<DVec2>> {
+    let p = &Polygon2 {
+        outer: drop_near_collinear(&p.outer, tol),
+        holes: p
+            .holes
+            .iter()
+            .map(|h| drop_near_collinear(h, tol))
+            .collect(),
+    };
     if conservative {
         let pts: Vec<DVec3> = p.outer.iter().map(|q| DVec3::new(q.x, q.y, 0.0)).collect();
         let ring = convex_ring_on_plane(
@@ -236,7 +270,7 @@ pub(crate) fn derive(
                     .iter()
                     .filter(|o| mean_width(o) >= min_width)
                 {
-                    for piece in pieces(o, cfg.conservative) {
+                    for piece in pieces(o, cfg.conservative, eps) {
                         let piece = exact.restore(piece);
                         let pts: Vec<DVec3> =
                             piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
@@ -311,8 +345,14 @@ fn pair_openings(
             if na.dot(fb.plane.normal) > -cos_tol {
                 continue;
             }
-            // fb: nb·p = db with nb ≈ -na, so along na it sits at -db.
-            let gap = -fb.plane.d - fa.plane.d;
+            // How far fb is in front of fa, measured at the two faces themselves (each face's
+            // centre against the other's plane). `-fb.d - fa.d` measured it at the foot of the
+            // world origin: for faces within the angle tolerance of parallel but not exactly,
+            // the lever arm from the origin made a door between walls 1e-7 rad apart look like
+            // an overlap of -2e-7 m and vanish (tests/stiff.rs, walls_1e7_rad_from_coplanar).
+            let centre = |pts: &[DVec3]| pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
+            let gap = 0.5
+                * (fb.plane.distance(centre(&fa.points)) + fa.plane.distance(centre(&fb.points)));
             if gap < -eps || gap > reach {
                 continue;
             }
@@ -369,7 +409,7 @@ fn pair_openings(
                 grid,
             );
             for o in open.iter().filter(|o| mean_width(o) >= min_width) {
-                for piece in pieces(o, cfg.conservative) {
+                for piece in pieces(o, cfg.conservative, eps) {
                     let piece = exact.restore(piece);
                     // CCW about na in 2D: seen from A (behind the plane) it turns the
                     // other way, so A's polygon is the reversed ring.
