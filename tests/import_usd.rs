@@ -31,12 +31,14 @@ fn portcullis() -> Command {
 
 /// Everything compared between two copies of one level, in terms that do not depend on node
 /// order: room names, cells per room with their volumes and bounds, portals by the rooms they
-/// join with their polygons, and flood reachability between rooms.
+/// join with their polygons, flood reachability and the full PVS between rooms.
 struct Level {
     rooms: Vec<String>,
     cells: Vec<(String, f64, DVec3, DVec3)>,
     portals: Vec<(String, String, Vec<DVec3>)>,
     reach: Vec<(String, BTreeSet<String>)>,
+    /// The full PVS, by room: each cell's room with the rooms it sees.
+    pvs: Vec<(String, BTreeSet<String>)>,
 }
 
 fn room_of(t: &Tagged, c: &CellSet, cell: Option<usize>) -> String {
@@ -101,11 +103,25 @@ fn summarise(t: &Tagged, c: &CellSet, p: &PortalSet) -> Level {
         reach.push((t.tagging.rooms[cell.room].name.clone(), names));
     }
     reach.sort();
+    let full = portcullis::vis::of_level(
+        c.cells.len(),
+        p,
+        c.tolerance.distance,
+        &portcullis::vis::VisOptions::default(),
+    );
+    let mut pvs: Vec<(String, BTreeSet<String>)> = (0..c.cells.len())
+        .map(|i| {
+            let seen = full.visible(i).map(|k| room_of(t, c, Some(k))).collect();
+            (room_of(t, c, Some(i)), seen)
+        })
+        .collect();
+    pvs.sort();
     Level {
         rooms,
         cells,
         portals,
         reach,
+        pvs,
     }
 }
 
@@ -152,6 +168,7 @@ fn assert_same(what: &str, a: &Level, b: &Level, tol: f64) {
         );
     }
     assert_eq!(a.reach, b.reach, "{what}: flood reachability");
+    assert_eq!(a.pvs, b.pvs, "{what}: full PVS");
 }
 
 /// The level without its exterior openings.

@@ -282,7 +282,9 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             r.vis
                 .iter()
                 .find(|v| v.0 == m)
-                .map_or("n/a".to_string(), |v| format!("{:.3} s, {} pairs", v.1, v.2))
+                .map_or("n/a".to_string(), |v| {
+                    format!("{:.3} s, {} pairs", v.1, v.2)
+                })
         };
         let pairs = |m: &str| r.vis.iter().find(|v| v.0 == m).map(|v| v.2 as f64);
         let over = match (pairs("full"), pairs("sampled")) {
