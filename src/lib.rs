@@ -16,6 +16,7 @@ pub mod pipeline;
 pub mod portals;
 pub mod prt;
 pub mod report;
+pub mod rng;
 pub mod scene;
 pub mod schema;
 pub mod tags;

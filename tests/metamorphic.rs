@@ -23,30 +23,8 @@ use portcullis::pipeline::{build_cells, build_portals, check_level, load_tagged,
 use portcullis::portals::PortalSet;
 use portcullis::scene::Scene;
 
-/// A fixed-seed generator (splitmix64), so every run shuffles the same way.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = self.below(i + 1);
-            v.swap(i, j);
-        }
-    }
-}
+/// A fixed-seed generator, so every run shuffles the same way.
+use portcullis::rng::SplitMix64 as Rng;
 
 #[derive(Clone, Copy, Debug)]
 enum Change {
@@ -71,7 +49,7 @@ impl Change {
 }
 
 fn changes() -> Vec<(&'static str, Change)> {
-    let mut rng = Rng(0x5eed_0009);
+    let mut rng = Rng::from_state(0x5eed_0009);
     let q = DQuat::from_axis_angle(
         DVec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5).normalize(),
         rng.unit() * std::f64::consts::TAU,
@@ -500,7 +478,7 @@ fn check_level_file(path: &std::path::Path, preset: Option<&str>) -> Vec<String>
     t.scene.gltf = None;
     let base = run(t.scene.clone(), &t, DMat4::IDENTITY);
     let props = props(&base);
-    let mut rng = Rng(0x5eed_0009 ^ path.as_os_str().len() as u64);
+    let mut rng = Rng::from_state(0x5eed_0009 ^ path.as_os_str().len() as u64);
     let mut errs = Vec::new();
     for (label, change) in changes() {
         let scene = apply(&base.tagged.scene, change, &props, &mut rng);

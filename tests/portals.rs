@@ -6,7 +6,6 @@ mod common;
 use common::{fixture, sample};
 use glam::DVec3;
 use parry3d_f64::query::{Ray, RayCast};
-use parry3d_f64::shape::TriMesh;
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
 use portcullis::pipeline::Tagged;
@@ -228,29 +227,7 @@ fn unobstructed_segments_leave_cells_through_portals() {
         if c.cells.len() < 2 {
             continue;
         }
-        let skip: std::collections::HashSet<usize> = t
-            .tagging
-            .portals
-            .iter()
-            .map(|q| q.node)
-            .chain(t.tagging.footprints.iter().map(|f| f.node))
-            .chain(t.tagging.bounds.iter().map(|b| b.node))
-            .collect();
-        let mut verts = Vec::new();
-        let mut idx = Vec::new();
-        for n in t.scene.walk() {
-            if skip.contains(&n) || t.scene.nodes[n].mesh.is_none() {
-                continue;
-            }
-            let w = t.scene.world_positions(n);
-            let m = t.scene.nodes[n].mesh.unwrap();
-            for tri in &t.scene.meshes[m].triangles {
-                let base = verts.len() as u32;
-                verts.extend(tri.iter().map(|&i| w[i as usize]));
-                idx.push([base, base + 1, base + 2]);
-            }
-        }
-        let mesh = TriMesh::new(verts, idx).unwrap();
+        let mesh = common::opaque_mesh(&t);
         let mut seed = 0x9e3779b97f4a7c15u64;
         let mut rnd = || {
             seed ^= seed << 13;

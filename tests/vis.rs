@@ -8,7 +8,6 @@ mod common;
 use common::{fixture, sample};
 use glam::DVec3;
 use parry3d_f64::query::{Ray, RayCast};
-use parry3d_f64::shape::TriMesh;
 use portcullis::geom::plane::Plane;
 use portcullis::vis::{self, Method, Pvs, VisGraph, VisOptions, VisPortal};
 
@@ -218,28 +217,7 @@ fn clear_segments_are_in_the_full_pvs() {
             c.tolerance.distance,
             &VisOptions::default(),
         );
-        let skip: std::collections::HashSet<usize> = t
-            .tagging
-            .portals
-            .iter()
-            .map(|q| q.node)
-            .chain(t.tagging.footprints.iter().map(|f| f.node))
-            .chain(t.tagging.bounds.iter().map(|b| b.node))
-            .collect();
-        let (mut verts, mut idx) = (Vec::new(), Vec::new());
-        for n in t.scene.walk() {
-            if skip.contains(&n) || t.scene.nodes[n].mesh.is_none() {
-                continue;
-            }
-            let w = t.scene.world_positions(n);
-            let m = t.scene.nodes[n].mesh.unwrap();
-            for tri in &t.scene.meshes[m].triangles {
-                let base = verts.len() as u32;
-                verts.extend(tri.iter().map(|&i| w[i as usize]));
-                idx.push([base, base + 1, base + 2]);
-            }
-        }
-        let mesh = TriMesh::new(verts, idx).unwrap();
+        let mesh = common::opaque_mesh(&t);
         let mut seed = 0x2545f4914f6cdd1du64;
         let mut rnd = || {
             seed ^= seed << 13;

@@ -258,13 +258,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     }
     Ok(Outcome {
         diagnostics: policy.apply(t.diagnostics.0.clone()),
-        summary: format!(
-            "{} -> {}: {} cells, {} portals",
-            input.display(),
-            out.display(),
-            cells.cells.len(),
-            portals.portals.len()
-        ),
+        summary: summary(input, &out, cells.cells.len(), portals.portals.len()),
     })
 }
 
@@ -276,14 +270,17 @@ fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, 
     write_prt(&mut t.diagnostics, cells.cells.len(), &portals, out)?;
     Ok(Outcome {
         diagnostics: t.diagnostics.0.clone(),
-        summary: format!(
-            "{} -> {}: {} cells, {} portals",
-            input.display(),
-            out.display(),
-            cells.cells.len(),
-            portals.portals.len()
-        ),
+        summary: summary(input, out, cells.cells.len(), portals.portals.len()),
     })
+}
+
+/// `IN -> OUT: N cells, M portals`, the line each converted file ends with.
+fn summary(input: &Path, out: &Path, cells: usize, portals: usize) -> String {
+    format!(
+        "{} -> {}: {cells} cells, {portals} portals",
+        input.display(),
+        out.display()
+    )
 }
 
 fn write_prt(

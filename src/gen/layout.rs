@@ -192,7 +192,7 @@ impl Layout {
                         };
                         match self.room_at(s, n) {
                             Some(b) if b != a => edges.push((
-                                rng.next(),
+                                rng.next_u64(),
                                 Door {
                                     a,
                                     b,

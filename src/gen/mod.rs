@@ -44,28 +44,7 @@ pub const STOREY: f64 = 3.0;
 pub const DOOR_WIDTH: f64 = 1.0;
 pub const DOOR_HEIGHT: f64 = 2.1;
 
-/// SplitMix64: small, fast, and the same on every platform.
-pub(crate) struct Rng(u64);
-
-impl Rng {
-    pub(crate) fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    pub(crate) fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub(crate) fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub(crate) fn chance(&mut self, p: f64) -> bool {
-        self.unit() < p
-    }
-}
+pub(crate) use crate::rng::SplitMix64 as Rng;
 
 /// Builds the level as a scene (world-space meshes, identity transforms), ready for
 /// [`crate::export::gltf_out::write_plain`].

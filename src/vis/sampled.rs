@@ -19,26 +19,11 @@ use super::{bits, bits::BitMatrix};
 /// Longest walk, in portals; a bound against a ray bouncing forever between two mirrors.
 const MAX_STEPS: usize = 4096;
 
-struct Rng(u64);
+use crate::rng::SplitMix64 as Rng;
 
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x9e37_79b9_7f4a_7c15)
-    }
-    fn next(&mut self) -> u64 {
-        // SplitMix64.
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn f(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.f() * n as f64) as usize % n.max(1)
-    }
+/// An index in `0..n` from a uniform draw (the sampler's own pick, kept so seeded runs repeat).
+fn below(r: &mut Rng, n: usize) -> usize {
+    (r.unit() * n as f64) as usize % n.max(1)
 }
 
 /// A uniformly random point of a convex polygon, pulled slightly towards its centre so the
@@ -49,13 +34,13 @@ fn point_in(poly: &[DVec3], r: &mut Rng) -> DVec3 {
         .map(|i| (poly[i] - c).cross(poly[(i + 1) % poly.len()] - c).length())
         .collect();
     let total: f64 = areas.iter().sum();
-    let mut pick = r.f() * total;
+    let mut pick = r.unit() * total;
     let mut i = 0;
     while i + 1 < areas.len() && pick > areas[i] {
         pick -= areas[i];
         i += 1;
     }
-    let (mut u, mut v) = (r.f(), r.f());
+    let (mut u, mut v) = (r.unit(), r.unit());
     if u + v > 1.0 {
         u = 1.0 - u;
         v = 1.0 - v;
@@ -141,12 +126,12 @@ fn walk_from(
         // Three in four towards a point of a portal that might be seen; the rest in a random
         // direction through the portal, so no target list can hide a sightline kind.
         let dir = if s % 4 != 3 && !targets.is_empty() && src.transform.is_none() {
-            let q = &g.portals[targets[r.below(targets.len())]];
+            let q = &g.portals[targets[below(&mut r, targets.len())]];
             point_in(&q.winding, &mut r) - a
         } else {
-            let v = DVec3::new(r.f() - 0.5, r.f() - 0.5, r.f() - 0.5);
+            let v = DVec3::new(r.unit() - 0.5, r.unit() - 0.5, r.unit() - 0.5);
             let v = v - src.plane.normal * v.dot(src.plane.normal);
-            v + src.plane.normal * (0.05 + r.f())
+            v + src.plane.normal * (0.05 + r.unit())
         };
         let Some(dir) = dir.try_normalize() else {
             continue;

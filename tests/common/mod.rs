@@ -233,3 +233,29 @@ pub fn scene_of(parts: Vec<Part>, world: glam::DMat4) -> portcullis::scene::Scen
     }
     scene
 }
+
+/// Every triangle that blocks sight (not authored portals, footprints or bounds), in world
+/// space, for ray-cast oracles that must not reuse the portal code.
+pub fn opaque_mesh(t: &portcullis::pipeline::Tagged) -> parry3d_f64::shape::TriMesh {
+    let skip: std::collections::HashSet<usize> = t
+        .tagging
+        .portals
+        .iter()
+        .map(|q| q.node)
+        .chain(t.tagging.footprints.iter().map(|f| f.node))
+        .chain(t.tagging.bounds.iter().map(|b| b.node))
+        .collect();
+    let (mut verts, mut idx) = (Vec::new(), Vec::new());
+    for n in t.scene.walk() {
+        let Some(m) = t.scene.nodes[n].mesh.filter(|_| !skip.contains(&n)) else {
+            continue;
+        };
+        let w = t.scene.world_positions(n);
+        for tri in &t.scene.meshes[m].triangles {
+            let base = verts.len() as u32;
+            verts.extend(tri.iter().map(|&i| w[i as usize]));
+            idx.push([base, base + 1, base + 2]);
+        }
+    }
+    parry3d_f64::shape::TriMesh::new(verts, idx).expect("a level with triangles")
+}
