@@ -15,27 +15,6 @@ fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet, Porta
     common::load_level(path, preset)
 }
 
-fn all_levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {
-    vec![
-        (fixture("lportal_tutorial_simple.glb"), None),
-        (fixture("lportal_tutorial_simple.obj"), None),
-        (fixture("lportal_boxrooms.glb"), None),
-        (fixture("lportal_boxrooms.obj"), None),
-        (fixture("panda3d_culling.glb"), Some("panda3d")),
-        (fixture("panda3d_culling.obj"), Some("panda3d")),
-        (sample("two_rooms.gltf"), None),
-        (sample("l_room.gltf"), None),
-        (sample("u_room.gltf"), None),
-        (sample("pillar_room.gltf"), None),
-        (sample("bound_boxes.gltf"), None),
-        (sample("door_window.gltf"), None),
-        (sample("thick_wall.gltf"), None),
-        (sample("arch.gltf"), None),
-        (sample("mirror.gltf"), None),
-        (sample("teleporter.gltf"), None),
-    ]
-}
-
 /// Room-to-room pairs (not internal), as (portal, partner).
 fn room_pairs(t: &Tagged, c: &CellSet, p: &PortalSet) -> Vec<(usize, usize)> {
     let _ = t;
@@ -178,7 +157,7 @@ fn two_rooms_sample_door() {
 /// reversed and with swapped cells.
 #[test]
 fn portal_invariants_hold_everywhere() {
-    for (file, preset) in all_levels() {
+    for (file, preset) in common::levels_with_rooms() {
         let (_, c, p) = load(&file, preset);
         let eps = c.tolerance.distance * 10.0;
         for (i, q) in p.portals.iter().enumerate() {
@@ -222,7 +201,7 @@ fn portal_invariants_hold_everywhere() {
 #[test]
 fn unobstructed_segments_leave_cells_through_portals() {
     let mut total_checked = 0usize;
-    for (file, preset) in all_levels() {
+    for (file, preset) in common::levels_with_rooms() {
         let (t, c, p) = load(&file, preset);
         if c.cells.len() < 2 {
             continue;

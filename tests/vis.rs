@@ -5,31 +5,11 @@
 
 mod common;
 
-use common::{fixture, sample};
+use common::sample;
 use glam::DVec3;
 use parry3d_f64::query::{Ray, RayCast};
 use portcullis::geom::plane::Plane;
 use portcullis::vis::{self, Method, Pvs, VisGraph, VisOptions, VisPortal};
-
-fn levels() -> Vec<(std::path::PathBuf, Option<&'static str>)> {
-    vec![
-        (fixture("lportal_tutorial_simple.glb"), None),
-        (fixture("lportal_boxrooms.glb"), None),
-        (fixture("lportal_boxrooms.obj"), None),
-        (fixture("panda3d_culling.glb"), Some("panda3d")),
-        (sample("two_rooms.gltf"), None),
-        (sample("l_room.gltf"), None),
-        (sample("u_room.gltf"), None),
-        (sample("pillar_room.gltf"), None),
-        (sample("bound_boxes.gltf"), None),
-        (sample("door_window.gltf"), None),
-        (sample("thick_wall.gltf"), None),
-        (sample("arch.gltf"), None),
-        (sample("mirror.gltf"), None),
-        (sample("teleporter.gltf"), None),
-        (sample("sloped_hall.gltf"), None),
-    ]
-}
 
 fn run(g: &VisGraph, method: Method) -> Pvs {
     vis::compute(
@@ -67,7 +47,7 @@ fn graph_of(path: &std::path::Path, preset: Option<&str>) -> VisGraph {
 
 #[test]
 fn methods_nest_on_every_level() {
-    for (f, preset) in levels() {
+    for (f, preset) in common::levels_with_rooms() {
         let g = graph_of(&f, preset);
         let [flood, _, full, sampled] = assert_nested(&f.display().to_string(), &g);
         assert!(sampled.pairs() <= full.pairs() && full.pairs() <= flood.pairs());
@@ -206,7 +186,7 @@ fn the_same_result_for_any_thread_count() {
 #[test]
 fn clear_segments_are_in_the_full_pvs() {
     let mut total = 0;
-    for (file, preset) in levels() {
+    for (file, preset) in common::levels_with_rooms() {
         let (t, c, p) = common::load_level(&file, preset);
         if c.cells.len() < 2 {
             continue;

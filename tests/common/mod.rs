@@ -259,3 +259,31 @@ pub fn opaque_mesh(t: &portcullis::pipeline::Tagged) -> parry3d_f64::shape::TriM
     }
     parry3d_f64::shape::TriMesh::new(verts, idx).expect("a level with triangles")
 }
+
+/// The samples and third-party levels that have rooms, with the tag preset each needs.
+pub fn levels_with_rooms() -> Vec<(PathBuf, Option<&'static str>)> {
+    let mut v = vec![
+        (fixture("lportal_tutorial_simple.glb"), None),
+        (fixture("lportal_tutorial_simple.obj"), None),
+        (fixture("lportal_boxrooms.glb"), None),
+        (fixture("lportal_boxrooms.obj"), None),
+        (fixture("panda3d_culling.glb"), Some("panda3d")),
+        (fixture("panda3d_culling.obj"), Some("panda3d")),
+    ];
+    for s in [
+        "two_rooms.gltf",
+        "l_room.gltf",
+        "u_room.gltf",
+        "pillar_room.gltf",
+        "bound_boxes.gltf",
+        "door_window.gltf",
+        "thick_wall.gltf",
+        "arch.gltf",
+        "mirror.gltf",
+        "teleporter.gltf",
+        "sloped_hall.gltf",
+    ] {
+        v.push((sample(s), None));
+    }
+    v
+}
