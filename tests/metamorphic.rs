@@ -110,6 +110,24 @@ impl Outcome {
         }
         out
     }
+    /// The full PVS by room: each room with the rooms its cells see. Rooms, not cells, since
+    /// node shuffles renumber cells (and a transform may cut a room into other convex pieces).
+    fn pvs(&self) -> BTreeMap<String, std::collections::BTreeSet<String>> {
+        let full = portcullis::vis::of_level(
+            self.cells.cells.len(),
+            &self.portals,
+            self.cells.tolerance.distance,
+            &portcullis::vis::VisOptions::default(),
+        );
+        let mut out: BTreeMap<String, std::collections::BTreeSet<String>> = BTreeMap::new();
+        for c in 0..self.cells.cells.len() {
+            let seen = full.visible(c).map(|k| self.room_of_cell(k).to_string());
+            out.entry(self.room_of_cell(c).to_string())
+                .or_default()
+                .extend(seen);
+        }
+        out
+    }
     fn codes(&self) -> BTreeMap<Code, usize> {
         let mut out = BTreeMap::new();
         for d in self.tagged.diagnostics.iter() {
@@ -405,6 +423,18 @@ fn compare(a: &Outcome, b: &Outcome, m: DMat4, what: &str, loose: bool) -> Vec<S
     }
     if ca != cb {
         errs.push(format!("{what}: diagnostics {ca:?} vs {cb:?}"));
+    }
+    // The same sightlines: the full PVS between rooms is the same (even where a transform cut
+    // a room into other convex pieces, `KNOWN`, its room-to-room visibility must not change).
+    let (pa, pb) = (a.pvs(), b.pvs());
+    if pa != pb {
+        let diff: Vec<_> = pa
+            .iter()
+            .filter(|(r, v)| pb.get(*r) != Some(*v))
+            .map(|(r, _)| r.clone())
+            .take(5)
+            .collect();
+        errs.push(format!("{what}: full PVS differs for rooms {diff:?}"));
     }
     errs
 }
