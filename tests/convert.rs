@@ -553,16 +553,10 @@ fn pipes_in_and_out() {
         (sample("two_rooms.obj"), "gltf"),
         (fixture("lportal_boxrooms.glb"), "glb"),
     ] {
-        let o = portcullis()
-            .args(["convert", "-", "-o", "-", "--out-format", fmt])
-            .write_stdin(std::fs::read(&input).unwrap())
-            .output()
-            .unwrap();
-        assert_eq!(
-            o.status.code(),
-            Some(0),
-            "{}",
-            String::from_utf8_lossy(&o.stderr)
+        let o = common::succeeds(
+            portcullis()
+                .args(["convert", "-", "-o", "-", "--out-format", fmt])
+                .write_stdin(std::fs::read(&input).unwrap()),
         );
         let (doc, _) = read_gltf(&o.stdout);
         check_extension(&doc, &input.display().to_string());

@@ -471,19 +471,7 @@ fn a_usd_level_converts_to_a_valid_annotated_glb() {
         ),
     ] {
         let out = dir.path().join("out.glb");
-        let o = portcullis()
-            .arg("convert")
-            .arg(&input)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert_eq!(
-            o.status.code(),
-            Some(0),
-            "{}",
-            String::from_utf8_lossy(&o.stderr)
-        );
+        common::succeeds(portcullis().arg("convert").arg(&input).arg("-o").arg(&out));
         if let Some(report) = common::khronos_validate(&out) {
             assert_eq!(
                 report["issues"]["numErrors"], 0,

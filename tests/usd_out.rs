@@ -17,18 +17,12 @@ fn portcullis() -> Command {
 fn convert_writes_a_usda_layer_with_cells_and_portals() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("two_rooms.usda");
-    let o = portcullis()
-        .arg("convert")
-        .arg(sample("two_rooms.gltf"))
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    common::succeeds(
+        portcullis()
+            .arg("convert")
+            .arg(sample("two_rooms.gltf"))
+            .arg("-o")
+            .arg(&out),
     );
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.starts_with("#usda 1.0\n"));

@@ -287,3 +287,15 @@ pub fn levels_with_rooms() -> Vec<(PathBuf, Option<&'static str>)> {
     }
     v
 }
+
+/// Runs a portcullis command that must succeed (exit 0), showing its stderr if it does not.
+pub fn succeeds(cmd: &mut assert_cmd::Command) -> std::process::Output {
+    let o = cmd.output().unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
