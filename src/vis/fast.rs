@@ -8,27 +8,50 @@
 
 use rayon::prelude::*;
 
+use glam::DVec3;
+
 use super::bits;
 use super::graph::VisGraph;
 use super::pvs::Pvs;
+use super::winding::sphere;
+use crate::geom::plane::Plane;
 
 /// Per directed portal, the portals it might see (a bit row over portals).
 pub fn might_see(g: &VisGraph, depth: usize) -> Vec<Vec<u64>> {
+    let spheres = spheres(g);
     (0..g.portals.len())
         .into_par_iter()
-        .map(|p| one(g, p, depth))
+        .map(|p| one(g, &spheres, p, depth))
         .collect()
 }
 
-/// Whether `q` is in front of `p` and `p` partly behind `q`.
-fn in_front(g: &VisGraph, p: usize, q: usize) -> bool {
-    let (pp, qq) = (&g.portals[p], &g.portals[q]);
-    let eps = g.epsilon;
-    qq.winding.iter().any(|v| pp.plane.distance(*v) > eps)
-        && pp.winding.iter().any(|v| qq.plane.distance(*v) < -eps)
+/// Per portal, a sphere around its corners (centre, radius): most plane tests below are
+/// decided by it alone, with the same answer the corners would give.
+fn spheres(g: &VisGraph) -> Vec<(DVec3, f64)> {
+    g.portals.iter().map(|p| sphere(&p.winding)).collect()
 }
 
-fn one(g: &VisGraph, p: usize, depth: usize) -> Vec<u64> {
+/// Whether some corner of the polygon (with its sphere) is beyond `eps` on the `sign` side.
+fn any_beyond(pl: &Plane, poly: &[DVec3], (c, r): (DVec3, f64), sign: f64, eps: f64) -> bool {
+    let dc = sign * pl.distance(c);
+    if dc - r > eps {
+        return true;
+    }
+    if dc + r <= eps {
+        return false;
+    }
+    poly.iter().any(|v| sign * pl.distance(*v) > eps)
+}
+
+/// Whether `q` is in front of `p` and `p` partly behind `q`.
+fn in_front(g: &VisGraph, s: &[(DVec3, f64)], p: usize, q: usize) -> bool {
+    let (pp, qq) = (&g.portals[p], &g.portals[q]);
+    let eps = g.epsilon;
+    any_beyond(&pp.plane, &qq.winding, s[q], 1.0, eps)
+        && any_beyond(&qq.plane, &pp.winding, s[p], -1.0, eps)
+}
+
+fn one(g: &VisGraph, s: &[(DVec3, f64)], p: usize, depth: usize) -> Vec<u64> {
     let n = g.portals.len();
     let mut might = vec![0u64; bits::words(n)];
     let src = &g.portals[p];
@@ -38,17 +61,18 @@ fn one(g: &VisGraph, p: usize, depth: usize) -> Vec<u64> {
         }
         return might;
     }
-    // Quake's filter: one pass over all portals, then the flood through those that pass.
-    let mut front = vec![0u64; bits::words(n)];
-    for q in 0..n {
-        if q != p && in_front(g, p, q) {
-            bits::set(&mut front, q);
-        }
-    }
+    // Quake's filter, tested only on the portals the flood reaches: the flood through the
+    // portals in front of `p` and with `p` partly behind them. `tested` remembers the ones
+    // that failed, so each portal is judged once.
+    let mut tested = vec![0u64; bits::words(n)];
     let mut stack = vec![src.to];
     while let Some(c) = stack.pop() {
         for &q in &g.leaving[c] {
-            if !bits::get(&front, q) || bits::get(&might, q) {
+            if bits::get(&might, q) || bits::get(&tested, q) {
+                continue;
+            }
+            bits::set(&mut tested, q);
+            if q == p || !in_front(g, s, p, q) {
                 continue;
             }
             bits::set(&mut might, q);

@@ -9,10 +9,13 @@
 //!
 //! Speed comes from never looking at what cannot matter: the stack carries the "might see"
 //! bits of every portal passed (ANDed), a portal whose might-see adds nothing new to what the
-//! source already sees and that is itself already seen is skipped, and the polygons live in
-//! per-depth buffers reused for the whole run. Portals are processed in waves ordered by their
+//! source already sees and that is itself already seen is skipped, portals wholly behind a
+//! separating plane are dropped from the stack's bits, and the polygons live in per-depth
+//! buffers reused for the whole run. Portals are processed in waves ordered by their
 //! might-see count; a wave uses the finished results of earlier waves as its (tighter)
-//! might-see, so the result depends only on the wave split, never on the thread count.
+//! might-see, and starts each source from what the finished portals out of the same cell
+//! already see (the cell's PVS is their union, so only what is new to the cell is looked
+//! for). The result depends only on the wave split, never on the thread count.
 //!
 //! A transformed portal moves the whole stack (source, pass, planes) into the target side's
 //! space, and the might-see of the world no longer applies, so it is reset to every portal;
@@ -24,7 +27,7 @@ use rayon::prelude::*;
 use super::bits;
 use super::graph::{transform_plane, VisGraph};
 use super::pvs::Pvs;
-use super::winding::{chop, chop_how, clip_by, clip_to_separators, separators, Chop};
+use super::winding::{chop, chop_how, clip_by, separators, sphere, Chop};
 use crate::geom::plane::Plane;
 
 /// ericw-tools' tests 2 and 3: also narrow the source by the separators of the target.
@@ -48,79 +51,78 @@ struct Frame {
 
 struct Run<'a> {
     g: &'a VisGraph,
-    flood: &'a [Vec<u64>],
+    /// Per portal, its flow result once `finished`, else its might-see set.
+    rows: &'a [Vec<u64>],
+    finished: &'a [bool],
     entering: &'a [Vec<usize>],
     /// Per portal, a bounding sphere (centre, radius).
     spheres: &'a [(DVec3, f64)],
-    done: &'a [Option<Vec<u64>>],
     depth: usize,
-    all: Vec<u64>,
+    all: &'a [u64],
 }
 
 struct State {
     frames: Vec<Frame>,
     vis: Vec<u64>,
     tmp: Vec<DVec3>,
-    tmp2: Vec<DVec3>,
     planes: Vec<Plane>,
 }
 
 /// How many waves the sorted portals are split into.
 const WAVES: usize = 64;
 
-/// The cell PVS. `flood`: the `fast` might-see sets, the filter of the flow.
-pub fn pvs(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Pvs {
-    super::fast::cell_pvs(g, &portal_vis(g, flood, depth), depth)
+/// The cell PVS. `might`: the `fast` might-see sets, the filter of the flow.
+pub fn pvs(g: &VisGraph, might: Vec<Vec<u64>>, depth: usize) -> Pvs {
+    super::fast::cell_pvs(g, &portal_vis(g, might, depth), depth)
 }
 
-/// Per directed portal, the portals it sees.
-pub fn portal_vis(g: &VisGraph, flood: &[Vec<u64>], depth: usize) -> Vec<Vec<u64>> {
+/// Per directed portal, the portals it sees. `rows` starts as the might-see sets; each is
+/// replaced by the flow's result when its wave is over, so one matrix serves as the filter,
+/// the finished results and the output.
+pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Vec<u64>> {
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&p| (bits::count(&flood[p]), p));
-    let mut done: Vec<Option<Vec<u64>>> = vec![None; n];
+    order.sort_by_key(|&p| (bits::count(&rows[p]), p));
+    let mut finished = vec![false; n];
     let wave = n.div_ceil(WAVES).max(1);
     let mut entering = vec![Vec::new(); g.cells];
     for (i, p) in g.portals.iter().enumerate() {
         entering[p.to].push(i);
     }
-    let spheres: Vec<(DVec3, f64)> = g
-        .portals
-        .iter()
-        .map(|p| {
-            let c = p.winding.iter().copied().sum::<DVec3>() / p.winding.len() as f64;
-            let r = p.winding.iter().map(|v| v.distance(c)).fold(0.0, f64::max);
-            (c, r)
-        })
-        .collect();
+    let spheres: Vec<(DVec3, f64)> = g.portals.iter().map(|p| sphere(&p.winding)).collect();
+    let all = bits::all(n);
     for chunk in order.chunks(wave) {
         let run = Run {
             g,
-            flood,
+            rows: &rows,
+            finished: &finished,
             entering: &entering,
             spheres: &spheres,
-            done: &done,
             depth,
-            all: bits::all(n),
+            all: &all,
         };
+        // Largest first within the wave (the order is ascending), in small pieces, so the
+        // threads finish the wave together. The wave's members, and so the result, are fixed.
         let results: Vec<Vec<u64>> = chunk
             .par_iter()
+            .rev()
+            .with_max_len(4)
             .map_init(
                 || State {
                     frames: Vec::new(),
                     vis: Vec::new(),
                     tmp: Vec::new(),
-                    tmp2: Vec::new(),
                     planes: Vec::new(),
                 },
                 |st, &p| run.source(st, p),
             )
             .collect();
-        for (&p, r) in chunk.iter().zip(results) {
-            done[p] = Some(r);
+        for (&p, r) in chunk.iter().rev().zip(results) {
+            rows[p] = r;
+            finished[p] = true;
         }
     }
-    done.into_iter().map(|r| r.unwrap_or_default()).collect()
+    rows
 }
 
 impl Run<'_> {
@@ -148,6 +150,16 @@ impl Run<'_> {
         st.vis.clear();
         st.vis.resize(words, 0);
         let src = &g.portals[p];
+        // What the finished portals out of the same cell see is already in the cell's PVS:
+        // starting from it, the flow looks only for what is new to the cell. The row stays a
+        // superset of what `p` sees, so it is still a valid filter.
+        for &o in &g.leaving[src.from] {
+            if self.finished[o] {
+                for (v, x) in st.vis.iter_mut().zip(&self.rows[o]) {
+                    *v |= x;
+                }
+            }
+        }
         Self::frame(st, 0, words);
         let f = &mut st.frames[0];
         f.source.clear();
@@ -155,7 +167,7 @@ impl Run<'_> {
         f.has_pass = false;
         f.pass_plane = Some(src.plane);
         f.source_plane = Some(src.plane);
-        f.might.copy_from_slice(&self.flood[p]);
+        f.might.copy_from_slice(&self.rows[p]);
         f.transforms = 0;
         f.seps_ready = false;
         if let Some(m) = src.transform {
@@ -168,7 +180,7 @@ impl Run<'_> {
             let pl = transform_plane(&m, &src.plane);
             f.pass_plane = Some(pl);
             f.source_plane = Some(pl);
-            f.might.copy_from_slice(&self.all);
+            f.might.copy_from_slice(self.all);
             f.transforms = 1;
         }
         self.see(st, src.to);
@@ -192,7 +204,7 @@ impl Run<'_> {
             if portal.transform.is_some() && cur.transforms >= self.depth {
                 continue;
             }
-            let test = self.done[q].as_deref().unwrap_or(&self.flood[q]);
+            let test = &self.rows[q];
             let mut more = 0u64;
             for ((m, (a, b)), v) in next
                 .might
@@ -246,15 +258,14 @@ impl Run<'_> {
                     continue;
                 }
                 if NARROW_SOURCE {
-                    // Narrow the source by what the target now allows, both ways; this keeps
-                    // later separators tight.
-                    let t2 = &mut st.tmp2;
-                    t2.clear();
-                    t2.extend_from_slice(&next.source);
-                    if !clip_to_separators(&next.pass, &cur.pass, t2, t, false, eps) {
+                    // Narrow the source by the planes through the target's edges that have
+                    // the previous pass in front (ericw-tools' test 3); this keeps the
+                    // separators of deeper frames tight.
+                    st.planes.clear();
+                    separators(&next.pass, &cur.pass, false, eps, &mut st.planes);
+                    if !clip_by(&st.planes, &mut next.source, t, eps) {
                         continue;
                     }
-                    std::mem::swap(&mut next.source, t2);
                 }
             }
             next.seps_ready = false;
@@ -268,7 +279,7 @@ impl Run<'_> {
                 }
                 next.pass_plane = Some(transform_plane(&m, &pass_plane));
                 next.source_plane = Some(transform_plane(&m, &source_plane));
-                next.might.copy_from_slice(&self.all);
+                next.might.copy_from_slice(self.all);
                 next.transforms += 1;
             }
             self.see(st, portal.to);
@@ -286,6 +297,9 @@ impl Run<'_> {
     fn prune(&self, st: &mut State, d: usize) -> bool {
         let eps = self.g.epsilon;
         let f = &mut st.frames[d];
+        if f.might.iter().zip(&st.vis).all(|(m, v)| m & !v == 0) {
+            return false;
+        }
         if !f.seps_ready {
             f.seps.clear();
             separators(&f.source, &f.pass, false, eps, &mut f.seps);
@@ -301,6 +315,16 @@ impl Run<'_> {
         } else {
             [None, None]
         };
+        let seps = &f.seps;
+        // Whether a portal is wholly behind a plane: the sphere first, the polygon's corners
+        // when the sphere straddles.
+        let behind = |pl: &Plane, (c, r): (DVec3, f64), wind: &[DVec3]| {
+            let dc = pl.distance(c);
+            dc < -r - eps || (dc < r && wind.iter().all(|v| pl.distance(*v) < -eps))
+        };
+        // The plane that rejected last is tried first: neighbouring portals tend to fall
+        // behind the same one. The order changes only the speed, never which bits go.
+        let mut last = 0;
         let mut any = false;
         for (w, (m, v)) in f.might.iter_mut().zip(&st.vis).enumerate() {
             let mut cand = *m & !v;
@@ -308,14 +332,20 @@ impl Run<'_> {
                 let b = cand.trailing_zeros();
                 cand &= cand - 1;
                 let idx = w * 64 + b as usize;
-                let (c, r) = self.spheres[idx];
-                let wind = &self.g.portals[idx].winding;
-                // The sphere first; the polygon's corners when the sphere straddles.
-                let behind = |pl: &Plane| {
-                    let dc = pl.distance(c);
-                    dc < -r - eps || (dc < r && wind.iter().all(|v| pl.distance(*v) < -eps))
-                };
-                if planes.iter().flatten().any(behind) || f.seps.iter().any(behind) {
+                let sph = self.spheres[idx];
+                let wind = &self.g.portals[idx].winding[..];
+                let mut gone = planes.iter().flatten().any(|pl| behind(pl, sph, wind));
+                if !gone && !seps.is_empty() {
+                    if behind(&seps[last], sph, wind) {
+                        gone = true;
+                    } else if let Some(i) =
+                        (0..seps.len()).find(|&i| i != last && behind(&seps[i], sph, wind))
+                    {
+                        last = i;
+                        gone = true;
+                    }
+                }
+                if gone {
                     *m &= !(1u64 << b);
                 } else {
                     any = true;

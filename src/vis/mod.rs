@@ -97,7 +97,7 @@ pub fn compute(g: &VisGraph, opts: &VisOptions) -> Pvs {
         Method::Fast => fast::pvs(g, opts.transform_depth),
         Method::Full => {
             let might = fast::might_see(g, opts.transform_depth);
-            full::pvs(g, &might, opts.transform_depth)
+            full::pvs(g, might, opts.transform_depth)
         }
         Method::Sampled => {
             let might = fast::might_see(g, opts.transform_depth);

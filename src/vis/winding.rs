@@ -83,23 +83,6 @@ fn side(d: f64, eps: f64) -> i8 {
     }
 }
 
-/// Clips `target` by the planes that separate `source` from `pass` (through an edge of one and
-/// a vertex of the other, with `source` wholly behind and `pass` wholly in front): whatever of
-/// `target` is seen from `source` through `pass` is in front of all of them. `flip` swaps the
-/// roles, for planes built from an edge of `pass`. `tmp` is scratch. False: nothing is left.
-pub fn clip_to_separators(
-    source: &[DVec3],
-    pass: &[DVec3],
-    target: &mut Vec<DVec3>,
-    tmp: &mut Vec<DVec3>,
-    flip: bool,
-    eps: f64,
-) -> bool {
-    let mut planes = Vec::new();
-    separators(source, pass, flip, eps, &mut planes);
-    clip_by(&planes, target, tmp, eps)
-}
-
 /// Clips `target` by every plane in turn. False: nothing is left.
 pub fn clip_by(planes: &[Plane], target: &mut Vec<DVec3>, tmp: &mut Vec<DVec3>, eps: f64) -> bool {
     // A bounding sphere decides most planes with one distance instead of one per corner; the
@@ -138,70 +121,102 @@ pub fn sphere(poly: &[DVec3]) -> (DVec3, f64) {
     (c, r2.sqrt() * (1.0 + 1e-12))
 }
 
-/// The separating planes [`clip_to_separators`] clips by, oriented so that what may be seen
-/// is in front, appended to `out`. They depend only on `source` and `pass`, so the flow
-/// computes them once per stack frame and reuses them for every portal beyond.
+/// The planes that separate `source` from `pass` (through an edge of `source` and a corner of
+/// `pass`, with `source` wholly behind and `pass` wholly in front), appended to `out`:
+/// whatever is seen from `source` through `pass` is in front of all of them. `flip` turns
+/// them round, for planes built from the edges of `pass` (call with the two swapped). They
+/// depend only on `source` and `pass`, so the flow computes them once per stack frame and
+/// reuses them for every portal beyond.
+///
+/// This is the flow's hottest function. Per edge of `source`, of the planes through the edge
+/// and a corner of `pass` only the two extreme ones (every other corner on one side) can have
+/// all of `pass` on one side, so only those two are built and tested, on the unnormalised
+/// normal against `eps` times its length. The side the source is on is read from its centre:
+/// the source is planar and convex, so every corner off the edge is on the centre's side.
 pub fn separators(source: &[DVec3], pass: &[DVec3], flip: bool, eps: f64, out: &mut Vec<Plane>) {
     let ns = source.len();
+    if ns < 3 {
+        return;
+    }
+    // Strictly inside the convex source, so off every edge's line; a convex combination of
+    // the corners, so it is beyond `eps` of a plane only when some corner is.
+    let centre = source.iter().copied().sum::<DVec3>() / ns as f64;
     for i in 0..ns {
-        let l = (i + 1) % ns;
-        let v1 = source[l] - source[i];
+        let l = if i + 1 == ns { 0 } else { i + 1 };
+        let a = source[i];
+        let v1 = source[l] - a;
         let v1l2 = v1.length_squared();
-        for (j, &pj) in pass.iter().enumerate() {
-            let v2 = pj - source[i];
-            let n = v1.cross(v2);
-            let len2 = n.length_squared();
-            // Degenerate edge/vertex triples make no plane.
-            if len2 < 1e-20 * v1l2 * v2.length_squared() || len2 == 0.0 {
+        if v1l2 == 0.0 {
+            continue;
+        }
+        // The extreme corners about the edge: `lo` has every other corner on the positive
+        // side of its plane, `hi` on the negative side (when `pass` allows such a plane).
+        let (mut lo, mut hi) = (usize::MAX, usize::MAX);
+        let (mut n_lo, mut n_hi) = (DVec3::ZERO, DVec3::ZERO);
+        for (k, q) in pass.iter().enumerate() {
+            let r = *q - a;
+            let n = v1.cross(r);
+            if n == DVec3::ZERO {
+                continue; // on the edge's line: no plane
+            }
+            if lo == usize::MAX || n_lo.dot(r) < 0.0 {
+                lo = k;
+                n_lo = n;
+            }
+            if hi == usize::MAX || n_hi.dot(r) > 0.0 {
+                hi = k;
+                n_hi = n;
+            }
+        }
+        if lo == usize::MAX {
+            continue;
+        }
+        // `lo` can separate only with the source on its negative side, `hi` only with it on
+        // the positive side; the sign is checked before the square root.
+        let cands = [(lo, n_lo, 1.0), (hi, n_hi, -1.0)];
+        let cands = if lo == hi { &cands[..1] } else { &cands[..] };
+        for &(j, n, side) in cands {
+            let pj = pass[j];
+            let ds = n.dot(centre - a);
+            let sign = if lo == hi { -ds.signum() } else { side };
+            if sign * ds >= 0.0 {
                 continue;
             }
-            let mut normal = n / len2.sqrt();
-            let mut dist = normal.dot(pj);
-            // Which side is the source on?
-            let mut flip_test = None;
-            for (k, s) in source.iter().enumerate() {
-                if k == i || k == l {
-                    continue;
-                }
-                let d = normal.dot(*s) - dist;
-                if d < -eps {
-                    flip_test = Some(false);
-                    break;
-                } else if d > eps {
-                    flip_test = Some(true);
-                    break;
-                }
+            let v2 = pj - a;
+            let len2 = n.length_squared();
+            // Degenerate edge/vertex triples make no plane.
+            if len2 < 1e-20 * v1l2 * v2.length_squared() {
+                continue;
             }
-            let Some(ft) = flip_test else {
+            let len = len2.sqrt();
+            let tol = eps * len;
+            if sign * ds >= -tol {
                 continue; // planar with the source
-            };
-            if ft {
-                normal = -normal;
-                dist = -dist;
             }
             // A separating plane has all of pass on its front side.
-            let mut front = 0;
+            let mut front = false;
             let mut ok = true;
             for (k, q) in pass.iter().enumerate() {
                 if k == j {
                     continue;
                 }
-                let d = normal.dot(*q) - dist;
-                if d < -eps {
+                let d = sign * n.dot(*q - pj);
+                if d < -tol {
                     ok = false;
                     break;
-                } else if d > eps {
-                    front += 1;
+                } else if d > tol {
+                    front = true;
                 }
             }
-            if !ok || front == 0 {
+            if !ok || !front {
                 continue;
             }
-            if flip {
-                normal = -normal;
-                dist = -dist;
-            }
-            out.push(Plane { normal, d: dist });
+            let s = if flip { -sign } else { sign } / len;
+            let normal = n * s;
+            out.push(Plane {
+                normal,
+                d: normal.dot(pj),
+            });
         }
     }
 }
@@ -209,6 +224,23 @@ pub fn separators(source: &[DVec3], pass: &[DVec3], flip: bool, eps: f64, out: &
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Clips `target` by the planes that separate `source` from `pass` (through an edge of one and
+    /// a vertex of the other, with `source` wholly behind and `pass` wholly in front): whatever of
+    /// `target` is seen from `source` through `pass` is in front of all of them. `flip` swaps the
+    /// roles, for planes built from an edge of `pass`. `tmp` is scratch. False: nothing is left.
+    fn clip_to_separators(
+        source: &[DVec3],
+        pass: &[DVec3],
+        target: &mut Vec<DVec3>,
+        tmp: &mut Vec<DVec3>,
+        flip: bool,
+        eps: f64,
+    ) -> bool {
+        let mut planes = Vec::new();
+        separators(source, pass, flip, eps, &mut planes);
+        clip_by(&planes, target, tmp, eps)
+    }
 
     fn square(x: f64) -> Vec<DVec3> {
         vec![
