@@ -6,6 +6,13 @@ mod cli;
 use clap::Parser;
 
 fn main() {
+    // Rust ignores SIGPIPE, so a closed pipe (`portcullis vis big.prt | head`) would make the
+    // next print fail; with the default action the process ends quietly, like `cat`.
+    #[cfg(unix)]
+    // SAFETY: called before any other thread exists; SIG_DFL is always a valid action.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = match cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -233,3 +233,42 @@ fn clear_segments_are_in_the_full_pvs() {
     }
     assert!(total > 100, "only {total} clear segments were judged");
 }
+
+/// A reader that stops early (`portcullis vis big.prt | head`) ends the command quietly: no
+/// panic, no error message about the pipe.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_vis_quietly() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    // A straight corridor of 300 cells sees end to end: 90 000 pairs, far more text than a
+    // pipe buffers.
+    let cells = 300;
+    let mut prt = format!("PRT1\n{cells}\n{}\n", cells - 1);
+    for i in 0..cells - 1 {
+        let x = (i + 1) as f64;
+        prt += &format!("4 {i} {} ({x} 0 0) ({x} 0 1) ({x} 1 1) ({x} 1 0)\n", i + 1);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("corridor.prt");
+    std::fs::write(&path, prt).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_portcullis"))
+        .args(["vis", "--method", "flood"])
+        .arg(&path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 16];
+    let mut out = child.stdout.take().unwrap();
+    out.read_exact(&mut first).unwrap();
+    assert!(first.starts_with(b"0: 0 1 2"));
+    drop(out);
+    let done = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("Broken pipe"),
+        "{stderr}"
+    );
+    assert_ne!(done.status.code(), Some(101), "{stderr}");
+}

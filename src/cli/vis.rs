@@ -2,11 +2,12 @@
 //! cell order of the extension (or of the .prt file), or with `--report` a table of run time,
 //! visible pairs and over-estimate against the sampled lower bound for every method.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use clap::Args;
 
-use portcullis::diag::Diagnostic;
+use portcullis::diag::{Code, Diagnostic, Location};
 use portcullis::report::{human, style::Style, Totals};
 use portcullis::vis::{self, load, Method, VisOptions};
 
@@ -112,10 +113,13 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
     let method = Method::parse(&a.method).unwrap_or(Method::Full);
     if !a.report {
         let pvs = vis::compute(g, &options(a, &loaded, method));
+        let mut out = std::io::BufWriter::new(std::io::stdout().lock());
         if a.files.len() > 1 {
-            println!("# {}", f.display());
+            writeln!(out, "# {}", f.display()).map_err(|e| stdout_failed(f, e))?;
         }
-        print!("{}", pvs.to_text());
+        pvs.write_text(&mut out)
+            .and_then(|_| out.flush())
+            .map_err(|e| stdout_failed(f, e))?;
         return Ok(loaded.diagnostics.0);
     }
     let lower_opts = options(a, &loaded, Method::Sampled);
@@ -167,4 +171,16 @@ fn cpu_seconds() -> Option<f64> {
     let utime: f64 = f.get(11)?.parse().ok()?;
     let stime: f64 = f.get(12)?.parse().ok()?;
     Some((utime + stime) / 100.0)
+}
+
+fn stdout_failed(f: &Path, e: std::io::Error) -> Diagnostic {
+    Diagnostic::new(
+        Code::OUTPUT_FAILED,
+        format!(
+            "cannot write the PVS of `{}` to standard output: {e}",
+            f.display()
+        ),
+        Location::file(f),
+    )
+    .hint("check where standard output goes (a full disk, a closed pipe)")
 }

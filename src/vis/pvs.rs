@@ -48,17 +48,22 @@ impl Pvs {
 
     /// One line per cell, `c: v1 v2 ...`, ascending (the form of the reference files).
     pub fn to_text(&self) -> String {
-        let mut s = String::new();
+        let mut out = Vec::new();
+        self.write_text(&mut out)
+            .expect("writing to memory cannot fail");
+        String::from_utf8(out).expect("digits, colons and spaces are UTF-8")
+    }
+
+    /// [`Pvs::to_text`] streamed, so printing a big PVS never holds its text in memory.
+    pub fn write_text(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         for c in 0..self.cells() {
-            s.push_str(&c.to_string());
-            s.push(':');
+            write!(w, "{c}:")?;
             for v in self.visible(c) {
-                s.push(' ');
-                s.push_str(&v.to_string());
+                write!(w, " {v}")?;
             }
-            s.push('\n');
+            writeln!(w)?;
         }
-        s
+        Ok(())
     }
 
     /// Reads the `c: v1 v2 ...` form. `Err` names the line (1-based) that does not parse.
