@@ -33,6 +33,20 @@ pub fn ones(row: &[u64]) -> impl Iterator<Item = usize> + '_ {
     })
 }
 
+/// `out = a & b`, and whether that has a bit `seen` lacks. The flow's innermost loop, on
+/// equal-length slices indexed directly so it compiles to straight vector code.
+pub fn and_into(out: &mut [u64], a: &[u64], b: &[u64], seen: &[u64]) -> bool {
+    let n = out.len();
+    let (a, b, seen) = (&a[..n], &b[..n], &seen[..n]);
+    let mut more = 0;
+    for i in 0..n {
+        let m = a[i] & b[i];
+        out[i] = m;
+        more |= m & !seen[i];
+    }
+    more != 0
+}
+
 /// A row with the first `n` bits set (the padding bits of the last word stay clear, so
 /// counts and comparisons never see them).
 pub fn all(n: usize) -> Vec<u64> {

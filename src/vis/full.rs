@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use super::bits;
 use super::graph::{transform_plane, VisGraph};
 use super::pvs::Pvs;
-use super::winding::{chop, chop_how, clip_by, separators, sphere, Chop};
+use super::winding::{chop, chop_in_sphere, clip_by, separators, sphere, Chop};
 use crate::geom::plane::Plane;
 
 /// ericw-tools' tests 2 and 3: also narrow the source by the separators of the target.
@@ -44,6 +44,8 @@ struct Frame {
     source_plane: Option<Plane>,
     might: Vec<u64>,
     transforms: usize,
+    /// A sphere around `source`, computed on first use.
+    source_sphere: Option<(DVec3, f64)>,
     /// The separating planes between this frame's source and pass, computed on first use.
     seps: Vec<Plane>,
     seps_ready: bool,
@@ -170,6 +172,7 @@ impl Run<'_> {
         f.might.copy_from_slice(&self.rows[p]);
         f.transforms = 0;
         f.seps_ready = false;
+        f.source_sphere = None;
         if let Some(m) = src.transform {
             if self.depth == 0 {
                 return st.vis.clone();
@@ -205,28 +208,24 @@ impl Run<'_> {
                 continue;
             }
             let test = &self.rows[q];
-            let mut more = 0u64;
-            for ((m, (a, b)), v) in next
-                .might
-                .iter_mut()
-                .zip(cur.might.iter().zip(test))
-                .zip(&st.vis)
-            {
-                *m = a & b;
-                more |= *m & !v;
-            }
-            if more == 0 && bits::get(&st.vis, q) {
+            let more = bits::and_into(&mut next.might, &cur.might, test, &st.vis);
+            if !more && bits::get(&st.vis, q) {
                 continue;
             }
             let source_plane = cur.source_plane.expect("set on every frame");
             let pass_plane = portal.plane;
             // What of the portal is in front of the source.
-            if !chop(&portal.winding, &source_plane, eps, &mut next.pass) {
+            let sph = self.spheres[q];
+            if chop_in_sphere(&portal.winding, sph, &source_plane, eps, &mut next.pass)
+                == Chop::Gone
+            {
                 continue;
             }
             // What of the source is behind the portal.
+            let src_sph = *cur.source_sphere.get_or_insert_with(|| sphere(&cur.source));
+            let flipped = pass_plane.flipped();
             let source_cut =
-                match chop_how(&cur.source, &pass_plane.flipped(), eps, &mut next.source) {
+                match chop_in_sphere(&cur.source, src_sph, &flipped, eps, &mut next.source) {
                     Chop::Gone => continue,
                     Chop::Whole => false,
                     Chop::Cut => true,
@@ -269,6 +268,7 @@ impl Run<'_> {
                 }
             }
             next.seps_ready = false;
+            next.source_sphere = None;
             next.has_pass = true;
             next.pass_plane = Some(pass_plane);
             next.source_plane = Some(source_plane);
