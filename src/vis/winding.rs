@@ -24,7 +24,17 @@ pub fn chop(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> b
 
 /// [`chop`], saying whether anything was cut.
 pub fn chop_how(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
-    out.clear();
+    let how = cut(input, plane, eps, out);
+    if how == Chop::Whole {
+        out.clear();
+        out.extend_from_slice(input);
+    }
+    how
+}
+
+/// The work of [`chop_how`], writing `out` only for a cut: a polygon kept whole needs no
+/// copy when the caller goes on with `input`.
+fn cut(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
     let mut front = false;
     let mut back = false;
     // Distances are kept for the cut, on the stack for the usual small polygon.
@@ -38,19 +48,16 @@ pub fn chop_how(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) 
     };
     for (p, d) in input.iter().zip(dists.iter_mut()) {
         *d = plane.distance(*p);
-        if *d > eps {
-            front = true;
-        } else if *d < -eps {
-            back = true;
-        }
+        front |= *d > eps;
+        back |= *d < -eps;
     }
     if !front {
         return Chop::Gone;
     }
     if !back {
-        out.extend_from_slice(input);
         return Chop::Whole;
     }
+    out.clear();
     let n = input.len();
     for i in 0..n {
         let j = if i + 1 == n { 0 } else { i + 1 };
@@ -118,7 +125,7 @@ pub fn clip_by(planes: &[Plane], target: &mut Vec<DVec3>, tmp: &mut Vec<DVec3>, 
         if dc < -r - eps {
             return false;
         }
-        match chop_how(target, plane, eps, tmp) {
+        match cut(target, plane, eps, tmp) {
             Chop::Gone => return false,
             Chop::Whole => {}
             Chop::Cut => {
