@@ -81,6 +81,21 @@ fn fixtures_parse_to_the_documented_graphs() {
     }
 }
 
+/// Every line of a portal file is one polygon both ways, so every directed portal has its
+/// reverse (what lets the flow use symmetry).
+#[test]
+fn every_prt_portal_has_its_reverse() {
+    for name in ["qbspfeatures.prt", "light_general.prt"] {
+        let (f, _) = prt::read(&prt_fixture(name)).unwrap();
+        let g = f.graph(None);
+        for (i, p) in g.portals.iter().enumerate() {
+            let r = g.reverse[i].unwrap_or_else(|| panic!("{name}: portal {i} has no reverse"));
+            assert_eq!((g.portals[r].from, g.portals[r].to), (p.to, p.from));
+            assert_eq!(g.reverse[r], Some(i));
+        }
+    }
+}
+
 #[test]
 fn full_contains_the_lower_bound_on_the_fixtures() {
     check_file(&prt_fixture("qbspfeatures.prt"), 500);

@@ -234,6 +234,28 @@ fn clear_segments_are_in_the_full_pvs() {
     assert!(total > 100, "only {total} clear segments were judged");
 }
 
+/// Four rooms in a row (x 0..4, 4..8, 8..12, 12..16, all z 0..8) with wide doors: A|B and
+/// C|D two-way, B → C one-way. A sees straight through to D, though nothing in D can see back
+/// past C: the flow's symmetry filter (a finished reverse that never saw A rules its portal
+/// out for A) must not apply when a portal has no reverse.
+#[test]
+fn known_answer_one_way_in_the_middle() {
+    let mut portals = Vec::new();
+    portals.extend(both(0, 1, 0, 4.0, 1.0, 7.0));
+    portals.push(door(1, 2, 0, 8.0, 1.0, 1.0, 7.0));
+    portals.extend(both(2, 3, 0, 12.0, 1.0, 7.0));
+    let g = VisGraph::new(4, portals, 1e-9);
+    let [_, _, full, _] = assert_nested("one-way in the middle", &g);
+    assert_eq!(
+        full.to_text(),
+        "0: 0 1 2 3
+1: 0 1 2 3
+2: 2 3
+3: 2 3
+"
+    );
+}
+
 /// A reader that stops early (`portcullis vis big.prt | head`) ends the command quietly: no
 /// panic, no error message about the pipe.
 #[cfg(unix)]

@@ -15,7 +15,10 @@
 //! might-see count; a wave uses the finished results of earlier waves as its (tighter)
 //! might-see, and starts each source from what the finished portals out of the same cell
 //! already see (the cell's PVS is their union, so only what is new to the cell is looked
-//! for). The result depends only on the wave split, never on the thread count.
+//! for). Where every portal has its reverse and none is transformed, visibility is symmetric:
+//! `p` can see `q` only if `q`'s reverse sees `p`'s reverse, so a finished reverse that never
+//! reached `p`'s cell rules `q` out of `p`'s might-see. The result depends only on the wave
+//! split, never on the thread count.
 //!
 //! A transformed portal moves the whole stack (source, pass, planes) into the target side's
 //! space, and the might-see of the world no longer applies, so it is reset to every portal;
@@ -56,6 +59,9 @@ struct Run<'a> {
     /// Per portal, its flow result once `finished`, else its might-see set.
     rows: &'a [Vec<u64>],
     finished: &'a [bool],
+    /// Per cell, the finished portals that see it (a row over portals); `None` unless every
+    /// portal has a reverse and none is transformed, the graphs where visibility is symmetric.
+    seen_by: Option<&'a [Vec<u64>]>,
     entering: &'a [Vec<usize>],
     /// Per portal, a bounding sphere (centre, radius).
     spheres: &'a [(DVec3, f64)],
@@ -93,11 +99,18 @@ pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Ve
     }
     let spheres: Vec<(DVec3, f64)> = g.portals.iter().map(|p| sphere(&p.winding)).collect();
     let all = bits::all(n);
+    // Every sightline can be walked back only when every portal has its reverse.
+    let symmetric = !g.has_transforms() && g.reverse.iter().all(Option::is_some);
+    let mut seen_by = vec![Vec::new(); if symmetric { g.cells } else { 0 }];
+    for row in &mut seen_by {
+        row.resize(bits::words(n), 0);
+    }
     for chunk in order.chunks(wave) {
         let run = Run {
             g,
             rows: &rows,
             finished: &finished,
+            seen_by: symmetric.then_some(&seen_by[..]),
             entering: &entering,
             spheres: &spheres,
             depth,
@@ -120,6 +133,15 @@ pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Ve
             )
             .collect();
         for (&p, r) in chunk.iter().rev().zip(results) {
+            if symmetric {
+                // Rows hold every portal into a seen cell; the first marks the cell.
+                for q in bits::ones(&r) {
+                    let to = g.portals[q].to;
+                    if entering[to].first() == Some(&q) {
+                        bits::set(&mut seen_by[to], p);
+                    }
+                }
+            }
             rows[p] = r;
             finished[p] = true;
         }
@@ -170,6 +192,23 @@ impl Run<'_> {
         f.pass_plane = Some(src.plane);
         f.source_plane = Some(src.plane);
         f.might.copy_from_slice(&self.rows[p]);
+        if let Some(seen_by) = self.seen_by {
+            // Symmetry: `p` sees `q` only if `q`'s reverse sees `p`'s reverse, which enters
+            // `p`'s cell; a finished reverse that never saw the cell rules `q` out.
+            let col = &seen_by[src.from];
+            for w in 0..words {
+                let mut m = f.might[w];
+                while m != 0 {
+                    let b = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if let Some(rq) = g.reverse[w * 64 + b] {
+                        if self.finished[rq] && !bits::get(col, rq) {
+                            f.might[w] &= !(1u64 << b);
+                        }
+                    }
+                }
+            }
+        }
         f.transforms = 0;
         f.seps_ready = false;
         f.source_sphere = None;

@@ -31,6 +31,10 @@ pub struct VisGraph {
     pub leaving: Vec<Vec<usize>>,
     /// Points this close to a plane are on it (the flow keeps them on both sides).
     pub epsilon: f64,
+    /// Per portal, the portal through the same polygon the other way, when there is one and
+    /// neither carries a transform: a sightline through one passes through the other the
+    /// other way, so what one sees tells what the other is seen by.
+    pub reverse: Vec<Option<usize>>,
 }
 
 impl VisGraph {
@@ -39,11 +43,13 @@ impl VisGraph {
         for (i, p) in portals.iter().enumerate() {
             leaving[p.from].push(i);
         }
+        let reverse = reverses(&portals, &leaving, epsilon);
         VisGraph {
             cells,
             portals,
             leaving,
             epsilon,
+            reverse,
         }
     }
 
@@ -77,6 +83,28 @@ impl VisGraph {
     pub fn has_transforms(&self) -> bool {
         self.portals.iter().any(|p| p.transform.is_some())
     }
+}
+
+/// Pairs each portal with one leaving its target into its source whose corners are its own
+/// (each within `eps` of one of the other's), neither transformed.
+fn reverses(portals: &[VisPortal], leaving: &[Vec<usize>], eps: f64) -> Vec<Option<usize>> {
+    let covers =
+        |a: &[DVec3], b: &[DVec3]| a.iter().all(|v| b.iter().any(|w| v.distance(*w) <= eps));
+    portals
+        .iter()
+        .map(|p| {
+            if p.transform.is_some() {
+                return None;
+            }
+            leaving[p.to].iter().copied().find(|&q| {
+                let r = &portals[q];
+                r.to == p.from
+                    && r.transform.is_none()
+                    && covers(&p.winding, &r.winding)
+                    && covers(&r.winding, &p.winding)
+            })
+        })
+        .collect()
 }
 
 /// A rigid motion or reflection applied to a plane (normals by the linear part, which is
