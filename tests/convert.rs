@@ -678,3 +678,22 @@ fn globs_are_expanded() {
         assert!(dir.path().join(n).is_file(), "{n}");
     }
 }
+
+/// With a PVS through mirrors or teleporters, convert says how far sightlines were followed
+/// (as `vis` does); without a PVS, or without transformed portals, it says nothing of it.
+#[test]
+fn convert_notes_the_transform_depth_of_the_pvs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.glb");
+    let note = "VIS_TRANSFORM_DEPTH";
+    let stderr = |o: &std::process::Output| String::from_utf8_lossy(&o.stderr).into_owned();
+    let o = convert(&sample("teleporter.gltf"), &out, &["--vis", "full"]);
+    assert_ok(&o);
+    assert!(stderr(&o).contains(note), "{}", stderr(&o));
+    let o = convert(&sample("teleporter.gltf"), &out, &["--vis", "none"]);
+    assert_ok(&o);
+    assert!(!stderr(&o).contains(note), "{}", stderr(&o));
+    let o = convert(&sample("two_rooms.gltf"), &out, &["--vis", "full"]);
+    assert_ok(&o);
+    assert!(!stderr(&o).contains(note), "{}", stderr(&o));
+}

@@ -171,13 +171,20 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let method = portcullis::vis::Method::parse(&a.vis_method);
     let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
     let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
+        let depth =
+            portcullis::vis::level_transform_depth(&cells, &portals, t.config.vis.transform_depth);
+        // As `vis` does: say how far sightlines were followed through mirrors and teleporters.
+        if portals
+            .portals
+            .iter()
+            .any(|p| p.transform.is_some() && !p.closed && p.to.is_some())
+        {
+            t.diagnostics
+                .push(portcullis::vis::transform_depth_note(input, depth));
+        }
         let opts = portcullis::vis::VisOptions {
             method: pvs_method,
-            transform_depth: portcullis::vis::level_transform_depth(
-                &cells,
-                &portals,
-                t.config.vis.transform_depth,
-            ),
+            transform_depth: depth,
             samples: t
                 .config
                 .vis

@@ -152,7 +152,7 @@ pub fn transform_depth_note(file: &std::path::Path, depth: usize) -> crate::diag
         format!("sightlines through mirrors and teleporters were followed through at most {depth} of them"),
         crate::diag::Location::file(file),
     )
-    .hint("set `[vis] transform_depth` (or --transform-depth) to follow them further")
+    .hint("set `[vis] transform_depth` in portcullis.toml (or `vis --transform-depth`) to follow them further")
 }
 
 /// The PVS of a level's cells and portals.
