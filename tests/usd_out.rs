@@ -85,3 +85,53 @@ fn names_that_are_not_usd_identifiers_keep_their_spelling_as_display_names() {
     assert!(text.contains("def Mesh \"_1_floor\" ("));
     assert!(text.contains("def Mesh \"_1_floor_1\" ("));
 }
+
+/// With a PVS, the layer carries it as two flat arrays (offsets and visible cells), the same
+/// sets `vis` computes; with `--vis none` it has none.
+#[test]
+fn convert_stores_the_pvs_in_the_usda_layer() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pillar.usda");
+    let input = sample("pillar_room.gltf");
+    common::succeeds(portcullis().arg("convert").arg(&input).arg("-o").arg(&out));
+    let text = std::fs::read_to_string(&out).unwrap();
+    let array = |name: &str| -> Vec<usize> {
+        let key = format!("custom int[] portcullis:{name} = [");
+        let start = text.find(&key).unwrap_or_else(|| panic!("no {name}")) + key.len();
+        let end = start + text[start..].find(']').unwrap();
+        text[start..end]
+            .split(',')
+            .map(|v| v.trim().parse().unwrap())
+            .collect()
+    };
+    let (offsets, visible) = (array("offsets"), array("visible"));
+    assert!(text.contains("custom token portcullis:method = \"full\""));
+    let (_, c, p) = common::load_level(&input, None);
+    let pvs = portcullis::vis::of_level(
+        c.cells.len(),
+        &p,
+        c.tolerance.distance,
+        &portcullis::vis::VisOptions::default(),
+    );
+    assert_eq!(offsets.len(), c.cells.len() + 1);
+    assert!(c.cells.len() > 1);
+    for cell in 0..c.cells.len() {
+        let want: Vec<usize> = pvs.visible(cell).collect();
+        assert_eq!(
+            visible[offsets[cell]..offsets[cell + 1]],
+            want[..],
+            "cell {cell}"
+        );
+    }
+    let none = dir.path().join("none.usda");
+    common::succeeds(
+        portcullis()
+            .arg("convert")
+            .arg(&input)
+            .args(["--vis", "none", "-o"])
+            .arg(&none),
+    );
+    assert!(!std::fs::read_to_string(&none)
+        .unwrap()
+        .contains("portcullis:visible"));
+}

@@ -197,7 +197,8 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
     let bytes = if usda {
-        portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals).into_bytes()
+        portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals, stored)
+            .into_bytes()
     } else {
         pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?
     };

@@ -6,8 +6,9 @@
 //! relative to its parent as one `xformOp:transform`; names made valid USD identifiers, the
 //! original kept as `displayName`, which the importer reads back); extras become customData.
 //! Cells and portals live on `/PortcullisAnnotation` as custom attributes in the `portcullis:`
-//! namespace (documented in README "USD output"); the importer ignores that prim, so
-//! converting an annotated file again replaces the annotation instead of reading it as level.
+//! namespace (documented in README "USD output"), with the PVS when one was computed; the
+//! importer ignores that prim, so converting an annotated file again replaces the annotation
+//! instead of reading it as level.
 
 use std::collections::HashSet;
 use std::fmt::Write;
@@ -20,6 +21,7 @@ use crate::portals::PortalSet;
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
+use crate::vis::{Method, Pvs};
 
 /// The root prim holding the annotation; skipped by the USD importer.
 pub const ANNOTATION_PRIM: &str = "PortcullisAnnotation";
@@ -331,6 +333,7 @@ pub fn write_usda(
     tagging: &Tagging,
     cells: &CellSet,
     portals: &PortalSet,
+    pvs: Option<(&Pvs, Method)>,
 ) -> String {
     let mut w = Writer {
         scene,
@@ -391,11 +394,17 @@ pub fn write_usda(
         }
         w.line(0, "}");
     }
-    annotation(&mut w, tagging, cells, portals);
+    annotation(&mut w, tagging, cells, portals, pvs);
     w.out
 }
 
-fn annotation(w: &mut Writer<'_>, tagging: &Tagging, cells: &CellSet, portals: &PortalSet) {
+fn annotation(
+    w: &mut Writer<'_>,
+    tagging: &Tagging,
+    cells: &CellSet,
+    portals: &PortalSet,
+    pvs: Option<(&Pvs, Method)>,
+) {
     let hash = crate::export::extension::input_hash(w.scene, tagging);
     w.out.push('\n');
     w.line(0, &format!("def Scope \"{ANNOTATION_PRIM}\""));
@@ -495,5 +504,41 @@ fn annotation(w: &mut Writer<'_>, tagging: &Tagging, cells: &CellSet, portals: &
         w.line(2, "}");
     }
     w.line(1, "}");
+    if let Some((pvs, method)) = pvs {
+        visibility(w, pvs, method);
+    }
     w.line(0, "}");
+}
+
+/// The PVS as the glTF extension's `lists` encoding says it, in two flat arrays USD holds
+/// natively: the cells visible from cell `c` (ascending, `c` included) are
+/// `visible[offsets[c] .. offsets[c + 1]]`.
+fn visibility(w: &mut Writer<'_>, pvs: &Pvs, method: Method) {
+    let mut offsets = vec![0usize];
+    let mut visible = Vec::new();
+    for c in 0..pvs.cells() {
+        visible.extend(pvs.visible(c));
+        offsets.push(visible.len());
+    }
+    let list = |v: &[usize]| {
+        v.iter()
+            .map(|i| i.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    w.line(1, "def Scope \"Visibility\"");
+    w.line(1, "{");
+    w.line(
+        2,
+        &format!("custom token portcullis:method = \"{}\"", method.name()),
+    );
+    w.line(
+        2,
+        &format!("custom int[] portcullis:offsets = [{}]", list(&offsets)),
+    );
+    w.line(
+        2,
+        &format!("custom int[] portcullis:visible = [{}]", list(&visible)),
+    );
+    w.line(1, "}");
 }
