@@ -59,9 +59,8 @@ struct Run<'a> {
     /// Per portal, its flow result once `finished`, else its might-see set.
     rows: &'a [Vec<u64>],
     finished: &'a [bool],
-    /// Per cell, the finished portals that see it (a row over portals); `None` unless every
-    /// portal has a reverse and none is transformed, the graphs where visibility is symmetric.
-    seen_by: Option<&'a [Vec<u64>]>,
+    /// The symmetry filter, where every portal has a reverse and none is transformed.
+    sym: Option<&'a Symmetry>,
     entering: &'a [Vec<usize>],
     /// Per portal, a bounding sphere (centre, radius).
     spheres: &'a [(DVec3, f64)],
@@ -74,6 +73,26 @@ struct State {
     vis: Vec<u64>,
     tmp: Vec<DVec3>,
     planes: Vec<Plane>,
+}
+
+/// Symmetry on graphs where every portal has its reverse and none is transformed: `p` can
+/// see `r` only if `r`'s reverse sees `p`'s reverse, which enters `p`'s cell. Both rows are
+/// indexed by `r` (the reverse of the finished portal), so the filter is a word-wide mask.
+struct Symmetry {
+    /// Bit `r`: `r`'s reverse is finished.
+    finished: Vec<u64>,
+    /// Per cell, bit `r`: `r`'s reverse is finished and saw the cell.
+    seen: Vec<Vec<u64>>,
+}
+
+impl Symmetry {
+    /// Drops from `row` (what a portal out of `cell` might see) every portal whose finished
+    /// reverse never saw `cell`.
+    fn filter(&self, row: &mut [u64], cell: usize) {
+        for ((m, f), s) in row.iter_mut().zip(&self.finished).zip(&self.seen[cell]) {
+            *m &= !f | s;
+        }
+    }
 }
 
 /// How many waves the sorted portals are split into.
@@ -101,16 +120,16 @@ pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Ve
     let all = bits::all(n);
     // Every sightline can be walked back only when every portal has its reverse.
     let symmetric = !g.has_transforms() && g.reverse.iter().all(Option::is_some);
-    let mut seen_by = vec![Vec::new(); if symmetric { g.cells } else { 0 }];
-    for row in &mut seen_by {
-        row.resize(bits::words(n), 0);
-    }
+    let mut sym = Symmetry {
+        finished: vec![0; bits::words(n)],
+        seen: vec![vec![0; bits::words(n)]; if symmetric { g.cells } else { 0 }],
+    };
     for chunk in order.chunks(wave) {
         let run = Run {
             g,
             rows: &rows,
             finished: &finished,
-            seen_by: symmetric.then_some(&seen_by[..]),
+            sym: symmetric.then_some(&sym),
             entering: &entering,
             spheres: &spheres,
             depth,
@@ -133,12 +152,13 @@ pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Ve
             )
             .collect();
         for (&p, r) in chunk.iter().rev().zip(results) {
-            if symmetric {
+            if let (true, Some(rp)) = (symmetric, g.reverse[p]) {
                 // Rows hold every portal into a seen cell; the first marks the cell.
+                bits::set(&mut sym.finished, rp);
                 for q in bits::ones(&r) {
                     let to = g.portals[q].to;
                     if entering[to].first() == Some(&q) {
-                        bits::set(&mut seen_by[to], p);
+                        bits::set(&mut sym.seen[to], rp);
                     }
                 }
             }
@@ -192,22 +212,8 @@ impl Run<'_> {
         f.pass_plane = Some(src.plane);
         f.source_plane = Some(src.plane);
         f.might.copy_from_slice(&self.rows[p]);
-        if let Some(seen_by) = self.seen_by {
-            // Symmetry: `p` sees `q` only if `q`'s reverse sees `p`'s reverse, which enters
-            // `p`'s cell; a finished reverse that never saw the cell rules `q` out.
-            let col = &seen_by[src.from];
-            for w in 0..words {
-                let mut m = f.might[w];
-                while m != 0 {
-                    let b = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    if let Some(rq) = g.reverse[w * 64 + b] {
-                        if self.finished[rq] && !bits::get(col, rq) {
-                            f.might[w] &= !(1u64 << b);
-                        }
-                    }
-                }
-            }
+        if let Some(sym) = self.sym {
+            sym.filter(&mut f.might, src.from);
         }
         f.transforms = 0;
         f.seps_ready = false;
