@@ -17,6 +17,7 @@ pub mod portals;
 pub mod prt;
 pub mod report;
 pub mod rng;
+pub mod scc;
 pub mod scene;
 pub mod schema;
 pub mod tags;
