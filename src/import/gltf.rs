@@ -9,6 +9,7 @@
 
 use std::path::{Path, PathBuf};
 
+use serde_json::value::RawValue;
 use serde_json::Value;
 
 use super::Imported;
@@ -79,7 +80,7 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
     } else {
         (Format::Gltf, bytes, None)
     };
-    let json = parse_json(&ctx, json_bytes)?;
+    let (json, text) = parse_json(&ctx, json_bytes)?;
     let Some(root) = json.as_object() else {
         return Err(ctx
             .diag(
@@ -113,7 +114,7 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
         meshes.finish(&mut diagnostics);
     }
     scene.gltf = Some(GltfSource {
-        json,
+        json: text,
         buffers,
         base_dir: base_dir.to_path_buf(),
     });
@@ -205,7 +206,8 @@ fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     Ok((json, bin))
 }
 
-fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
+/// The document parsed, and its text (for the exporter, which copies most of it unparsed).
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<(Value, Box<RawValue>), Diagnostic> {
     // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
     // padding at the end of a GLB JSON chunk.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -214,7 +216,9 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
     let bytes = bytes.get(..end).unwrap_or(bytes);
-    serde_json::from_slice(bytes).map_err(|e| {
+    let parsed =
+        serde_json::from_slice(bytes).and_then(|v| Ok((v, serde_json::from_slice(bytes)?)));
+    parsed.map_err(|e| {
         let line = e.line();
         Diagnostic::new(
             Code::GLTF_INVALID_JSON,

@@ -1,0 +1,110 @@
+//! Reading parts of a JSON text without parsing all of it into a `Value`: a big level's glTF
+//! JSON is tens of megabytes, and most of it (accessors, buffer views) is only ever copied.
+
+use std::collections::HashMap;
+use std::fmt;
+
+use serde::de::{IgnoredAny, MapAccess, SeqAccess, Visitor};
+use serde::Deserializer as _;
+use serde_json::value::RawValue;
+
+/// The members of the object `text`, in order, each as its text. A repeated key keeps its first
+/// place and its last value, as `serde_json::Map` (an `IndexMap`) does. `None` if `text` is not
+/// an object.
+pub fn members(text: &str) -> Option<Vec<(String, &RawValue)>> {
+    struct Members;
+    impl<'de> Visitor<'de> for Members {
+        type Value = Vec<(String, &'de RawValue)>;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a JSON object")
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut out: Vec<(String, &'de RawValue)> = Vec::new();
+            let mut at: HashMap<String, usize> = HashMap::new();
+            while let Some(key) = map.next_key::<String>()? {
+                let value: &'de RawValue = map.next_value()?;
+                match at.get(&key) {
+                    Some(&i) => out[i].1 = value,
+                    None => {
+                        at.insert(key.clone(), out.len());
+                        out.push((key, value));
+                    }
+                }
+            }
+            Ok(out)
+        }
+    }
+    serde_json::Deserializer::from_str(text)
+        .deserialize_map(Members)
+        .ok()
+}
+
+/// Whether `raw` is a JSON array (a member's text has no surrounding whitespace).
+pub fn is_array(raw: &RawValue) -> bool {
+    raw.get().trim_start().starts_with('[')
+}
+
+/// The number of elements of the array `raw`; `None` if it is not an array.
+pub fn array_len(raw: &RawValue) -> Option<usize> {
+    struct Count;
+    impl<'de> Visitor<'de> for Count {
+        type Value = usize;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("a JSON array")
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<usize, A::Error> {
+            let mut n = 0;
+            while seq.next_element::<IgnoredAny>()?.is_some() {
+                n += 1;
+            }
+            Ok(n)
+        }
+    }
+    serde_json::Deserializer::from_str(raw.get())
+        .deserialize_seq(Count)
+        .ok()
+}
+
+/// Each glTF node's name (`None` where a node has no string name, or is not an object).
+pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
+    let Some(members) = src.members() else {
+        return Vec::new();
+    };
+    let Some((_, nodes)) = members.iter().find(|(k, _)| k == "nodes") else {
+        return Vec::new();
+    };
+    let nodes: Vec<&RawValue> = serde_json::from_str(nodes.get()).unwrap_or_default();
+    nodes
+        .iter()
+        .map(|n| {
+            let node: serde_json::Value = serde_json::from_str(n.get()).ok()?;
+            node.get("name")?.as_str().map(str::to_string)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn members_keep_first_place_and_last_value() {
+        let m = members(r#"{"a": 1, "b": [2, 3], "a": {"x": 4}}"#).unwrap();
+        let got: Vec<(&str, &str)> = m.iter().map(|(k, v)| (k.as_str(), v.get())).collect();
+        assert_eq!(got, vec![("a", r#"{"x": 4}"#), ("b", "[2, 3]")]);
+        let v: serde_json::Value =
+            serde_json::from_str(r#"{"a": 1, "b": [2, 3], "a": {"x": 4}}"#).unwrap();
+        let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+        assert_eq!(keys, vec!["a", "b"]);
+        assert!(members("[1]").is_none());
+    }
+
+    #[test]
+    fn arrays_are_counted() {
+        let m = members(r#"{"a": [ {"b": [1,2]}, 3, "x" ], "o": {}}"#).unwrap();
+        assert!(is_array(m[0].1));
+        assert_eq!(array_len(m[0].1), Some(3));
+        assert!(!is_array(m[1].1));
+        assert_eq!(array_len(m[1].1), None);
+    }
+}
