@@ -4,7 +4,8 @@
 //! parsing it into a `Value`, cloning that and dropping both cost more than the whole write. The
 //! bytes are those the `Value` would serialize to: the same parser reads every number and
 //! string, the same serializer writes them, in the same order. The one difference, a repeated
-//! key (a `Value` keeps one), is refused with [`Repeated`] so the caller can take the slow path.
+//! key (a `Value` keeps one), is refused so the caller can take the slow path; so is the key a
+//! `Value` parser reads as a marker ([`json_text::RAW_VALUE_KEY`]).
 
 use std::borrow::Cow;
 use std::cell::RefCell;
@@ -13,6 +14,8 @@ use std::fmt;
 
 use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, SeqAccess, Visitor};
 use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
+
+use crate::scene::json_text;
 
 /// The error message of a repeated key.
 const REPEATED: &str = "portcullis: repeated JSON key";
@@ -81,7 +84,7 @@ impl<'de, S: Serializer> Visitor<'de> for Out<S> {
         let mut seen = Seen::default();
         while let Some(key) = map.next_key_seed(Key)? {
             out.serialize_key(&*key).map_err(de::Error::custom)?;
-            if !seen.insert(key) {
+            if key == json_text::RAW_VALUE_KEY || !seen.insert(key) {
                 return Err(de::Error::custom(REPEATED));
             }
             map.next_value_seed(Member(&mut out))?;

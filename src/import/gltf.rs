@@ -14,7 +14,7 @@ use serde_json::Value;
 
 use super::Imported;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
-use crate::scene::{Format, GltfSource, Material, Scene, SourceRef};
+use crate::scene::{json_text, Format, GltfSource, Material, Scene, SourceRef};
 
 mod accessor;
 mod buffers;
@@ -80,8 +80,8 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
     } else {
         (Format::Gltf, bytes, None)
     };
-    let (json, text) = parse_json(&ctx, json_bytes)?;
-    let Some(root) = json.as_object() else {
+    let text = parse_json(&ctx, json_bytes)?;
+    let Some(root) = schema::Root::new(&text) else {
         return Err(ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
@@ -90,9 +90,9 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
             )
             .hint(VALIDATOR_HINT));
     };
-    check_version(&ctx, root)?;
-    check_required_extensions(&ctx, root)?;
-    let doc = schema::Doc::from_value(&ctx, root)?;
+    check_version(&ctx, &root)?;
+    check_required_extensions(&ctx, &root)?;
+    let doc = schema::Doc::from_root(&ctx, &root)?;
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
 
     let mut scene = Scene::new(path.to_path_buf(), format);
@@ -206,8 +206,9 @@ fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     Ok((json, bin))
 }
 
-/// The document parsed, and its text (for the exporter, which copies most of it unparsed).
-fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<(Value, Box<RawValue>), Diagnostic> {
+/// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
+/// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Box<RawValue>, Diagnostic> {
     // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
     // padding at the end of a GLB JSON chunk.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -216,9 +217,16 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<(Value, Box<RawValue>), Diagnos
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
     let bytes = bytes.get(..end).unwrap_or(bytes);
-    let parsed =
-        serde_json::from_slice(bytes).and_then(|v| Ok((v, serde_json::from_slice(bytes)?)));
-    parsed.map_err(|e| {
+    let checked = match json_text::check(bytes) {
+        Ok(()) => serde_json::from_slice(bytes),
+        // A text only a `Value` parse reads right: parsed, and written back as plain JSON.
+        Err(e) if e.to_string().contains(json_text::RAW_VALUE_KEY) => {
+            serde_json::from_slice::<Value>(bytes)
+                .and_then(|v| RawValue::from_string(serde_json::to_string(&v)?))
+        }
+        Err(e) => Err(e),
+    };
+    checked.map_err(|e| {
         let line = e.line();
         Diagnostic::new(
             Code::GLTF_INVALID_JSON,
@@ -230,8 +238,8 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<(Value, Box<RawValue>), Diagnos
     })
 }
 
-fn check_version(ctx: &Ctx, root: &serde_json::Map<String, Value>) -> Result<(), Diagnostic> {
-    let Some(asset) = root.get("asset") else {
+fn check_version(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagnostic> {
+    let Some(asset) = root.value("asset") else {
         return Err(ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
@@ -240,7 +248,7 @@ fn check_version(ctx: &Ctx, root: &serde_json::Map<String, Value>) -> Result<(),
             )
             .hint(VALIDATOR_HINT));
     };
-    let asset: schema::Asset = serde_json::from_value(asset.clone()).map_err(|e| {
+    let asset: schema::Asset = serde_json::from_value(asset).map_err(|e| {
         ctx.diag(
             Code::GLTF_INVALID_JSON,
             "/asset",
@@ -291,10 +299,7 @@ fn is_readable_required_extension(name: &str) -> bool {
     KNOWN.contains(&name) || name.starts_with("KHR_materials_")
 }
 
-fn check_required_extensions(
-    ctx: &Ctx,
-    root: &serde_json::Map<String, Value>,
-) -> Result<(), Diagnostic> {
+fn check_required_extensions(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagnostic> {
     let required: Vec<String> = schema::array(ctx, root, "extensionsRequired")?;
     for (i, name) in required.iter().enumerate() {
         if is_readable_required_extension(name) {
