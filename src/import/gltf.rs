@@ -9,7 +9,6 @@
 
 use std::path::{Path, PathBuf};
 
-use serde_json::value::RawValue;
 use serde_json::Value;
 
 use super::Imported;
@@ -208,7 +207,7 @@ fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
 
 /// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
 /// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
-fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Box<RawValue>, Diagnostic> {
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<String, Diagnostic> {
     // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
     // padding at the end of a GLB JSON chunk.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -217,13 +216,12 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Box<RawValue>, Diagnostic> {
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
     let bytes = bytes.get(..end).unwrap_or(bytes);
+    // A text only a `Value` parse reads right is parsed, and written back as plain JSON.
+    let as_value = || serde_json::from_slice::<Value>(bytes).map(|v| v.to_string());
     let checked = match json_text::check(bytes) {
-        Ok(()) => serde_json::from_slice(bytes),
-        // A text only a `Value` parse reads right: parsed, and written back as plain JSON.
-        Err(e) if e.to_string().contains(json_text::RAW_VALUE_KEY) => {
-            serde_json::from_slice::<Value>(bytes)
-                .and_then(|v| RawValue::from_string(serde_json::to_string(&v)?))
-        }
+        // A checked text is UTF-8 (JSON outside strings is ASCII, strings are checked).
+        Ok(()) => std::str::from_utf8(bytes).map_or_else(|_| as_value(), |s| Ok(s.to_owned())),
+        Err(e) if e.to_string().contains(json_text::RAW_VALUE_KEY) => as_value(),
         Err(e) => Err(e),
     };
     checked.map_err(|e| {

@@ -124,7 +124,7 @@ pub struct GltfSource {
     /// The document's JSON text as read. Text, not a `Value`: a parsed document takes about
     /// ten times the room of its text, and a big level's JSON is most of the file. The importer
     /// has checked that it parses.
-    pub json: Box<serde_json::value::RawValue>,
+    pub json: String,
     /// Resolved data of every buffer, in document order (GLB BIN chunk, data: URI or file).
     pub buffers: Vec<Vec<u8>>,
     /// The directory external URIs are relative to.
@@ -135,7 +135,7 @@ impl GltfSource {
     /// The whole document parsed (`Null` if the text does not parse, which the importer rules
     /// out).
     pub fn document(&self) -> serde_json::Value {
-        serde_json::from_str(self.json.get()).unwrap_or_default()
+        serde_json::from_str(&self.json).unwrap_or_default()
     }
 
     /// An object holding only the root members `keys` (those present), parsed: what a reader of
@@ -153,7 +153,7 @@ impl GltfSource {
     /// first place and its last value, as a parsed `Value` does. `None` if the root is not an
     /// object.
     pub fn members(&self) -> Option<Vec<(String, &serde_json::value::RawValue)>> {
-        json_text::members(self.json.get())
+        json_text::members(&self.json)
     }
 }
 

@@ -140,8 +140,8 @@ pub struct Root<'a> {
 
 impl<'a> Root<'a> {
     /// `None` if the document is not an object.
-    pub fn new(text: &'a RawValue) -> Option<Root<'a>> {
-        json_text::members(text.get()).map(|members| Root { members })
+    pub fn new(text: &'a str) -> Option<Root<'a>> {
+        json_text::members(text).map(|members| Root { members })
     }
 
     fn get(&self, key: &str) -> Option<&'a RawValue> {
