@@ -141,7 +141,7 @@ pub fn write_annotated_with_pvs(
             ann.root["inputHash"] = serde_json::json!(h);
         }
     }
-    gltf_out::write(scene, &ann, out, format)
+    gltf_out::write(scene, ann, out, format)
 }
 
 /// The input hash of the glTF written for a non-glTF level: written without annotation, read

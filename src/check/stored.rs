@@ -4,7 +4,6 @@
 //! into cells and portals the geometric checks read like freshly built ones.
 
 use glam::{DMat4, DVec3};
-use serde_json::Value;
 
 use super::{CellInfo, Subject};
 use crate::diag::{Code, Diagnostic, Location};
@@ -36,7 +35,9 @@ fn pointer(rest: &str) -> String {
 /// The annotation of a tagged glTF level, if it has one. With `validate`, schema and
 /// reference problems are reported.
 pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
-    let doc = &t.scene.gltf.as_ref()?.json;
+    let src = t.scene.gltf.as_ref()?;
+    // Only the root's extensions are parsed: the rest of a big level's document is not needed.
+    let doc = &src.subset(&["extensions"]);
     let raw = doc.get("extensions")?.get(NAME)?;
     let at = || Location::file(&t.scene.path).with_pointer(pointer(""));
     let parsed = read::annotation(doc);
@@ -47,10 +48,11 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
     let annotated = match parsed {
         Some(Ok(a)) => {
             if validate {
-                let nodes = doc
-                    .get("nodes")
-                    .and_then(Value::as_array)
-                    .map_or(0, Vec::len);
+                let nodes = src
+                    .members()
+                    .and_then(|m| m.into_iter().find(|(k, _)| k == "nodes"))
+                    .and_then(|(_, v)| crate::scene::json_text::array_len(v))
+                    .unwrap_or(0);
                 problems.extend(read::consistency(&a, nodes));
             }
             Some(a)
@@ -134,12 +136,16 @@ pub fn portal_set(a: &Annotated) -> PortalSet {
 /// The check subject for a sound stored annotation of `t`.
 pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject<'a> {
     let eps = a.tolerance.max(1e-12);
-    let doc = t.scene.gltf.as_ref().map(|g| &g.json);
+    let names = t
+        .scene
+        .gltf
+        .as_ref()
+        .map(crate::scene::json_text::node_names)
+        .unwrap_or_default();
     let node_name = |n: usize| {
-        doc.and_then(|d| d.get("nodes"))
-            .and_then(|ns| ns.get(n))
-            .and_then(|node| node.get("name"))
-            .and_then(Value::as_str)
+        names
+            .get(n)
+            .and_then(Option::as_deref)
             .map_or(format!("#{n}"), str::to_string)
     };
     let mut bounds = Aabb::EMPTY;

@@ -95,14 +95,9 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
     let stored = portcullis::check::stored::read(t, validate)?;
     t.diagnostics.extend(stored.diagnostics);
     let a = stored.annotated?;
-    let doc = t.scene.gltf.as_ref()?.json.clone();
-    let buffers = t
-        .scene
-        .gltf
-        .as_ref()
-        .map(|g| g.buffers.clone())
-        .unwrap_or_default();
-    let visibility = match read::visibility(&a, &doc, &buffers) {
+    let src = t.scene.gltf.as_ref()?;
+    let stored_pvs = read::visibility(&a, &src.subset(&["bufferViews"]), &src.buffers);
+    let visibility = match stored_pvs {
         Some(Ok(pvs)) => a.visibility.as_ref().map(|v| VisibilityView {
             method: v["method"].as_str().unwrap_or_default().to_string(),
             encoding: v["encoding"].as_str().unwrap_or_default().to_string(),

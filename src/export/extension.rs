@@ -18,11 +18,11 @@ pub const VERSION: u64 = 1;
 /// does not carry f64 noise that differs between platforms' last bits.
 fn num(x: f64) -> Value {
     let r = (x * 1e9).round() / 1e9;
-    json!(if r == 0.0 { 0.0 } else { r })
+    Value::from(if r == 0.0 { 0.0 } else { r })
 }
 
 fn vec3(v: glam::DVec3) -> Value {
-    json!([num(v.x), num(v.y), num(v.z)])
+    Value::Array(vec![num(v.x), num(v.y), num(v.z)])
 }
 
 /// FNV-1a over the level's geometry (every node's world transform and mesh positions, in
@@ -92,13 +92,36 @@ pub fn build(
     portals: &PortalSet,
     node_index: &dyn Fn(NodeId) -> Option<usize>,
 ) -> Annotation {
+    // The hash reads every position of the level byte by byte, as long as building the rest
+    // takes on a big level: it runs alongside (or here, if no thread can be had).
+    std::thread::scope(|s| {
+        let hashing = std::thread::Builder::new().spawn_scoped(s, || input_hash(scene, tagging));
+        let mut ann = build_with_hash(cells, tagging, portals, node_index);
+        let hash = match hashing.map(|h| h.join()) {
+            Ok(Ok(h)) => h,
+            _ => input_hash(scene, tagging),
+        };
+        if let Some(root) = ann.root.as_object_mut() {
+            root.insert("inputHash".into(), json!(hash));
+        }
+        ann
+    })
+}
+
+/// [`build`] but the input hash, whose place it holds.
+fn build_with_hash(
+    cells: &CellSet,
+    tagging: &Tagging,
+    portals: &PortalSet,
+    node_index: &dyn Fn(NodeId) -> Option<usize>,
+) -> Annotation {
     let mut root = Map::new();
     root.insert("version".into(), json!(VERSION));
     root.insert(
         "generator".into(),
         json!(format!("portcullis {}", env!("CARGO_PKG_VERSION"))),
     );
-    root.insert("inputHash".into(), json!(input_hash(scene, tagging)));
+    root.insert("inputHash".into(), Value::Null);
     root.insert("tolerance".into(), num(cells.tolerance.distance));
     if cells.room_cells.iter().any(|c| c.len() > 1) {
         let rooms: Vec<Value> = tagging
@@ -107,7 +130,7 @@ pub fn build(
             .zip(&cells.room_cells)
             .map(|(r, c)| json!({"name": r.name, "cells": c}))
             .collect();
-        root.insert("rooms".into(), json!(rooms));
+        root.insert("rooms".into(), Value::Array(rooms));
     }
     let mut node_cells: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
     let cells_json: Vec<Value> = cells
@@ -122,31 +145,34 @@ pub fn build(
                 .faces
                 .iter()
                 .map(|f| {
-                    json!([
+                    Value::Array(vec![
                         num(f.plane.normal.x),
                         num(f.plane.normal.y),
                         num(f.plane.normal.z),
-                        num(f.plane.d)
+                        num(f.plane.d),
                     ])
                 })
                 .collect();
-            o.insert("planes".into(), json!(planes));
+            o.insert("planes".into(), Value::Array(planes));
             o.insert(
                 "bounds".into(),
-                json!({"min": vec3(c.bounds.min), "max": vec3(c.bounds.max)}),
+                Value::Object(Map::from_iter([
+                    ("min".into(), vec3(c.bounds.min)),
+                    ("max".into(), vec3(c.bounds.max)),
+                ])),
             );
             let nodes: Vec<usize> = c.nodes.iter().filter_map(|&n| node_index(n)).collect();
             for &n in &nodes {
                 node_cells.entry(n).or_default().push(ci);
             }
             if !nodes.is_empty() {
-                o.insert("nodes".into(), json!(nodes));
+                o.insert("nodes".into(), Value::from(nodes));
             }
             Value::Object(o)
         })
         .collect();
     if !cells_json.is_empty() {
-        root.insert("cells".into(), json!(cells_json));
+        root.insert("cells".into(), Value::Array(cells_json));
     }
     let portals_json: Vec<Value> = portals
         .portals
@@ -155,13 +181,13 @@ pub fn build(
             let mut o = Map::new();
             o.insert(
                 "polygon".into(),
-                json!(p.polygon.iter().map(|v| vec3(*v)).collect::<Vec<_>>()),
+                Value::Array(p.polygon.iter().map(|v| vec3(*v)).collect()),
             );
             let mut cells = vec![json!(p.from)];
             if let Some(t) = p.to {
                 cells.push(json!(t));
             }
-            o.insert("cells".into(), json!(cells));
+            o.insert("cells".into(), Value::Array(cells));
             match p.kind {
                 PortalKind::Plain => {}
                 PortalKind::Mirror => {
@@ -183,11 +209,7 @@ pub fn build(
             if let Some(t) = p.transform {
                 o.insert(
                     "transform".into(),
-                    json!(t
-                        .to_cols_array()
-                        .iter()
-                        .map(|x| num(*x))
-                        .collect::<Vec<_>>()),
+                    Value::Array(t.to_cols_array().iter().map(|x| num(*x)).collect()),
                 );
             }
             if let Some(q) = p.partner {
@@ -200,7 +222,7 @@ pub fn build(
         })
         .collect();
     if !portals_json.is_empty() {
-        root.insert("portals".into(), json!(portals_json));
+        root.insert("portals".into(), Value::Array(portals_json));
     }
     let nodes = node_cells
         .into_iter()

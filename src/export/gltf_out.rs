@@ -129,7 +129,7 @@ fn rebase_uri(uri: &str, in_dir: &Path, out_dir: &Path) -> String {
 /// Writes the annotated level; returns the bytes of the one output file.
 pub fn write(
     scene: &Scene,
-    ann: &Annotation,
+    mut ann: Annotation,
     out: &Path,
     format: OutFormat,
 ) -> Result<Vec<u8>, Diagnostic> {
@@ -137,6 +137,24 @@ pub fn write(
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    if let Some(src) = &scene.gltf {
+        // The streamed rewrite gives the same bytes as the whole-document path below, which
+        // stays for the documents it declines (a repeated key).
+        if let Some(bytes) = super::rewrite::write(src, &mut ann, format, out_dir) {
+            return Ok(bytes);
+        }
+    }
+    write_whole(scene, &ann, out, out_dir, format)
+}
+
+/// [`write`] by building the whole output document.
+pub(super) fn write_whole(
+    scene: &Scene,
+    ann: &Annotation,
+    out: &Path,
+    out_dir: &Path,
+    format: OutFormat,
+) -> Result<Vec<u8>, Diagnostic> {
     let (mut doc, mut bin) = match &scene.gltf {
         Some(src) => from_gltf(src, format, out_dir),
         None => from_scene(&super::bake::world_space(scene), format),
@@ -197,21 +215,31 @@ fn annotate(doc: &mut Value, ann: &Annotation) {
         e.insert(NAME.into(), ann.root.clone());
     }
     if let Some(nodes) = obj.get_mut("nodes").and_then(Value::as_array_mut) {
-        for node in nodes.iter_mut() {
-            if let Some(e) = node.get_mut("extensions").and_then(Value::as_object_mut) {
-                e.remove(NAME);
-                if e.is_empty() {
-                    node.as_object_mut().map(|o| o.remove("extensions"));
-                }
+        nodes.iter_mut().for_each(strip_ours);
+        for (i, v) in &ann.nodes {
+            if let Some(node) = nodes.get_mut(*i) {
+                add_ours(node, v.clone());
             }
         }
-        for (i, v) in &ann.nodes {
-            if let Some(node) = nodes.get_mut(*i).and_then(Value::as_object_mut) {
-                let e = node.entry("extensions").or_insert_with(|| json!({}));
-                if let Some(e) = e.as_object_mut() {
-                    e.insert(NAME.into(), v.clone());
-                }
-            }
+    }
+}
+
+/// Removes an earlier annotation from a node (and its `extensions` if that leaves it empty).
+pub(super) fn strip_ours(node: &mut Value) {
+    if let Some(e) = node.get_mut("extensions").and_then(Value::as_object_mut) {
+        e.remove(NAME);
+        if e.is_empty() {
+            node.as_object_mut().map(|o| o.remove("extensions"));
+        }
+    }
+}
+
+/// Puts our node extension object on a node.
+pub(super) fn add_ours(node: &mut Value, ours: Value) {
+    if let Some(node) = node.as_object_mut() {
+        let e = node.entry("extensions").or_insert_with(|| json!({}));
+        if let Some(e) = e.as_object_mut() {
+            e.insert(NAME.into(), ours);
         }
     }
 }
@@ -248,10 +276,7 @@ fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &
             }
         }
     };
-    let mut view = json!({"buffer": buffer.0, "byteLength": blob.len()});
-    if buffer.1 != 0 {
-        view["byteOffset"] = json!(buffer.1);
-    }
+    let view = blob_view(buffer, blob.len());
     match doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
         Some(v) => {
             v.push(view);
@@ -264,11 +289,81 @@ fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &
     }
 }
 
-fn data_uri(bytes: &[u8]) -> String {
+/// The buffer view of a blob at `(buffer, offset)`.
+pub(super) fn blob_view(at: (usize, usize), len: usize) -> Value {
+    let mut view = json!({"buffer": at.0, "byteLength": len});
+    if at.1 != 0 {
+        view["byteOffset"] = json!(at.1);
+    }
+    view
+}
+
+pub(super) fn data_uri(bytes: &[u8]) -> String {
     format!(
         "data:application/octet-stream;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(bytes)
     )
+}
+
+/// Rewrites an item's external `uri` (an image, a buffer) to resolve from `out_dir`.
+pub(super) fn rebase_item(v: &mut Value, in_dir: &Path, out_dir: &Path) {
+    if let Some(uri) = v.get("uri").and_then(Value::as_str) {
+        let new = rebase_uri(uri, in_dir, out_dir);
+        v["uri"] = json!(new);
+    }
+}
+
+/// A .gltf output's buffer `i`: an external file re-pointed, else its bytes as a data: URI.
+pub(super) fn gltf_buffer(b: &mut Value, data: &[u8], in_dir: &Path, out_dir: &Path) {
+    match b.get("uri").and_then(Value::as_str) {
+        Some(_) => rebase_item(b, in_dir, out_dir),
+        None => {
+            if b.is_object() || b.is_null() {
+                b["uri"] = json!(data_uri(data));
+            }
+        }
+    }
+}
+
+/// Where each buffer starts in a .glb's BIN chunk (8-aligned, in order), and the chunk's
+/// length before padding.
+pub(super) fn glb_layout(buffers: &[Vec<u8>]) -> (Vec<usize>, usize) {
+    let mut len = 0usize;
+    let base = buffers
+        .iter()
+        .map(|data| {
+            let at = len.next_multiple_of(8);
+            len = at + data.len();
+            at
+        })
+        .collect();
+    (base, len)
+}
+
+/// A buffer view re-pointed into the one BIN chunk, whose buffers start at `base`.
+pub(super) fn rebase_view(v: &mut Value, base: &[usize]) {
+    if !(v.is_object() || v.is_null()) {
+        return;
+    }
+    let b = v.get("buffer").and_then(Value::as_u64).unwrap_or(0) as usize;
+    let off = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+    v["buffer"] = json!(0);
+    let new = off.wrapping_add(base.get(b).copied().unwrap_or(0));
+    if new != 0 || v.get("byteOffset").is_some() {
+        v["byteOffset"] = json!(new);
+    }
+}
+
+/// The one buffer of a .glb output: the first buffer's members but its uri, and `len`.
+pub(super) fn glb_buffer(first: Option<&Value>, len: usize) -> Value {
+    let mut one = Map::new();
+    for (k, v) in first.and_then(Value::as_object).into_iter().flatten() {
+        if k != "uri" && k != "byteLength" {
+            one.insert(k.clone(), v.clone());
+        }
+    }
+    one.insert("byteLength".into(), json!(len));
+    json!([Value::Object(one)])
 }
 
 fn from_gltf(
@@ -276,50 +371,32 @@ fn from_gltf(
     format: OutFormat,
     out_dir: &Path,
 ) -> (Value, Option<Vec<u8>>) {
-    let mut doc = src.json.clone();
-    let rebase = |v: &mut Value| {
-        if let Some(uri) = v.get("uri").and_then(Value::as_str) {
-            let new = rebase_uri(uri, &src.base_dir, out_dir);
-            v["uri"] = json!(new);
-        }
-    };
+    let mut doc = src.document();
     if let Some(images) = doc.get_mut("images").and_then(Value::as_array_mut) {
-        images.iter_mut().for_each(rebase);
+        for v in images {
+            rebase_item(v, &src.base_dir, out_dir);
+        }
     }
     match format {
         OutFormat::Gltf => {
             if let Some(buffers) = doc.get_mut("buffers").and_then(Value::as_array_mut) {
                 for (i, b) in buffers.iter_mut().enumerate() {
-                    match b.get("uri").and_then(Value::as_str) {
-                        Some(_) => rebase(b),
-                        None => {
-                            let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
-                            b["uri"] = json!(data_uri(data));
-                        }
-                    }
+                    let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
+                    gltf_buffer(b, data, &src.base_dir, out_dir);
                 }
             }
             (doc, None)
         }
         OutFormat::Glb => {
-            let mut bin = Vec::new();
-            let mut base = Vec::with_capacity(src.buffers.len());
-            for data in &src.buffers {
-                while bin.len() % 8 != 0 {
-                    bin.push(0);
-                }
-                base.push(bin.len());
+            let (base, len) = glb_layout(&src.buffers);
+            let mut bin = Vec::with_capacity(len);
+            for (data, at) in src.buffers.iter().zip(&base) {
+                bin.resize(*at, 0);
                 bin.extend_from_slice(data);
             }
             if let Some(views) = doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
                 for v in views {
-                    let b = v.get("buffer").and_then(Value::as_u64).unwrap_or(0) as usize;
-                    let off = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
-                    v["buffer"] = json!(0);
-                    let new = off + base.get(b).copied().unwrap_or(0);
-                    if new != 0 || v.get("byteOffset").is_some() {
-                        v["byteOffset"] = json!(new);
-                    }
+                    rebase_view(v, &base);
                 }
             }
             if src.buffers.is_empty() {
@@ -331,17 +408,8 @@ fn from_gltf(
             let first = doc
                 .get("buffers")
                 .and_then(Value::as_array)
-                .and_then(|a| a.first())
-                .cloned()
-                .unwrap_or_else(|| json!({}));
-            let mut one = Map::new();
-            for (k, v) in first.as_object().into_iter().flatten() {
-                if k != "uri" && k != "byteLength" {
-                    one.insert(k.clone(), v.clone());
-                }
-            }
-            one.insert("byteLength".into(), json!(bin.len()));
-            doc["buffers"] = json!([Value::Object(one)]);
+                .and_then(|a| a.first());
+            doc["buffers"] = glb_buffer(first, bin.len());
             (doc, Some(bin))
         }
     }

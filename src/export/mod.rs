@@ -8,6 +8,8 @@ pub mod debug;
 pub mod extension;
 pub mod gltf_out;
 pub mod read;
+pub(crate) mod rewrite;
 pub mod svg;
+pub(crate) mod transcode;
 pub mod usd_out;
 pub mod visibility;

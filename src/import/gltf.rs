@@ -13,7 +13,7 @@ use serde_json::Value;
 
 use super::Imported;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
-use crate::scene::{Format, GltfSource, Material, Scene, SourceRef};
+use crate::scene::{json_text, Format, GltfSource, Material, Scene, SourceRef};
 
 mod accessor;
 mod buffers;
@@ -79,8 +79,8 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
     } else {
         (Format::Gltf, bytes, None)
     };
-    let json = parse_json(&ctx, json_bytes)?;
-    let Some(root) = json.as_object() else {
+    let text = parse_json(&ctx, json_bytes)?;
+    let Some(root) = schema::Root::new(&text) else {
         return Err(ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
@@ -89,9 +89,9 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
             )
             .hint(VALIDATOR_HINT));
     };
-    check_version(&ctx, root)?;
-    check_required_extensions(&ctx, root)?;
-    let doc = schema::Doc::from_value(&ctx, root)?;
+    check_version(&ctx, &root)?;
+    check_required_extensions(&ctx, &root)?;
+    let doc = schema::Doc::from_root(&ctx, &root)?;
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
 
     let mut scene = Scene::new(path.to_path_buf(), format);
@@ -113,7 +113,7 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
         meshes.finish(&mut diagnostics);
     }
     scene.gltf = Some(GltfSource {
-        json,
+        json: text,
         buffers,
         base_dir: base_dir.to_path_buf(),
     });
@@ -205,7 +205,9 @@ fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     Ok((json, bin))
 }
 
-fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
+/// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
+/// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<String, Diagnostic> {
     // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
     // padding at the end of a GLB JSON chunk.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
@@ -214,7 +216,15 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
     let bytes = bytes.get(..end).unwrap_or(bytes);
-    serde_json::from_slice(bytes).map_err(|e| {
+    // A text only a `Value` parse reads right is parsed, and written back as plain JSON.
+    let as_value = || serde_json::from_slice::<Value>(bytes).map(|v| v.to_string());
+    let checked = match json_text::check(bytes) {
+        // A checked text is UTF-8 (JSON outside strings is ASCII, strings are checked).
+        Ok(()) => std::str::from_utf8(bytes).map_or_else(|_| as_value(), |s| Ok(s.to_owned())),
+        Err(e) if e.to_string().contains(json_text::RAW_VALUE_KEY) => as_value(),
+        Err(e) => Err(e),
+    };
+    checked.map_err(|e| {
         let line = e.line();
         Diagnostic::new(
             Code::GLTF_INVALID_JSON,
@@ -226,8 +236,8 @@ fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<Value, Diagnostic> {
     })
 }
 
-fn check_version(ctx: &Ctx, root: &serde_json::Map<String, Value>) -> Result<(), Diagnostic> {
-    let Some(asset) = root.get("asset") else {
+fn check_version(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagnostic> {
+    let Some(asset) = root.value("asset") else {
         return Err(ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
@@ -236,7 +246,7 @@ fn check_version(ctx: &Ctx, root: &serde_json::Map<String, Value>) -> Result<(),
             )
             .hint(VALIDATOR_HINT));
     };
-    let asset: schema::Asset = serde_json::from_value(asset.clone()).map_err(|e| {
+    let asset: schema::Asset = serde_json::from_value(asset).map_err(|e| {
         ctx.diag(
             Code::GLTF_INVALID_JSON,
             "/asset",
@@ -287,10 +297,7 @@ fn is_readable_required_extension(name: &str) -> bool {
     KNOWN.contains(&name) || name.starts_with("KHR_materials_")
 }
 
-fn check_required_extensions(
-    ctx: &Ctx,
-    root: &serde_json::Map<String, Value>,
-) -> Result<(), Diagnostic> {
+fn check_required_extensions(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagnostic> {
     let required: Vec<String> = schema::array(ctx, root, "extensionsRequired")?;
     for (i, name) in required.iter().enumerate() {
         if is_readable_required_extension(name) {

@@ -17,6 +17,7 @@ use std::path::PathBuf;
 use glam::{DMat4, DVec3};
 use serde::Serialize;
 
+pub mod json_text;
 pub mod summary;
 
 /// Index into [`Scene::nodes`].
@@ -120,12 +121,40 @@ pub struct Material {
 /// The original glTF, kept so the exporter can add its extension and change nothing else.
 #[derive(Debug, Clone)]
 pub struct GltfSource {
-    /// The document exactly as parsed (key order preserved).
-    pub json: serde_json::Value,
+    /// The document's JSON text as read. Text, not a `Value`: a parsed document takes about
+    /// ten times the room of its text, and a big level's JSON is most of the file. The importer
+    /// has checked that it parses.
+    pub json: String,
     /// Resolved data of every buffer, in document order (GLB BIN chunk, data: URI or file).
     pub buffers: Vec<Vec<u8>>,
     /// The directory external URIs are relative to.
     pub base_dir: PathBuf,
+}
+
+impl GltfSource {
+    /// The whole document parsed (`Null` if the text does not parse, which the importer rules
+    /// out).
+    pub fn document(&self) -> serde_json::Value {
+        serde_json::from_str(&self.json).unwrap_or_default()
+    }
+
+    /// An object holding only the root members `keys` (those present), parsed: what a reader of
+    /// a few members needs without parsing a big level's whole document.
+    pub fn subset(&self, keys: &[&str]) -> serde_json::Value {
+        let members = self.members().unwrap_or_default();
+        let picked = members
+            .into_iter()
+            .filter(|(k, _)| keys.contains(&k.as_str()))
+            .filter_map(|(k, v)| Some((k, serde_json::from_str(v.get()).ok()?)));
+        serde_json::Value::Object(picked.collect())
+    }
+
+    /// The root object's members in document order, each as its text; a repeated key keeps its
+    /// first place and its last value, as a parsed `Value` does. `None` if the root is not an
+    /// object.
+    pub fn members(&self) -> Option<Vec<(String, &serde_json::value::RawValue)>> {
+        json_text::members(&self.json)
+    }
 }
 
 #[derive(Debug, Clone)]

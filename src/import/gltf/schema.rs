@@ -1,8 +1,8 @@
 //! The few parts of the glTF schema the importer reads, as lenient serde structs.
 //!
 //! gltf-json's own validation rejects files we can read (KHR_mesh_quantization positions, unknown
-//! required extensions we want to name ourselves), so the document is kept as a
-//! `serde_json::Value` and each object is deserialized on its own: a malformed item is then
+//! required extensions we want to name ourselves), so the document is split into its root
+//! members ([`Root`]) and each object is deserialized on its own: a malformed item is then
 //! reported with its JSON pointer instead of one error for the whole file. Required fields are
 //! `Option`s so their absence is reported by whoever needs them, with the pointer to the field.
 
@@ -10,10 +10,12 @@ use std::collections::BTreeMap;
 
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
+use serde_json::value::RawValue;
 use serde_json::{Map, Value};
 
 use super::Ctx;
 use crate::diag::{Code, Diagnostic};
+use crate::scene::json_text;
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
@@ -130,9 +132,31 @@ pub struct Doc {
     pub materials: Vec<Material>,
 }
 
+/// The document's root members, each still text: the importer parses only what it reads, one
+/// item at a time.
+pub struct Root<'a> {
+    members: Vec<(String, &'a RawValue)>,
+}
+
+impl<'a> Root<'a> {
+    /// `None` if the document is not an object.
+    pub fn new(text: &'a str) -> Option<Root<'a>> {
+        json_text::members(text).map(|members| Root { members })
+    }
+
+    fn get(&self, key: &str) -> Option<&'a RawValue> {
+        self.members.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
+    }
+
+    /// A member parsed (the text was checked to parse).
+    pub fn value(&self, key: &str) -> Option<Value> {
+        Some(serde_json::from_str(self.get(key)?.get()).unwrap_or_default())
+    }
+}
+
 impl Doc {
-    pub fn from_value(ctx: &Ctx, root: &Map<String, Value>) -> Result<Doc, Diagnostic> {
-        let scene = match root.get("scene") {
+    pub fn from_root(ctx: &Ctx, root: &Root) -> Result<Doc, Diagnostic> {
+        let scene = match root.value("scene") {
             None => None,
             Some(v) => Some(v.as_u64().ok_or_else(|| {
                 ctx.diag(
@@ -156,15 +180,18 @@ impl Doc {
 }
 
 /// Deserializes the top-level array `key` item by item so an error names the item.
-pub fn array<T: DeserializeOwned>(
-    ctx: &Ctx,
-    root: &Map<String, Value>,
-    key: &str,
-) -> Result<Vec<T>, Diagnostic> {
+///
+/// Each item is read from its text; one that does not read (or repeats a field, which a
+/// `Value` would have collapsed) is read again from its `Value`, which decides, so results and
+/// messages are those of reading the parsed document.
+pub fn array<T: DeserializeOwned>(ctx: &Ctx, root: &Root, key: &str) -> Result<Vec<T>, Diagnostic> {
     let Some(v) = root.get(key) else {
         return Ok(Vec::new());
     };
-    let Some(items) = v.as_array() else {
+    let items: Option<Vec<&RawValue>> = json_text::is_array(v)
+        .then(|| serde_json::from_str(v.get()).ok())
+        .flatten();
+    let Some(items) = items else {
         return Err(ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
@@ -175,14 +202,22 @@ pub fn array<T: DeserializeOwned>(
     };
     let mut out = Vec::with_capacity(items.len());
     for (i, item) in items.iter().enumerate() {
-        let t = T::deserialize(item).map_err(|e| {
-            ctx.diag(
-                Code::GLTF_INVALID_JSON,
-                format!("/{key}/{i}"),
-                format!("{key}[{i}] does not follow the glTF schema: {e}"),
-            )
-            .hint("the exporter wrote an invalid glTF; check it with the Khronos glTF validator")
-        })?;
+        let t = match serde_json::from_str::<T>(item.get()) {
+            Ok(t) => t,
+            Err(_) => {
+                let item: Value = serde_json::from_str(item.get()).unwrap_or_default();
+                T::deserialize(&item).map_err(|e| {
+                    ctx.diag(
+                        Code::GLTF_INVALID_JSON,
+                        format!("/{key}/{i}"),
+                        format!("{key}[{i}] does not follow the glTF schema: {e}"),
+                    )
+                    .hint(
+                        "the exporter wrote an invalid glTF; check it with the Khronos glTF validator",
+                    )
+                })?
+            }
+        };
         out.push(t);
     }
     Ok(out)

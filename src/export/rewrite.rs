@@ -1,0 +1,593 @@
+//! Writing a glTF input back from its JSON text, for the output bytes of
+//! [`super::gltf_out::write`]'s whole-document path without its cost.
+//!
+//! That path parses the document, changes a few members and serializes it all; on a big level
+//! the parse, the copy and the drop cost more than the write, and the parsed document is ten
+//! times the size of its text. Here the root's members stay text until a change needs one:
+//! images and buffers are parsed (they are short), nodes and buffer views are streamed element
+//! by element through the same edits, everything else is transcoded unparsed. Each step mirrors
+//! the other path's, in the same order, so members land in the same places.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::Path;
+
+use serde::de::{self, Deserializer as _, SeqAccess, Visitor};
+use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
+use serde_json::value::RawValue;
+use serde_json::{json, Value};
+
+use super::extension::{Annotation, NAME};
+use super::gltf_out::{self as out, OutFormat};
+use super::transcode::{Element, Transcode};
+use crate::scene::json_text;
+use crate::scene::GltfSource;
+
+/// Why the streamed rewrite declines a document (the whole-document path then writes it).
+struct Declined;
+
+impl<E: std::error::Error> From<E> for Declined {
+    fn from(_: E) -> Self {
+        Declined
+    }
+}
+
+/// The output file, or `None` when the caller should take the whole-document path.
+pub(crate) fn write(
+    src: &GltfSource,
+    ann: &mut Annotation,
+    format: OutFormat,
+    out_dir: &Path,
+) -> Option<Vec<u8>> {
+    rewrite(src, ann, format, out_dir).ok()
+}
+
+fn rewrite(
+    src: &GltfSource,
+    ann: &mut Annotation,
+    format: OutFormat,
+    out_dir: &Path,
+) -> Result<Vec<u8>, Declined> {
+    let Annotation {
+        root: ours,
+        nodes,
+        blob,
+    } = ann;
+    let members = src.members().ok_or(Declined)?;
+    let mut root = Root(
+        members
+            .into_iter()
+            .map(|(k, v)| (k, Slot::Text(v)))
+            .collect(),
+    );
+
+    // The container change (gltf_out::from_gltf).
+    if let Some(images) = root.parsed("images")?.and_then(Value::as_array_mut) {
+        for v in images {
+            out::rebase_item(v, &src.base_dir, out_dir);
+        }
+    }
+    let (base, mut bin_len) = out::glb_layout(&src.buffers);
+    let mut bin = false;
+    match format {
+        OutFormat::Gltf => {
+            if let Some(buffers) = root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                for (i, b) in buffers.iter_mut().enumerate() {
+                    let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
+                    out::gltf_buffer(b, data, &src.base_dir, out_dir);
+                }
+            }
+        }
+        OutFormat::Glb => {
+            root.stream("bufferViews", Edit::Views(&base));
+            if src.buffers.is_empty() {
+                root.swap_remove("buffers");
+            } else {
+                let buffers = root.parsed("buffers")?;
+                let first = buffers.and_then(|b| b.as_array()).and_then(|a| a.first());
+                let one = out::glb_buffer(first, bin_len);
+                root.set("buffers", Slot::Parsed(one));
+                bin = true;
+            }
+        }
+    }
+
+    // The annotation (gltf_out::annotate).
+    let used = root.entry("extensionsUsed", json!([]))?;
+    if let Some(a) = used.as_array_mut() {
+        if !a.iter().any(|v| v == NAME) {
+            a.push(json!(NAME));
+        }
+    }
+    let extensions = root.entry("extensions", json!({}))?;
+    let annotated = match extensions.as_object_mut() {
+        Some(e) => {
+            // A place holder: the annotation itself is serialized from `ours`, not copied.
+            e.insert(NAME.into(), Value::Null);
+            true
+        }
+        None => false,
+    };
+    let mut per_node: HashMap<usize, &Value> = HashMap::new();
+    for (i, v) in nodes.iter() {
+        per_node.insert(*i, v);
+    }
+    root.stream("nodes", Edit::Nodes(&per_node));
+
+    // The PVS blob (gltf_out::attach).
+    if let Some(blob) = blob.as_deref() {
+        let at = match format {
+            OutFormat::Glb => {
+                bin = true;
+                let offset = bin_len.next_multiple_of(4);
+                bin_len = offset + blob.len();
+                match root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                    Some(b) if !b.is_empty() => b[0]["byteLength"] = json!(bin_len),
+                    _ => root.set("buffers", Slot::Parsed(json!([{ "byteLength": bin_len }]))),
+                }
+                (0, offset)
+            }
+            OutFormat::Gltf => {
+                let entry = json!({"byteLength": blob.len(), "uri": out::data_uri(blob)});
+                match root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                    Some(b) => {
+                        b.push(entry);
+                        (b.len() - 1, 0)
+                    }
+                    None => {
+                        root.set("buffers", Slot::Parsed(json!([entry])));
+                        (0, 0)
+                    }
+                }
+            }
+        };
+        let view = root.push_view(out::blob_view(at, blob.len()))?;
+        if annotated {
+            if let Some(v) = ours.get_mut("visibility").and_then(Value::as_object_mut) {
+                v.insert("bufferView".into(), json!(view));
+            }
+        }
+    }
+
+    let doc = Document {
+        root: &root,
+        ours: annotated.then_some(&*ours),
+    };
+    match format {
+        OutFormat::Gltf => {
+            let mut v = Vec::with_capacity(src.json.len() * 2);
+            serde_json::to_writer_pretty(&mut v, &doc)?;
+            v.push(b'\n');
+            Ok(v)
+        }
+        OutFormat::Glb => {
+            let bin = bin.then_some(Bin {
+                buffers: &src.buffers,
+                base: &base,
+                blob: blob.as_deref(),
+                len: bin_len,
+            });
+            glb(&doc, src.json.len(), bin)
+        }
+    }
+}
+
+/// What goes in the BIN chunk, written straight from the buffers rather than joined first.
+struct Bin<'a> {
+    buffers: &'a [Vec<u8>],
+    /// Where each buffer starts.
+    base: &'a [usize],
+    blob: Option<&'a [u8]>,
+    /// The chunk's length before padding.
+    len: usize,
+}
+
+/// The .glb container, as [`out::glb`] makes it.
+fn glb(doc: &Document, json_hint: usize, bin: Option<Bin>) -> Result<Vec<u8>, Declined> {
+    let bin_padded = bin.as_ref().map_or(0, |b| b.len.next_multiple_of(4) + 8);
+    let mut out = Vec::with_capacity(20 + json_hint + json_hint / 4 + bin_padded);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&[0; 8]);
+    out.extend_from_slice(b"JSON");
+    serde_json::to_writer(&mut out, doc)?;
+    while out.len() % 4 != 0 {
+        out.push(b' ');
+    }
+    let json_len = (out.len() - 20) as u32;
+    out[12..16].copy_from_slice(&json_len.to_le_bytes());
+    if let Some(Bin {
+        buffers,
+        base,
+        blob,
+        len,
+    }) = bin
+    {
+        out.reserve_exact(bin_padded);
+        out.extend_from_slice(&(len.next_multiple_of(4) as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        let start = out.len();
+        for (data, at) in buffers.iter().zip(base) {
+            out.resize(start + at, 0);
+            out.extend_from_slice(data);
+        }
+        if let Some(blob) = blob {
+            out.resize(start + (out.len() - start).next_multiple_of(4), 0);
+            out.extend_from_slice(blob);
+        }
+        out.resize(start + len.next_multiple_of(4), 0);
+    }
+    let total = out.len() as u32;
+    out[8..12].copy_from_slice(&total.to_le_bytes());
+    Ok(out)
+}
+
+/// A root member: its text, parsed, or an array streamed through an edit.
+enum Slot<'a> {
+    Text(&'a RawValue),
+    Parsed(Value),
+    Stream {
+        text: &'a RawValue,
+        edit: Edit<'a>,
+        /// Appended after the streamed elements.
+        extra: Option<Value>,
+    },
+}
+
+/// What happens to each element of a streamed array.
+#[derive(Clone, Copy)]
+enum Edit<'a> {
+    Copy,
+    /// Buffer views re-pointed into the BIN chunk whose buffers start at these offsets.
+    Views(&'a [usize]),
+    /// Nodes: an earlier annotation removed, ours added.
+    Nodes(&'a HashMap<usize, &'a Value>),
+}
+
+/// The root object's members in order, with the operations of a `serde_json::Map` (an
+/// `IndexMap`: an insert keeps a present key's place, a remove swaps the last member in).
+struct Root<'a>(Vec<(String, Slot<'a>)>);
+
+impl<'a> Root<'a> {
+    fn find(&self, key: &str) -> Option<usize> {
+        self.0.iter().position(|(k, _)| k == key)
+    }
+
+    /// The member, parsed first if still text. `None` if absent or streamed (no edit of the
+    /// other path reads a streamed member's value).
+    fn parsed(&mut self, key: &str) -> Result<Option<&mut Value>, Declined> {
+        let Some(i) = self.find(key) else {
+            return Ok(None);
+        };
+        let slot = &mut self.0[i].1;
+        if let Slot::Text(t) = slot {
+            *slot = Slot::Parsed(serde_json::from_str(t.get())?);
+        }
+        Ok(match slot {
+            Slot::Parsed(v) => Some(v),
+            _ => None,
+        })
+    }
+
+    fn set(&mut self, key: &str, slot: Slot<'a>) {
+        match self.find(key) {
+            Some(i) => self.0[i].1 = slot,
+            None => self.0.push((key.to_string(), slot)),
+        }
+    }
+
+    fn swap_remove(&mut self, key: &str) {
+        if let Some(i) = self.find(key) {
+            self.0.swap_remove(i);
+        }
+    }
+
+    /// `map.entry(key).or_insert(default)`, parsed.
+    fn entry(&mut self, key: &str, default: Value) -> Result<&mut Value, Declined> {
+        if self.find(key).is_none() {
+            self.0.push((key.to_string(), Slot::Parsed(default)));
+        }
+        self.parsed(key)?.ok_or(Declined)
+    }
+
+    /// Streams the member through `edit` if it is an array still in text.
+    fn stream(&mut self, key: &str, edit: Edit<'a>) {
+        if let Some(i) = self.find(key) {
+            if let Slot::Text(text) = self.0[i].1 {
+                if json_text::is_array(text) {
+                    self.0[i].1 = Slot::Stream {
+                        text,
+                        edit,
+                        extra: None,
+                    };
+                }
+            }
+        }
+    }
+
+    /// Appends a buffer view (or makes `bufferViews` hold only it, if it is not an array) and
+    /// returns its index.
+    fn push_view(&mut self, view: Value) -> Result<usize, Declined> {
+        self.stream("bufferViews", Edit::Copy);
+        let Some(i) = self.find("bufferViews") else {
+            self.0
+                .push(("bufferViews".into(), Slot::Parsed(json!([view]))));
+            return Ok(0);
+        };
+        match &mut self.0[i].1 {
+            Slot::Stream { text, extra, .. } if extra.is_none() => {
+                let n = json_text::array_len(text).ok_or(Declined)?;
+                *extra = Some(view);
+                Ok(n)
+            }
+            Slot::Parsed(Value::Array(a)) => {
+                a.push(view);
+                Ok(a.len() - 1)
+            }
+            Slot::Stream { .. } => Err(Declined),
+            slot => {
+                *slot = Slot::Parsed(json!([view]));
+                Ok(0)
+            }
+        }
+    }
+}
+
+/// The document to serialize: the root, and the annotation to put in the place held for it.
+struct Document<'r, 'a> {
+    root: &'r Root<'a>,
+    ours: Option<&'r Value>,
+}
+
+impl Serialize for Document<'_, '_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(self.root.0.len()))?;
+        for (k, slot) in &self.root.0 {
+            match (k.as_str(), slot, self.ours) {
+                ("extensions", Slot::Parsed(Value::Object(e)), Some(ours)) => {
+                    map.serialize_entry(k, &WithOurs(e, ours))?
+                }
+                (_, Slot::Text(t), _) => map.serialize_entry(k, &Transcode(t.get()))?,
+                (_, Slot::Parsed(v), _) => map.serialize_entry(k, v)?,
+                (_, Slot::Stream { text, edit, extra }, _) => {
+                    let stream = Stream {
+                        text,
+                        edit: *edit,
+                        extra: extra.as_ref(),
+                    };
+                    map.serialize_entry(k, &stream)?
+                }
+            }
+        }
+        map.end()
+    }
+}
+
+/// The root's `extensions`, our member serialized from the annotation.
+struct WithOurs<'r>(&'r serde_json::Map<String, Value>, &'r Value);
+
+impl Serialize for WithOurs<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in self.0 {
+            map.serialize_entry(k, if k == NAME { self.1 } else { v })?;
+        }
+        map.end()
+    }
+}
+
+struct Stream<'r> {
+    text: &'r RawValue,
+    edit: Edit<'r>,
+    extra: Option<&'r Value>,
+}
+
+impl Serialize for Stream<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut de = serde_json::Deserializer::from_str(self.text.get());
+        de.deserialize_seq(StreamVisitor { s, stream: self })
+            .map_err(ser::Error::custom)
+    }
+}
+
+struct StreamVisitor<'r, S> {
+    s: S,
+    stream: &'r Stream<'r>,
+}
+
+impl<'de, S: Serializer> Visitor<'de> for StreamVisitor<'_, S> {
+    type Value = S::Ok;
+
+    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        f.write_str("a JSON array")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<S::Ok, A::Error> {
+        let mut out = self.s.serialize_seq(None).map_err(de::Error::custom)?;
+        match self.stream.edit {
+            Edit::Copy => while seq.next_element_seed(Element(&mut out))?.is_some() {},
+            Edit::Views(base) => {
+                while let Some(mut v) = seq.next_element::<Value>()? {
+                    out::rebase_view(&mut v, base);
+                    out.serialize_element(&v).map_err(de::Error::custom)?;
+                }
+            }
+            Edit::Nodes(ours) => {
+                let mut i = 0;
+                while let Some(mut v) = seq.next_element::<Value>()? {
+                    out::strip_ours(&mut v);
+                    if let Some(o) = ours.get(&i) {
+                        out::add_ours(&mut v, (*o).clone());
+                    }
+                    out.serialize_element(&v).map_err(de::Error::custom)?;
+                    i += 1;
+                }
+            }
+        }
+        if let Some(e) = self.stream.extra {
+            out.serialize_element(e).map_err(de::Error::custom)?;
+        }
+        out.end().map_err(de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    use serde_json::{json, Value};
+
+    use super::super::extension::{self, Annotation};
+    use super::super::gltf_out::{self, OutFormat};
+    use crate::scene::{Format, GltfSource, Scene};
+
+    const FORMATS: [OutFormat; 2] = [OutFormat::Glb, OutFormat::Gltf];
+
+    /// Both paths' bytes for `ann` written next to `out`; `None` from the streamed one if it
+    /// declined.
+    fn both(scene: &Scene, ann: &Annotation, format: OutFormat) -> (Option<Vec<u8>>, Vec<u8>) {
+        let out = Path::new("/nonexistent/out/level.glb");
+        let dir = out.parent().unwrap();
+        let whole = gltf_out::write_whole(scene, ann, out, dir, format).unwrap();
+        let mut mine = Annotation {
+            root: ann.root.clone(),
+            nodes: ann.nodes.clone(),
+            blob: ann.blob.clone(),
+        };
+        let src = scene.gltf.as_ref().unwrap();
+        (super::write(src, &mut mine, format, dir), whole)
+    }
+
+    fn with_pvs(mut ann: Annotation) -> Annotation {
+        ann.blob = Some(vec![7, 1, 2, 3, 4]);
+        if let Some(o) = ann.root.as_object_mut() {
+            o.insert(
+                "visibility".into(),
+                json!({"method": "full", "encoding": "bits"}),
+            );
+        }
+        ann
+    }
+
+    fn assert_same(scene: &Scene, ann: &Annotation, what: &str) {
+        for format in FORMATS {
+            let (mine, whole) = both(scene, ann, format);
+            let mine = mine.unwrap_or_else(|| panic!("{what}: declined"));
+            assert!(
+                mine == whole,
+                "{what} ({format:?}): the streamed bytes differ"
+            );
+        }
+    }
+
+    #[test]
+    fn same_bytes_as_the_whole_document_on_every_sample() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut files: Vec<PathBuf> = Vec::new();
+        for dir in ["samples", "samples/broken", "tests/fixtures/third_party"] {
+            for e in std::fs::read_dir(root.join(dir)).unwrap() {
+                let p = e.unwrap().path();
+                if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
+                    files.push(p);
+                }
+            }
+        }
+        files.sort();
+        assert!(files.len() > 20);
+        for f in &files {
+            let Ok(mut t) = crate::pipeline::load_tagged(f, &Default::default()) else {
+                continue;
+            };
+            let cells = crate::pipeline::build_cells(&mut t);
+            let portals = crate::pipeline::build_portals(&mut t, &cells);
+            let scene = &t.scene;
+            let ann = extension::build(scene, &t.tagging, &cells, &portals, &|n| {
+                gltf_out::node_index(scene, n)
+            });
+            let what = f.display().to_string();
+            assert_same(scene, &with_pvs(ann_clone(&ann)), &what);
+            assert_same(scene, &ann, &what);
+        }
+    }
+
+    fn ann_clone(a: &Annotation) -> Annotation {
+        Annotation {
+            root: a.root.clone(),
+            nodes: a.nodes.clone(),
+            blob: a.blob.clone(),
+        }
+    }
+
+    fn scene_of(doc: &str, buffers: Vec<Vec<u8>>) -> Scene {
+        let mut scene = Scene::new(PathBuf::from("/nonexistent/in/level.gltf"), Format::Gltf);
+        scene.gltf = Some(GltfSource {
+            json: doc.to_string(),
+            buffers,
+            base_dir: PathBuf::from("/nonexistent/in"),
+        });
+        scene
+    }
+
+    fn annotation(nodes: Vec<(usize, Value)>) -> Annotation {
+        Annotation {
+            root: json!({"version": 1, "cells": [{"room": "a", "planes": [[0.5, 0, 0, 1e-9]]}]}),
+            nodes,
+            blob: None,
+        }
+    }
+
+    #[test]
+    fn same_bytes_on_odd_documents() {
+        let docs = [
+            // Annotated before: our members replaced, neighbours kept in their order.
+            r#"{"asset": {"version": "2.0"}, "extensionsUsed": ["X", "PORTCULLIS_portals"],
+                "extensions": {"PORTCULLIS_portals": {"old": true}, "X": {}},
+                "nodes": [{"name": "a", "extensions": {"PORTCULLIS_portals": {"cell": 3}}, "mesh": 0, "extras": {}},
+                          {"extensions": {"A": 1, "PORTCULLIS_portals": {}, "B": 2}, "name": "b"},
+                          {"name": "c"}, 5, {"extensions": "no"}],
+                "bufferViews": [{"buffer": 1, "byteLength": 4}, {"buffer": 0, "byteOffset": 0, "byteLength": 4}, {"byteLength": 1, "byteOffset": 3}, [1]],
+                "buffers": [{"byteLength": 4, "name": "first", "extras": {"k": [1, 2.5]}}, {"uri": "b.bin", "byteLength": 4}],
+                "images": [{"uri": "tex/a b.png"}, {"uri": "data:image/png;base64,AAAA"}, {"bufferView": 0}, 3]}"#,
+            // Nothing to extend or point into.
+            r#"{"asset": {"version": "2.0"}}"#,
+            r#"{"extensions": "not an object", "extensionsUsed": {}, "bufferViews": {}, "buffers": 3, "nodes": {}}"#,
+            r#"{"nodes": [], "bufferViews": [], "buffers": [], "images": []}"#,
+            // A repeated key inside an element that is parsed (nodes), and at the root.
+            r#"{"nodes": [{"name": "a", "name": "b"}], "asset": {}, "asset": {"version": "2.0"}}"#,
+            r#"{"scene": 0, "scenes": [{"nodes": [0]}], "accessors": [{"min": [1e-300, -0.0, 12345678901234567890], "max": [1.0, 2, 3]}], "materials": [{"name": "\u00e9\t\"q\""}]}"#,
+        ];
+        let nodes = vec![
+            (1, json!({"cell": 0})),
+            (0, json!({"cells": [1, 2]})),
+            (9, json!({"cell": 4})),
+            (3, json!({"cell": 5})),
+            (1, json!({"cell": 6})),
+        ];
+        for (i, doc) in docs.iter().enumerate() {
+            for buffers in [
+                vec![vec![1u8, 2, 3, 4, 5], vec![9; 4]],
+                vec![vec![1]],
+                vec![],
+            ] {
+                let scene = scene_of(doc, buffers.clone());
+                let what = format!("document {i}, {} buffer(s)", buffers.len());
+                let ann = annotation(nodes.clone());
+                assert_same(&scene, &ann, &what);
+                assert_same(&scene, &with_pvs(ann), &what);
+            }
+        }
+    }
+
+    #[test]
+    fn a_repeated_key_in_a_copied_member_takes_the_whole_document_path() {
+        let scene = scene_of(
+            r#"{"accessors": [{"count": 1, "count": 2}], "nodes": []}"#,
+            vec![],
+        );
+        let ann = annotation(vec![]);
+        let (mine, whole) = both(&scene, &ann, OutFormat::Glb);
+        assert!(mine.is_none());
+        let written = gltf_out::write(&scene, ann, Path::new("out.glb"), OutFormat::Glb).unwrap();
+        assert_eq!(written, whole);
+    }
+}
