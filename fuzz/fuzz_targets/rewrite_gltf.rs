@@ -29,7 +29,6 @@ fuzz_target!(|data: &[u8]| {
     let cells = portcullis::pipeline::build_cells(&mut tagged);
     let portals = portcullis::pipeline::build_portals(&mut tagged, &cells);
     for (out, f) in [("fuzz.glb", OutFormat::Glb), ("fuzz.gltf", OutFormat::Gltf)] {
-        let _ =
-            portcullis::pipeline::write_annotated(&tagged, &cells, &portals, Path::new(out), f);
+        let _ = portcullis::pipeline::write_annotated(&tagged, &cells, &portals, Path::new(out), f);
     }
 });
