@@ -8,6 +8,8 @@ use std::fmt::Write;
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
+
+mod stages;
 use portcullis::import::{import_bytes, ImportOptions};
 use portcullis::scene::Format;
 
@@ -53,13 +55,9 @@ fuzz_target!(|data: &[u8]| {
     ) else {
         return;
     };
-    let config = portcullis::config::Config::default();
-    let Ok(rules) = portcullis::config::rule_set(&config, None) else {
+    let Some((mut tagged, cells, portals)) = stages::run(imported) else {
         return;
     };
-    let mut tagged = portcullis::pipeline::tag(imported, config, rules);
-    let cells = portcullis::pipeline::build_cells(&mut tagged);
-    let portals = portcullis::pipeline::build_portals(&mut tagged, &cells);
     portcullis::pipeline::check_level(&mut tagged, &cells, &portals, true);
     let _ = portcullis::pipeline::write_annotated(
         &tagged,

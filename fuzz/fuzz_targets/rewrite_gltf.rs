@@ -6,6 +6,8 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
+
+mod stages;
 use portcullis::export::gltf_out::OutFormat;
 use portcullis::import::{import_bytes, sniff_format, ImportOptions};
 use portcullis::scene::Format;
@@ -21,13 +23,9 @@ fuzz_target!(|data: &[u8]| {
     ) else {
         return;
     };
-    let config = portcullis::config::Config::default();
-    let Ok(rules) = portcullis::config::rule_set(&config, None) else {
+    let Some((tagged, cells, portals)) = stages::run(imported) else {
         return;
     };
-    let mut tagged = portcullis::pipeline::tag(imported, config, rules);
-    let cells = portcullis::pipeline::build_cells(&mut tagged);
-    let portals = portcullis::pipeline::build_portals(&mut tagged, &cells);
     for (out, f) in [("fuzz.glb", OutFormat::Glb), ("fuzz.gltf", OutFormat::Gltf)] {
         let _ = portcullis::pipeline::write_annotated(&tagged, &cells, &portals, Path::new(out), f);
     }
