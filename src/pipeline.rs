@@ -126,6 +126,45 @@ pub fn write_annotated_with_pvs(
     out: &Path,
     format: crate::export::gltf_out::OutFormat,
 ) -> Result<Vec<u8>, Diagnostic> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    write_annotated_to(tagged, cells, portals, pvs, out, format, &mut bytes)?;
+    Ok(bytes.into_inner())
+}
+
+/// Writes the annotated level to the file `out`, atomically, as it is made (a big level's
+/// output is never held whole in memory).
+pub fn write_annotated_file(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
+    out: &Path,
+    format: crate::export::gltf_out::OutFormat,
+) -> Result<(), Diagnostic> {
+    crate::export::atomic::write_with(
+        out,
+        |f| write_annotated_to(tagged, cells, portals, pvs, out, format, f),
+        |e| {
+            Diagnostic::new(
+                crate::diag::Code::OUTPUT_FAILED,
+                format!("cannot write `{}`: {e}", out.display()),
+                crate::diag::Location::file(out),
+            )
+            .hint("check that the folder exists and is writable; nothing was written")
+        },
+    )
+}
+
+/// [`write_annotated_with_pvs`] into `sink`.
+fn write_annotated_to(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
+    out: &Path,
+    format: crate::export::gltf_out::OutFormat,
+    sink: &mut dyn crate::export::sink::Sink,
+) -> Result<(), Diagnostic> {
     use crate::export::{extension, gltf_out};
     let scene = &tagged.scene;
     let mut ann = extension::build(scene, &tagged.tagging, cells, portals, &|n| {
@@ -141,7 +180,7 @@ pub fn write_annotated_with_pvs(
             ann.root["inputHash"] = serde_json::json!(h);
         }
     }
-    gltf_out::write(scene, ann, out, format)
+    gltf_out::write_to(scene, ann, out, format, sink)
 }
 
 /// The input hash of the glTF written for a non-glTF level: written without annotation, read

@@ -23,6 +23,10 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
 
+    /// PVS methods to time (comma-separated: flood, fast, full, sampled; `none` for none).
+    #[arg(long, value_delimiter = ',', default_value = "flood,fast,full,sampled")]
+    pub methods: Vec<String>,
+
     /// Folder for the generated levels (default: a temporary folder, removed afterwards).
     #[arg(long, value_name = "DIR")]
     pub keep: Option<PathBuf>,
@@ -106,7 +110,25 @@ fn generate(dir: &Path, rooms: usize, seed: u64) -> Result<(), String> {
     std::fs::write(&path, gltf_out::write_plain(&scene, OutFormat::Glb)).map_err(|e| e.to_string())
 }
 
-fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
+/// The methods `--methods` names, in the order given.
+fn methods(names: &[String]) -> Result<Vec<portcullis::vis::Method>, String> {
+    names
+        .iter()
+        .filter(|n| n.as_str() != "none")
+        .map(|n| {
+            portcullis::vis::Method::parse(n).ok_or_else(|| {
+                format!("--methods: `{n}` is not flood, fast, full, sampled or none")
+            })
+        })
+        .collect()
+}
+
+fn one(
+    rooms: usize,
+    seed: u64,
+    dir: &Path,
+    methods: &[portcullis::vis::Method],
+) -> Result<Row, String> {
     // The parent generated the file, so this process's peak memory is the pipeline's alone.
     let input = level_path(dir, rooms, seed);
     let file_bytes = std::fs::metadata(&input).map_err(|e| e.to_string())?.len() as usize;
@@ -144,7 +166,7 @@ fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
         &portals,
         cells.tolerance.distance,
     );
-    for method in portcullis::vis::Method::ALL {
+    for &method in methods {
         let opts = portcullis::vis::VisOptions {
             method,
             ..Default::default()
@@ -156,9 +178,15 @@ fn one(rooms: usize, seed: u64, dir: &Path) -> Result<Row, String> {
     drop(graph);
     let out = dir.join(format!("annotated_{rooms}.glb"));
     let (written, t) = timed(|| {
-        portcullis::pipeline::write_annotated(&tagged, &cells, &portals, &out, OutFormat::Glb)
-            .map_err(|d| d.to_string())
-            .and_then(|b| portcullis::export::atomic::write(&out, &b).map_err(|e| e.to_string()))
+        portcullis::pipeline::write_annotated_file(
+            &tagged,
+            &cells,
+            &portals,
+            None,
+            &out,
+            OutFormat::Glb,
+        )
+        .map_err(|d| d.to_string())
     });
     written?;
     row.export = t;
@@ -216,8 +244,15 @@ pub fn run(a: &BenchArgs) -> i32 {
 }
 
 fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
+    let methods = match methods(&a.methods) {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return 2;
+        }
+    };
     if let Some(n) = a.one {
-        return match one(n, a.seed, dir) {
+        return match one(n, a.seed, dir, &methods) {
             Ok(row) => {
                 println!("{}", serde_json::to_string(&row).unwrap_or_default());
                 0
@@ -246,6 +281,8 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
                 &n.to_string(),
                 "--seed",
                 &a.seed.to_string(),
+                "--methods",
+                &a.methods.join(","),
                 "--keep",
             ])
             .arg(dir)
@@ -275,6 +312,9 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         a.seed
     );
     print!("{}", table(&rows));
+    if methods.is_empty() {
+        return 0;
+    }
     println!("\nVisibility (PVS) per method: time, and the visible (cell, cell) pairs it finds; sampled is a lower bound, every other method must contain it.\n");
     println!("| rooms | cells | flood | fast | full | sampled | full over sampled |\n|---|---|---|---|---|---|---|");
     for r in &rows {

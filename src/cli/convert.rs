@@ -196,18 +196,24 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     });
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
-    let bytes = if usda {
-        portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals, stored)
-            .into_bytes()
+    let written = if usda || to_stdout {
+        let bytes = if usda {
+            portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals, stored)
+                .into_bytes()
+        } else {
+            pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?
+        };
+        if to_stdout {
+            use std::io::Write;
+            let mut so = std::io::stdout().lock();
+            so.write_all(&bytes).and_then(|_| so.flush())
+        } else {
+            portcullis::export::atomic::write(&out, &bytes)
+        }
     } else {
-        pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?
-    };
-    let written = if to_stdout {
-        use std::io::Write;
-        let mut so = std::io::stdout().lock();
-        so.write_all(&bytes).and_then(|_| so.flush())
-    } else {
-        portcullis::export::atomic::write(&out, &bytes)
+        // Straight into the file: a big level's output is not held in memory first.
+        pipeline::write_annotated_file(&t, &cells, &portals, stored, &out, format)?;
+        Ok(())
     };
     written.map_err(|e| {
         Diagnostic::new(

@@ -7,6 +7,17 @@ use std::path::Path;
 
 /// Writes `bytes` to `path` atomically.
 pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_with(path, |f| f.write_all(bytes), |e| e)
+}
+
+/// Writes `path` atomically with `fill`, which gets the temporary file to write (and seek in):
+/// a big output goes to disk as it is made instead of being held whole in memory first. Any
+/// error of `fill`, or of the file (`io` turns those into `E`), leaves no file behind.
+pub fn write_with<E>(
+    path: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> Result<(), E>,
+    io: impl Fn(std::io::Error) -> E,
+) -> Result<(), E> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -14,11 +25,11 @@ pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
+        let mut f = std::fs::File::create(&tmp).map_err(&io)?;
+        fill(&mut f)?;
+        f.sync_all().map_err(&io)?;
         drop(f);
-        std::fs::rename(&tmp, path)
+        std::fs::rename(&tmp, path).map_err(&io)
     })();
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -48,5 +59,17 @@ mod tests {
             .collect();
         assert_eq!(left.len(), 2, "{left:?}");
         assert_eq!(std::fs::read(&ok).unwrap(), b"abc");
+        // A fill that fails half-way leaves nothing either, and the old file as it was.
+        let failed: Result<(), String> = write_with(
+            &ok,
+            |f| {
+                f.write_all(b"half").map_err(|e| e.to_string())?;
+                Err("the level could not be written".into())
+            },
+            |e| e.to_string(),
+        );
+        assert!(failed.is_err());
+        assert_eq!(std::fs::read(&ok).unwrap(), b"abc");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 }

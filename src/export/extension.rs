@@ -3,6 +3,7 @@
 //! cell, no empty arrays). Documented in schemas/PORTCULLIS_portals.md and checked against
 //! schemas/PORTCULLIS_portals.schema.json.
 
+use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::{json, Map, Value};
 
 use crate::cells::CellSet;
@@ -19,10 +20,6 @@ pub const VERSION: u64 = 1;
 fn num(x: f64) -> Value {
     let r = (x * 1e9).round() / 1e9;
     Value::from(if r == 0.0 { 0.0 } else { r })
-}
-
-fn vec3(v: glam::DVec3) -> Value {
-    Value::Array(vec![num(v.x), num(v.y), num(v.z)])
 }
 
 /// FNV-1a over the level's geometry (every node's world transform and mesh positions, in
@@ -64,15 +61,39 @@ pub fn input_hash(scene: &Scene, tagging: &Tagging) -> String {
 }
 
 /// The root extension object and, per glTF node index, the node extension object.
-pub struct Annotation {
+pub struct Annotation<'a> {
+    /// The root object's members in order. `cells` and `portals`, when present, hold `null`
+    /// here: they are serialized straight from the level ([`Annotation::json`]), since as a
+    /// JSON tree they took ten times the room of their text on a big level.
     pub root: Value,
     pub nodes: Vec<(usize, Value)>,
     /// Bytes for a buffer view the root refers to (`visibility.bufferView`), appended by the
     /// writer, which sets the index.
     pub blob: Option<Vec<u8>>,
+    pub(crate) lazy: Lazy<'a>,
 }
 
-impl Annotation {
+/// What the `cells` and `portals` members are serialized from.
+#[derive(Clone, Default)]
+pub(crate) struct Lazy<'a> {
+    level: Option<(&'a CellSet, &'a Tagging, &'a PortalSet)>,
+    /// Per cell, the glTF nodes it renders.
+    cell_nodes: Vec<Vec<usize>>,
+    /// Per portal, the glTF node it was authored as.
+    portal_nodes: Vec<Option<usize>>,
+}
+
+impl<'a> Annotation<'a> {
+    /// An annotation of these members only (nothing serialized from a level).
+    pub fn of(root: Value, nodes: Vec<(usize, Value)>, blob: Option<Vec<u8>>) -> Annotation<'a> {
+        Annotation {
+            root,
+            nodes,
+            blob,
+            lazy: Lazy::default(),
+        }
+    }
+
     /// Stores the PVS (left out for a level of one cell).
     pub fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
         if let Some(e) = super::visibility::encode(pvs, method) {
@@ -82,16 +103,222 @@ impl Annotation {
             self.blob = e.blob;
         }
     }
+
+    /// The root extension object, to serialize.
+    pub fn json(&self) -> Json<'_> {
+        Json {
+            root: &self.root,
+            lazy: &self.lazy,
+        }
+    }
+
+    /// The root extension object as a JSON tree.
+    pub fn to_value(&self) -> Value {
+        serde_json::to_value(self.json()).unwrap_or(Value::Null)
+    }
+}
+
+/// The root extension object: `root` with its `cells` and `portals` serialized from the level.
+#[derive(Clone, Copy)]
+pub struct Json<'r> {
+    pub(crate) root: &'r Value,
+    pub(crate) lazy: &'r Lazy<'r>,
+}
+
+impl Serialize for Json<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let (Value::Object(members), Some((cells, tagging, portals))) =
+            (self.root, self.lazy.level)
+        else {
+            return self.root.serialize(s);
+        };
+        let mut map = s.serialize_map(Some(members.len()))?;
+        for (k, v) in members {
+            match (k.as_str(), v) {
+                ("cells", Value::Null) => map.serialize_entry(
+                    k,
+                    &Cells {
+                        cells,
+                        tagging,
+                        nodes: &self.lazy.cell_nodes,
+                    },
+                )?,
+                ("portals", Value::Null) => map.serialize_entry(
+                    k,
+                    &Portals {
+                        portals,
+                        nodes: &self.lazy.portal_nodes,
+                    },
+                )?,
+                _ => map.serialize_entry(k, v)?,
+            }
+        }
+        map.end()
+    }
+}
+
+/// A number as [`num`] writes it.
+struct Num(f64);
+
+impl Serialize for Num {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        num(self.0).serialize(s)
+    }
+}
+
+struct Cells<'a> {
+    cells: &'a CellSet,
+    tagging: &'a Tagging,
+    nodes: &'a [Vec<usize>],
+}
+
+impl Serialize for Cells<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.cells.cells.iter().zip(self.nodes).map(|(c, nodes)| {
+            let planes = c.poly.faces.iter().map(|f| {
+                let (n, d) = (f.plane.normal, f.plane.d);
+                [Num(n.x), Num(n.y), Num(n.z), Num(d)]
+            });
+            let v3 = |v: glam::DVec3| [Num(v.x), Num(v.y), Num(v.z)];
+            CellJson {
+                room: &self.tagging.rooms[c.room].name,
+                planes: Seq::new(planes),
+                min: v3(c.bounds.min),
+                max: v3(c.bounds.max),
+                nodes,
+            }
+        }))
+    }
+}
+
+struct CellJson<'a, P> {
+    room: &'a str,
+    planes: Seq<P>,
+    min: [Num; 3],
+    max: [Num; 3],
+    nodes: &'a [usize],
+}
+
+impl<P: Iterator<Item = [Num; 4]>> Serialize for CellJson<'_, P> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut o = s.serialize_map(None)?;
+        o.serialize_entry("room", self.room)?;
+        o.serialize_entry("planes", &self.planes)?;
+        o.serialize_entry(
+            "bounds",
+            &Bounds {
+                min: &self.min,
+                max: &self.max,
+            },
+        )?;
+        if !self.nodes.is_empty() {
+            o.serialize_entry("nodes", self.nodes)?;
+        }
+        o.end()
+    }
+}
+
+struct Bounds<'a> {
+    min: &'a [Num; 3],
+    max: &'a [Num; 3],
+}
+
+impl Serialize for Bounds<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut o = s.serialize_map(Some(2))?;
+        o.serialize_entry("min", self.min)?;
+        o.serialize_entry("max", self.max)?;
+        o.end()
+    }
+}
+
+struct Portals<'a> {
+    portals: &'a PortalSet,
+    nodes: &'a [Option<usize>],
+}
+
+impl Serialize for Portals<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(
+            self.portals
+                .portals
+                .iter()
+                .zip(self.nodes)
+                .map(|(p, node)| PortalJson(p, *node)),
+        )
+    }
+}
+
+struct PortalJson<'a>(&'a crate::portals::Portal, Option<usize>);
+
+impl Serialize for PortalJson<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let p = self.0;
+        let mut o = s.serialize_map(None)?;
+        o.serialize_entry(
+            "polygon",
+            &Seq::new(p.polygon.iter().map(|v| [Num(v.x), Num(v.y), Num(v.z)])),
+        )?;
+        match p.to {
+            Some(t) => o.serialize_entry("cells", &[p.from, t])?,
+            None => o.serialize_entry("cells", &[p.from])?,
+        }
+        match p.kind {
+            PortalKind::Plain => {}
+            PortalKind::Mirror => o.serialize_entry("kind", "mirror")?,
+            PortalKind::Teleporter => o.serialize_entry("kind", "teleporter")?,
+        }
+        if p.one_way {
+            o.serialize_entry("oneWay", &true)?;
+        }
+        if p.closed {
+            o.serialize_entry("closed", &true)?;
+        }
+        if p.internal {
+            o.serialize_entry("internal", &true)?;
+        }
+        if let Some(t) = p.transform {
+            o.serialize_entry(
+                "transform",
+                &Seq::new(t.to_cols_array().into_iter().map(Num)),
+            )?;
+        }
+        if let Some(q) = p.partner {
+            o.serialize_entry("partner", &q)?;
+        }
+        if let Some(n) = self.1 {
+            o.serialize_entry("node", &n)?;
+        }
+        o.end()
+    }
+}
+
+/// An iterator serialized as a sequence (once: serializing takes it).
+struct Seq<I>(std::cell::Cell<Option<I>>);
+
+impl<I> Seq<I> {
+    fn new(i: I) -> Seq<I> {
+        Seq(std::cell::Cell::new(Some(i)))
+    }
+}
+
+impl<I: Iterator<Item = T>, T: Serialize> Serialize for Seq<I> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.0.take() {
+            Some(i) => s.collect_seq(i),
+            None => s.collect_seq(std::iter::empty::<T>()),
+        }
+    }
 }
 
 /// Builds the extension. `node_index` maps a scene node to its index in the written glTF.
-pub fn build(
+pub fn build<'a>(
     scene: &Scene,
-    tagging: &Tagging,
-    cells: &CellSet,
-    portals: &PortalSet,
+    tagging: &'a Tagging,
+    cells: &'a CellSet,
+    portals: &'a PortalSet,
     node_index: &dyn Fn(NodeId) -> Option<usize>,
-) -> Annotation {
+) -> Annotation<'a> {
     // The hash reads every position of the level byte by byte, as long as building the rest
     // takes on a big level: it runs alongside (or here, if no thread can be had).
     std::thread::scope(|s| {
@@ -109,12 +336,12 @@ pub fn build(
 }
 
 /// [`build`] but the input hash, whose place it holds.
-fn build_with_hash(
-    cells: &CellSet,
-    tagging: &Tagging,
-    portals: &PortalSet,
+fn build_with_hash<'a>(
+    cells: &'a CellSet,
+    tagging: &'a Tagging,
+    portals: &'a PortalSet,
     node_index: &dyn Fn(NodeId) -> Option<usize>,
-) -> Annotation {
+) -> Annotation<'a> {
     let mut root = Map::new();
     root.insert("version".into(), json!(VERSION));
     root.insert(
@@ -133,97 +360,30 @@ fn build_with_hash(
         root.insert("rooms".into(), Value::Array(rooms));
     }
     let mut node_cells: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    let cells_json: Vec<Value> = cells
+    let cell_nodes: Vec<Vec<usize>> = cells
         .cells
         .iter()
         .enumerate()
         .map(|(ci, c)| {
-            let mut o = Map::new();
-            o.insert("room".into(), json!(tagging.rooms[c.room].name));
-            let planes: Vec<Value> = c
-                .poly
-                .faces
-                .iter()
-                .map(|f| {
-                    Value::Array(vec![
-                        num(f.plane.normal.x),
-                        num(f.plane.normal.y),
-                        num(f.plane.normal.z),
-                        num(f.plane.d),
-                    ])
-                })
-                .collect();
-            o.insert("planes".into(), Value::Array(planes));
-            o.insert(
-                "bounds".into(),
-                Value::Object(Map::from_iter([
-                    ("min".into(), vec3(c.bounds.min)),
-                    ("max".into(), vec3(c.bounds.max)),
-                ])),
-            );
             let nodes: Vec<usize> = c.nodes.iter().filter_map(|&n| node_index(n)).collect();
             for &n in &nodes {
                 node_cells.entry(n).or_default().push(ci);
             }
-            if !nodes.is_empty() {
-                o.insert("nodes".into(), Value::from(nodes));
-            }
-            Value::Object(o)
+            nodes
         })
         .collect();
-    if !cells_json.is_empty() {
-        root.insert("cells".into(), Value::Array(cells_json));
+    // Placeholders: serialized from the level (see `Annotation::root`).
+    if !cells.cells.is_empty() {
+        root.insert("cells".into(), Value::Null);
     }
-    let portals_json: Vec<Value> = portals
+    if !portals.portals.is_empty() {
+        root.insert("portals".into(), Value::Null);
+    }
+    let portal_nodes = portals
         .portals
         .iter()
-        .map(|p| {
-            let mut o = Map::new();
-            o.insert(
-                "polygon".into(),
-                Value::Array(p.polygon.iter().map(|v| vec3(*v)).collect()),
-            );
-            let mut cells = vec![json!(p.from)];
-            if let Some(t) = p.to {
-                cells.push(json!(t));
-            }
-            o.insert("cells".into(), Value::Array(cells));
-            match p.kind {
-                PortalKind::Plain => {}
-                PortalKind::Mirror => {
-                    o.insert("kind".into(), json!("mirror"));
-                }
-                PortalKind::Teleporter => {
-                    o.insert("kind".into(), json!("teleporter"));
-                }
-            }
-            if p.one_way {
-                o.insert("oneWay".into(), json!(true));
-            }
-            if p.closed {
-                o.insert("closed".into(), json!(true));
-            }
-            if p.internal {
-                o.insert("internal".into(), json!(true));
-            }
-            if let Some(t) = p.transform {
-                o.insert(
-                    "transform".into(),
-                    Value::Array(t.to_cols_array().iter().map(|x| num(*x)).collect()),
-                );
-            }
-            if let Some(q) = p.partner {
-                o.insert("partner".into(), json!(q));
-            }
-            if let Some(n) = p.authored.and_then(node_index) {
-                o.insert("node".into(), json!(n));
-            }
-            Value::Object(o)
-        })
+        .map(|p| p.authored.and_then(node_index))
         .collect();
-    if !portals_json.is_empty() {
-        root.insert("portals".into(), Value::Array(portals_json));
-    }
     let nodes = node_cells
         .into_iter()
         .map(|(n, cs)| {
@@ -239,5 +399,10 @@ fn build_with_hash(
         root: Value::Object(root),
         nodes,
         blob: None,
+        lazy: Lazy {
+            level: Some((cells, tagging, portals)),
+            cell_nodes,
+            portal_nodes,
+        },
     }
 }

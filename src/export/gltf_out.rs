@@ -13,6 +13,8 @@ use base64::Engine;
 use serde_json::{json, Map, Value};
 
 use super::extension::{Annotation, NAME};
+use super::rewrite::Failed;
+use super::sink::Sink;
 use crate::diag::{Code, Diagnostic, Location};
 use crate::scene::{NodeId, Scene};
 
@@ -129,22 +131,46 @@ fn rebase_uri(uri: &str, in_dir: &Path, out_dir: &Path) -> String {
 /// Writes the annotated level; returns the bytes of the one output file.
 pub fn write(
     scene: &Scene,
-    mut ann: Annotation,
+    ann: Annotation,
     out: &Path,
     format: OutFormat,
 ) -> Result<Vec<u8>, Diagnostic> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    write_to(scene, ann, out, format, &mut bytes)?;
+    Ok(bytes.into_inner())
+}
+
+/// [`write`] into `sink` (the file of an atomic write, so a big output is not held in memory).
+pub fn write_to(
+    scene: &Scene,
+    mut ann: Annotation,
+    out: &Path,
+    format: OutFormat,
+    sink: &mut dyn Sink,
+) -> Result<(), Diagnostic> {
     let out_dir = out
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    let failed = |e: std::io::Error| {
+        Diagnostic::new(
+            Code::OUTPUT_FAILED,
+            format!("cannot write `{}`: {e}", out.display()),
+            Location::file(out),
+        )
+        .hint("check that the folder exists and is writable; nothing was written")
+    };
     if let Some(src) = &scene.gltf {
         // The streamed rewrite gives the same bytes as the whole-document path below, which
         // stays for the documents it declines (a repeated key).
-        if let Some(bytes) = super::rewrite::write(src, &mut ann, format, out_dir) {
-            return Ok(bytes);
+        match super::rewrite::write(src, &mut ann, format, out_dir, sink) {
+            Ok(()) => return Ok(()),
+            Err(Failed::Io(e)) => return Err(failed(e)),
+            Err(Failed::Declined) => sink.reset().map_err(failed)?,
         }
     }
-    write_whole(scene, &ann, out, out_dir, format)
+    let bytes = write_whole(scene, &ann, out, out_dir, format)?;
+    sink.write_all(&bytes).map_err(failed)
 }
 
 /// [`write`] by building the whole output document.
@@ -212,7 +238,7 @@ fn annotate(doc: &mut Value, ann: &Annotation) {
     }
     let ext = obj.entry("extensions").or_insert_with(|| json!({}));
     if let Some(e) = ext.as_object_mut() {
-        e.insert(NAME.into(), ann.root.clone());
+        e.insert(NAME.into(), ann.to_value());
     }
     if let Some(nodes) = obj.get_mut("nodes").and_then(Value::as_array_mut) {
         nodes.iter_mut().for_each(strip_ours);

@@ -9,6 +9,7 @@ pub mod extension;
 pub mod gltf_out;
 pub mod read;
 pub(crate) mod rewrite;
+pub mod sink;
 pub mod svg;
 pub(crate) mod transcode;
 pub mod usd_out;

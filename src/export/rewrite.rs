@@ -10,6 +10,7 @@
 
 use std::collections::HashMap;
 use std::fmt;
+use std::io::{BufWriter, SeekFrom, Write};
 use std::path::Path;
 
 use serde::de::{self, Deserializer as _, SeqAccess, Visitor};
@@ -17,29 +18,44 @@ use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
 use serde_json::value::RawValue;
 use serde_json::{json, Value};
 
-use super::extension::{Annotation, NAME};
+use super::extension::{Annotation, Json, NAME};
 use super::gltf_out::{self as out, OutFormat};
+use super::sink::{Counted, Sink};
 use super::transcode::{Element, Transcode};
 use crate::scene::json_text;
 use crate::scene::GltfSource;
 
-/// Why the streamed rewrite declines a document (the whole-document path then writes it).
-struct Declined;
+/// Why the streamed rewrite did not write a document: it declines it (the whole-document path
+/// then writes it), or the output failed.
+pub(crate) enum Failed {
+    Declined,
+    Io(std::io::Error),
+}
 
-impl<E: std::error::Error> From<E> for Declined {
+impl<E: std::error::Error> From<E> for Failed {
     fn from(_: E) -> Self {
-        Declined
+        Failed::Declined
     }
 }
 
-/// The output file, or `None` when the caller should take the whole-document path.
+/// A serializer's error: the output's, or a document it cannot stream.
+fn written(r: serde_json::Result<()>) -> Result<(), Failed> {
+    r.map_err(|e| match e.io_error_kind() {
+        Some(kind) => Failed::Io(std::io::Error::new(kind, e)),
+        None => Failed::Declined,
+    })
+}
+
+/// Writes the output file into `sink` (from where it stands), or says why it did not; on
+/// `Declined` the caller resets the sink and takes the whole-document path.
 pub(crate) fn write(
     src: &GltfSource,
     ann: &mut Annotation,
     format: OutFormat,
     out_dir: &Path,
-) -> Option<Vec<u8>> {
-    rewrite(src, ann, format, out_dir).ok()
+    sink: &mut dyn Sink,
+) -> Result<(), Failed> {
+    rewrite(src, ann, format, out_dir, sink)
 }
 
 fn rewrite(
@@ -47,13 +63,15 @@ fn rewrite(
     ann: &mut Annotation,
     format: OutFormat,
     out_dir: &Path,
-) -> Result<Vec<u8>, Declined> {
+    sink: &mut dyn Sink,
+) -> Result<(), Failed> {
     let Annotation {
         root: ours,
         nodes,
         blob,
+        lazy,
     } = ann;
-    let members = src.members().ok_or(Declined)?;
+    let members = src.members().ok_or(Failed::Declined)?;
     let mut root = Root(
         members
             .into_iter()
@@ -151,14 +169,14 @@ fn rewrite(
 
     let doc = Document {
         root: &root,
-        ours: annotated.then_some(&*ours),
+        ours: annotated.then_some(Json { root: ours, lazy }),
     };
     match format {
         OutFormat::Gltf => {
-            let mut v = Vec::with_capacity(src.json.len() * 2);
-            serde_json::to_writer_pretty(&mut v, &doc)?;
-            v.push(b'\n');
-            Ok(v)
+            let mut w = BufWriter::with_capacity(1 << 20, sink);
+            written(serde_json::to_writer_pretty(&mut w, &doc))?;
+            w.write_all(b"\n").map_err(Failed::Io)?;
+            w.flush().map_err(Failed::Io)
         }
         OutFormat::Glb => {
             let bin = bin.then_some(Bin {
@@ -167,7 +185,7 @@ fn rewrite(
                 blob: blob.as_deref(),
                 len: bin_len,
             });
-            glb(&doc, src.json.len(), bin)
+            glb(&doc, bin, sink)
         }
     }
 }
@@ -182,20 +200,24 @@ struct Bin<'a> {
     len: usize,
 }
 
-/// The .glb container, as [`out::glb`] makes it.
-fn glb(doc: &Document, json_hint: usize, bin: Option<Bin>) -> Result<Vec<u8>, Declined> {
-    let bin_padded = bin.as_ref().map_or(0, |b| b.len.next_multiple_of(4) + 8);
-    let mut out = Vec::with_capacity(20 + json_hint + json_hint / 4 + bin_padded);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&[0; 8]);
-    out.extend_from_slice(b"JSON");
-    serde_json::to_writer(&mut out, doc)?;
-    while out.len() % 4 != 0 {
-        out.push(b' ');
+/// The .glb container, as [`out::glb`] makes it, written as it is made: the chunk lengths
+/// are patched into the headers once known.
+fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Failed> {
+    let start = sink.stream_position().map_err(Failed::Io)?;
+    let mut w = Counted {
+        inner: BufWriter::with_capacity(1 << 20, &mut *sink),
+        bytes: 0,
+    };
+    let io = Failed::Io;
+    w.write_all(b"glTF").map_err(io)?;
+    w.write_all(&2u32.to_le_bytes()).map_err(io)?;
+    w.write_all(&[0; 8]).map_err(io)?;
+    w.write_all(b"JSON").map_err(io)?;
+    written(serde_json::to_writer(&mut w, doc))?;
+    while w.bytes % 4 != 0 {
+        w.write_all(b" ").map_err(io)?;
     }
-    let json_len = (out.len() - 20) as u32;
-    out[12..16].copy_from_slice(&json_len.to_le_bytes());
+    let json_len = w.bytes - 20;
     if let Some(Bin {
         buffers,
         base,
@@ -203,24 +225,47 @@ fn glb(doc: &Document, json_hint: usize, bin: Option<Bin>) -> Result<Vec<u8>, De
         len,
     }) = bin
     {
-        out.reserve_exact(bin_padded);
-        out.extend_from_slice(&(len.next_multiple_of(4) as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        let start = out.len();
-        for (data, at) in buffers.iter().zip(base) {
-            out.resize(start + at, 0);
-            out.extend_from_slice(data);
+        let padded = len.next_multiple_of(4);
+        w.write_all(&(padded as u32).to_le_bytes()).map_err(io)?;
+        w.write_all(b"BIN\0").map_err(io)?;
+        let chunk = w.bytes;
+        let mut at = 0usize;
+        let zeros = |w: &mut Counted<_>, to: usize, at: &mut usize| {
+            while *at < to {
+                let n = (to - *at).min(ZEROS.len());
+                w.write_all(&ZEROS[..n])?;
+                *at += n;
+            }
+            Ok::<(), std::io::Error>(())
+        };
+        for (data, from) in buffers.iter().zip(base) {
+            zeros(&mut w, *from, &mut at).map_err(io)?;
+            w.write_all(data).map_err(io)?;
+            at += data.len();
         }
         if let Some(blob) = blob {
-            out.resize(start + (out.len() - start).next_multiple_of(4), 0);
-            out.extend_from_slice(blob);
+            zeros(&mut w, at.next_multiple_of(4), &mut at).map_err(io)?;
+            w.write_all(blob).map_err(io)?;
+            at += blob.len();
         }
-        out.resize(start + len.next_multiple_of(4), 0);
+        zeros(&mut w, padded, &mut at).map_err(io)?;
+        debug_assert_eq!(w.bytes - chunk, padded as u64);
     }
-    let total = out.len() as u32;
-    out[8..12].copy_from_slice(&total.to_le_bytes());
-    Ok(out)
+    let total = w.bytes;
+    w.flush().map_err(io)?;
+    drop(w);
+    let mut patch = |offset: u64, value: u64| -> std::io::Result<()> {
+        sink.seek(SeekFrom::Start(start + offset))?;
+        sink.write_all(&(value as u32).to_le_bytes())
+    };
+    patch(8, total).map_err(io)?;
+    patch(12, json_len).map_err(io)?;
+    sink.seek(SeekFrom::Start(start + total)).map_err(io)?;
+    Ok(())
 }
+
+/// Padding between buffers in the BIN chunk.
+const ZEROS: [u8; 4096] = [0; 4096];
 
 /// A root member: its text, parsed, or an array streamed through an edit.
 enum Slot<'a> {
@@ -255,7 +300,7 @@ impl<'a> Root<'a> {
 
     /// The member, parsed first if still text. `None` if absent or streamed (no edit of the
     /// other path reads a streamed member's value).
-    fn parsed(&mut self, key: &str) -> Result<Option<&mut Value>, Declined> {
+    fn parsed(&mut self, key: &str) -> Result<Option<&mut Value>, Failed> {
         let Some(i) = self.find(key) else {
             return Ok(None);
         };
@@ -283,11 +328,11 @@ impl<'a> Root<'a> {
     }
 
     /// `map.entry(key).or_insert(default)`, parsed.
-    fn entry(&mut self, key: &str, default: Value) -> Result<&mut Value, Declined> {
+    fn entry(&mut self, key: &str, default: Value) -> Result<&mut Value, Failed> {
         if self.find(key).is_none() {
             self.0.push((key.to_string(), Slot::Parsed(default)));
         }
-        self.parsed(key)?.ok_or(Declined)
+        self.parsed(key)?.ok_or(Failed::Declined)
     }
 
     /// Streams the member through `edit` if it is an array still in text.
@@ -307,7 +352,7 @@ impl<'a> Root<'a> {
 
     /// Appends a buffer view (or makes `bufferViews` hold only it, if it is not an array) and
     /// returns its index.
-    fn push_view(&mut self, view: Value) -> Result<usize, Declined> {
+    fn push_view(&mut self, view: Value) -> Result<usize, Failed> {
         self.stream("bufferViews", Edit::Copy);
         let Some(i) = self.find("bufferViews") else {
             self.0
@@ -316,7 +361,7 @@ impl<'a> Root<'a> {
         };
         match &mut self.0[i].1 {
             Slot::Stream { text, extra, .. } if extra.is_none() => {
-                let n = json_text::array_len(text).ok_or(Declined)?;
+                let n = json_text::array_len(text).ok_or(Failed::Declined)?;
                 *extra = Some(view);
                 Ok(n)
             }
@@ -324,7 +369,7 @@ impl<'a> Root<'a> {
                 a.push(view);
                 Ok(a.len() - 1)
             }
-            Slot::Stream { .. } => Err(Declined),
+            Slot::Stream { .. } => Err(Failed::Declined),
             slot => {
                 *slot = Slot::Parsed(json!([view]));
                 Ok(0)
@@ -336,7 +381,7 @@ impl<'a> Root<'a> {
 /// The document to serialize: the root, and the annotation to put in the place held for it.
 struct Document<'r, 'a> {
     root: &'r Root<'a>,
-    ours: Option<&'r Value>,
+    ours: Option<Json<'r>>,
 }
 
 impl Serialize for Document<'_, '_> {
@@ -364,13 +409,17 @@ impl Serialize for Document<'_, '_> {
 }
 
 /// The root's `extensions`, our member serialized from the annotation.
-struct WithOurs<'r>(&'r serde_json::Map<String, Value>, &'r Value);
+struct WithOurs<'r>(&'r serde_json::Map<String, Value>, Json<'r>);
 
 impl Serialize for WithOurs<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut map = s.serialize_map(Some(self.0.len()))?;
         for (k, v) in self.0 {
-            map.serialize_entry(k, if k == NAME { self.1 } else { v })?;
+            if k == NAME {
+                map.serialize_entry(k, &self.1)?;
+            } else {
+                map.serialize_entry(k, v)?;
+            }
         }
         map.end()
     }
@@ -449,16 +498,14 @@ mod tests {
         let out = Path::new("/nonexistent/out/level.glb");
         let dir = out.parent().unwrap();
         let whole = gltf_out::write_whole(scene, ann, out, dir, format).unwrap();
-        let mut mine = Annotation {
-            root: ann.root.clone(),
-            nodes: ann.nodes.clone(),
-            blob: ann.blob.clone(),
-        };
+        let mut mine = ann_clone(ann);
         let src = scene.gltf.as_ref().unwrap();
-        (super::write(src, &mut mine, format, dir), whole)
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        let written = super::write(src, &mut mine, format, dir, &mut bytes);
+        (written.ok().map(|()| bytes.into_inner()), whole)
     }
 
-    fn with_pvs(mut ann: Annotation) -> Annotation {
+    fn with_pvs(mut ann: Annotation<'_>) -> Annotation<'_> {
         ann.blob = Some(vec![7, 1, 2, 3, 4]);
         if let Some(o) = ann.root.as_object_mut() {
             o.insert(
@@ -510,11 +557,12 @@ mod tests {
         }
     }
 
-    fn ann_clone(a: &Annotation) -> Annotation {
+    fn ann_clone<'a>(a: &Annotation<'a>) -> Annotation<'a> {
         Annotation {
             root: a.root.clone(),
             nodes: a.nodes.clone(),
             blob: a.blob.clone(),
+            lazy: a.lazy.clone(),
         }
     }
 
@@ -528,12 +576,12 @@ mod tests {
         scene
     }
 
-    fn annotation(nodes: Vec<(usize, Value)>) -> Annotation {
-        Annotation {
-            root: json!({"version": 1, "cells": [{"room": "a", "planes": [[0.5, 0, 0, 1e-9]]}]}),
+    fn annotation(nodes: Vec<(usize, Value)>) -> Annotation<'static> {
+        Annotation::of(
+            json!({"version": 1, "cells": [{"room": "a", "planes": [[0.5, 0, 0, 1e-9]]}]}),
             nodes,
-            blob: None,
-        }
+            None,
+        )
     }
 
     #[test]

@@ -3,6 +3,7 @@
 
 pub mod aabb;
 pub mod boolean2;
+pub mod cover;
 pub mod grid;
 pub mod hull;
 pub mod partition;

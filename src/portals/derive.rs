@@ -12,6 +12,7 @@ use crate::cells::{CellSet, ExactVertices};
 use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection, signed_area};
+use crate::geom::cover::{is_covered, Remainder};
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
@@ -99,6 +100,18 @@ fn slab_shadow(t: &[DVec3; 3], n: DVec3, lo: f64, hi: f64, f: &Frame2) -> Option
     }
     let ring: Vec<DVec2> = poly.iter().map(|p| f.to2(*p)).collect();
     (signed_area(&ring).abs() > 0.0).then_some(ring)
+}
+
+/// Whether the boxes of two rings come within `gap` of each other.
+fn boxes_meet(a: &[DVec2], b: &[DVec2], gap: f64) -> bool {
+    let bounds = |r: &[DVec2]| {
+        r.iter().fold(
+            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+        )
+    };
+    let ((alo, ahi), (blo, bhi)) = (bounds(a), bounds(b));
+    alo.x <= bhi.x + gap && blo.x <= ahi.x + gap && alo.y <= bhi.y + gap && blo.y <= ahi.y + gap
 }
 
 /// Mean width (twice the area over the perimeter): openings thinner than the tolerance are
@@ -244,20 +257,36 @@ pub(crate) fn derive(
             for (i, face) in cell.poly.faces.iter().enumerate() {
                 let f = Frame2::new(&face.plane);
                 let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
-                let whole = intersection(
-                    std::slice::from_ref(&ring),
-                    std::slice::from_ref(&ring),
-                    grid,
-                );
+                // Claims first: a face between two rooms is claimed whole by its neighbour,
+                // and then no shadow is needed to know it has no opening to the exterior.
+                let mut left = Remainder::new(&ring, k.grow, k.sliver);
+                for claim in &claimed[c][i] {
+                    left.cut(claim);
+                }
+                if left.at_most(k.closed) {
+                    continue;
+                }
                 let mut covered: Vec<Vec<DVec2>> = claimed[c][i].clone();
                 let mut bb = Aabb::from_points(face.points.iter());
                 bb.min -= DVec3::splat(eps);
                 bb.max += DVec3::splat(eps);
                 let d = face.plane.d;
+                let shadows = covered.len();
                 covered.extend(
                     opaque
                         .near(&bb)
                         .filter_map(|t| slab_shadow(t, face.plane.normal, d - eps, d + eps, &f)),
+                );
+                for shadow in &covered[shadows..] {
+                    left.cut(shadow);
+                }
+                if left.at_most(k.closed) {
+                    continue;
+                }
+                let whole = intersection(
+                    std::slice::from_ref(&ring),
+                    std::slice::from_ref(&ring),
+                    grid,
                 );
                 let exact = ExactVertices::new(
                     face.points
@@ -302,6 +331,17 @@ struct Limits {
     min_width: f64,
     /// Faces this far apart face each other across a wall.
     reach: f64,
+    /// A face region with less than this area left once its covers (grown by `grow`) are cut
+    /// from it has no opening, and the exact boolean is skipped. An opening `min_width` wide
+    /// on average holds a disc of radius min_width / 2 (its area is at most its perimeter
+    /// times its inradius), 5·eps; snapping moves it by under eps / 2 and the grown covers
+    /// (within grow·√2 of the real ones) eat under 1.5·eps of it, so at least a disc of
+    /// radius 3·eps, 28·eps², is left of any opening the boolean would keep.
+    closed: f64,
+    /// Covers are grown by this much, so an f32 crack between two blockers is not left over.
+    grow: f64,
+    /// Pieces this small are dropped (and counted) as a region is cut.
+    sliver: f64,
 }
 
 impl Limits {
@@ -311,6 +351,9 @@ impl Limits {
             grid: eps * 0.5,
             min_width: 10.0 * eps,
             reach: cfg.max_wall_thickness + eps,
+            closed: eps * eps,
+            grow: eps,
+            sliver: eps * eps / 64.0,
         }
     }
 }
@@ -360,6 +403,12 @@ fn pair_openings(
             let f = Frame2::new(&fa.plane);
             let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
             let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
+            // Rings whose boxes are more than a grid step apart stay apart once snapped, and
+            // the boolean would find nothing (most face pairs of neighbouring cells: a
+            // diagonal neighbour's wall is in the same plane, but further along it).
+            if !boxes_meet(&ra, &rb, grid) {
+                continue;
+            }
             let shared = intersection(&[ra], &[rb], grid);
             if shared.is_empty() {
                 continue;
@@ -399,6 +448,12 @@ fn pair_openings(
                 .near(&bb)
                 .filter_map(|t| slab_shadow(t, na, lo, hi, &f))
                 .collect();
+            let closed = shared.iter().all(|s| {
+                s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
+            });
+            if closed {
+                continue;
+            }
             let open = difference(&shared, &blockers, grid);
             let exact = ExactVertices::new(
                 fa.points
