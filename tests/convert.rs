@@ -697,3 +697,70 @@ fn convert_notes_the_transform_depth_of_the_pvs() {
     assert_ok(&o);
     assert!(!stderr(&o).contains(note), "{}", stderr(&o));
 }
+
+/// A .glb read from a file lets its BIN chunk go after import and writes it back from the
+/// file: the output is the same as from the bytes held in memory, and a file changed in the
+/// meantime is an error with nothing written, never a mix of old and new.
+#[test]
+fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
+    use portcullis::export::gltf_out::OutFormat;
+    use portcullis::pipeline;
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("level.glb");
+    std::fs::copy(fixture("lportal_boxrooms.glb"), &input).unwrap();
+    let bytes = std::fs::read(&input).unwrap();
+    let run = |t: &mut pipeline::Tagged, out: &Path, format| {
+        let cells = pipeline::build_cells(t);
+        let portals = pipeline::build_portals(t, &cells);
+        pipeline::write_annotated_file(t, &cells, &portals, None, out, format)
+    };
+    for format in [OutFormat::Glb, OutFormat::Gltf] {
+        let out = dir.path().join(match format {
+            OutFormat::Glb => "out.glb",
+            OutFormat::Gltf => "out.gltf",
+        });
+        let mut from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        let src = from_file.scene.gltf.as_ref().unwrap();
+        assert!(
+            src.bin_file.as_ref().is_some_and(|b| b.released) && src.buffers[0].is_empty(),
+            "the BIN chunk was not let go"
+        );
+        run(&mut from_file, &out, format).unwrap();
+        let released = std::fs::read(&out).unwrap();
+        // The same level from bytes in memory keeps its buffers.
+        let imported = portcullis::import::import_bytes(
+            &bytes,
+            &input,
+            portcullis::scene::Format::Glb,
+            dir.path(),
+            &Default::default(),
+        )
+        .unwrap();
+        assert!(!imported.scene.gltf.as_ref().unwrap().buffers[0].is_empty());
+        let held = {
+            let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+            t.scene.gltf = imported.scene.gltf.clone();
+            let cells = pipeline::build_cells(&mut t);
+            let portals = pipeline::build_portals(&mut t, &cells);
+            pipeline::write_annotated(&t, &cells, &portals, &out, format).unwrap()
+        };
+        assert!(released == held, "{format:?}: bytes differ");
+    }
+    // Changed after import: the export fails and leaves no output.
+    let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+    let mut changed = bytes.clone();
+    changed.extend_from_slice(&[0; 4]);
+    std::fs::write(&input, &changed).unwrap();
+    let out = dir.path().join("changed.glb");
+    let err = run(&mut t, &out, OutFormat::Glb).unwrap_err();
+    assert!(
+        err.message.contains("changed while it was being converted"),
+        "{}",
+        err.message
+    );
+    assert!(!out.exists());
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+    assert!(left
+        .iter()
+        .all(|e| !e.file_name().to_string_lossy().ends_with(".tmp")));
+}

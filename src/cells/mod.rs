@@ -20,6 +20,7 @@
 //! the cells of one room do not overlap; `room_cells[r]` lists room `r`'s cells in order.
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::config::CellsConfig;
@@ -189,7 +190,16 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         .collect();
     let needed = !floors.is_empty() || !tagging.footprints.is_empty();
     let ctx = footprint::Context::new(scene, &skip, needed, origin, cfg, eps, (frame, top));
-    for (ri, room) in tagging.rooms.iter().enumerate() {
+    // Rooms are built on their own, in parallel, and their cells numbered in room order
+    // afterwards, so the result does not depend on the thread count.
+    let built: Vec<RoomCells> = tagging
+        .rooms
+        .par_iter()
+        .enumerate()
+        .map(|(ri, room)| {
+        let mut diags: Vec<Diagnostic> = Vec::new();
+        let mut props: Vec<NodeId> = Vec::new();
+        let mut cells: Vec<Cell> = Vec::new();
         let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
         if !room.bounds.is_empty() {
             for &b in &room.bounds {
@@ -324,7 +334,6 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                     .hint("simplify the room's outline or give it a simpler bound mesh; raise [cells] max_planes if the engine copes"),
                 );
             }
-            room_cells[ri].push(cells.len());
             cells.push(Cell {
                 room: ri,
                 source,
@@ -334,6 +343,16 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                 nodes: Vec::new(),
             });
         }
+        RoomCells { cells, diags, props }
+        })
+        .collect();
+    for (ri, room) in built.into_iter().enumerate() {
+        for c in room.cells {
+            room_cells[ri].push(cells.len());
+            cells.push(c);
+        }
+        diags.extend(room.diags);
+        props.extend(room.props);
     }
     let mut set = CellSet {
         cells,
@@ -346,6 +365,13 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     overlap::check(scene, tagging, cfg, &mut set);
     assign::assign(scene, tagging, &mut set);
     set
+}
+
+/// One room's cells, with what building them reported and the props found in it.
+struct RoomCells {
+    cells: Vec<Cell>,
+    diags: Vec<Diagnostic>,
+    props: Vec<NodeId>,
 }
 
 /// The mean of some points (the origin for none), for diagnostic positions.

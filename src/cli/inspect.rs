@@ -96,7 +96,8 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
     t.diagnostics.extend(stored.diagnostics);
     let a = stored.annotated?;
     let src = t.scene.gltf.as_ref()?;
-    let stored_pvs = read::visibility(&a, &src.subset(&["bufferViews"]), &src.buffers);
+    let buffers = src.buffer_data().ok()?;
+    let stored_pvs = read::visibility(&a, &src.subset(&["bufferViews"]), &buffers);
     let visibility = match stored_pvs {
         Some(Ok(pvs)) => a.visibility.as_ref().map(|v| VisibilityView {
             method: v["method"].as_str().unwrap_or_default().to_string(),

@@ -182,7 +182,16 @@ pub(super) fn write_whole(
     format: OutFormat,
 ) -> Result<Vec<u8>, Diagnostic> {
     let (mut doc, mut bin) = match &scene.gltf {
-        Some(src) => from_gltf(src, format, out_dir),
+        Some(src) => {
+            let buffers = src.buffer_data().map_err(|e| {
+                Diagnostic::new(
+                    Code::OUTPUT_FAILED,
+                    format!("cannot write `{}`: {e}", out.display()),
+                    Location::file(out),
+                )
+            })?;
+            from_gltf(src, &buffers, format, out_dir)
+        }
         None => from_scene(&super::bake::world_space(scene), format),
     };
     annotate(&mut doc, ann);
@@ -353,13 +362,13 @@ pub(super) fn gltf_buffer(b: &mut Value, data: &[u8], in_dir: &Path, out_dir: &P
 
 /// Where each buffer starts in a .glb's BIN chunk (8-aligned, in order), and the chunk's
 /// length before padding.
-pub(super) fn glb_layout(buffers: &[Vec<u8>]) -> (Vec<usize>, usize) {
+pub(super) fn glb_layout(lens: &[usize]) -> (Vec<usize>, usize) {
     let mut len = 0usize;
-    let base = buffers
+    let base = lens
         .iter()
-        .map(|data| {
+        .map(|n| {
             let at = len.next_multiple_of(8);
-            len = at + data.len();
+            len = at + n;
             at
         })
         .collect();
@@ -394,6 +403,7 @@ pub(super) fn glb_buffer(first: Option<&Value>, len: usize) -> Value {
 
 fn from_gltf(
     src: &crate::scene::GltfSource,
+    held: &[Vec<u8>],
     format: OutFormat,
     out_dir: &Path,
 ) -> (Value, Option<Vec<u8>>) {
@@ -407,16 +417,17 @@ fn from_gltf(
         OutFormat::Gltf => {
             if let Some(buffers) = doc.get_mut("buffers").and_then(Value::as_array_mut) {
                 for (i, b) in buffers.iter_mut().enumerate() {
-                    let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
+                    let data: &[u8] = held.get(i).map_or(&[], |b| b.as_slice());
                     gltf_buffer(b, data, &src.base_dir, out_dir);
                 }
             }
             (doc, None)
         }
         OutFormat::Glb => {
-            let (base, len) = glb_layout(&src.buffers);
+            let lens: Vec<usize> = held.iter().map(Vec::len).collect();
+            let (base, len) = glb_layout(&lens);
             let mut bin = Vec::with_capacity(len);
-            for (data, at) in src.buffers.iter().zip(&base) {
+            for (data, at) in held.iter().zip(&base) {
                 bin.resize(*at, 0);
                 bin.extend_from_slice(data);
             }
@@ -425,7 +436,7 @@ fn from_gltf(
                     rebase_view(v, &base);
                 }
             }
-            if src.buffers.is_empty() {
+            if held.is_empty() {
                 if let Some(o) = doc.as_object_mut() {
                     o.remove("buffers");
                 }

@@ -72,6 +72,7 @@ fn rewrite(
         lazy,
     } = ann;
     let members = src.members().ok_or(Failed::Declined)?;
+    let lens = src.buffer_lens();
     let mut root = Root(
         members
             .into_iter()
@@ -85,20 +86,21 @@ fn rewrite(
             out::rebase_item(v, &src.base_dir, out_dir);
         }
     }
-    let (base, mut bin_len) = out::glb_layout(&src.buffers);
+    let (base, mut bin_len) = out::glb_layout(&lens);
     let mut bin = false;
     match format {
         OutFormat::Gltf => {
             if let Some(buffers) = root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                let held = src.buffer_data().map_err(Failed::Io)?;
                 for (i, b) in buffers.iter_mut().enumerate() {
-                    let data = src.buffers.get(i).map(Vec::as_slice).unwrap_or(&[]);
+                    let data: &[u8] = held.get(i).map_or(&[], |b| b.as_slice());
                     out::gltf_buffer(b, data, &src.base_dir, out_dir);
                 }
             }
         }
         OutFormat::Glb => {
             root.stream("bufferViews", Edit::Views(&base));
-            if src.buffers.is_empty() {
+            if lens.is_empty() {
                 root.swap_remove("buffers");
             } else {
                 let buffers = root.parsed("buffers")?;
@@ -180,7 +182,8 @@ fn rewrite(
         }
         OutFormat::Glb => {
             let bin = bin.then_some(Bin {
-                buffers: &src.buffers,
+                src,
+                lens: &lens,
                 base: &base,
                 blob: blob.as_deref(),
                 len: bin_len,
@@ -190,9 +193,11 @@ fn rewrite(
     }
 }
 
-/// What goes in the BIN chunk, written straight from the buffers rather than joined first.
+/// What goes in the BIN chunk, written straight from the buffers (a released BIN chunk from
+/// the input file) rather than joined first.
 struct Bin<'a> {
-    buffers: &'a [Vec<u8>],
+    src: &'a GltfSource,
+    lens: &'a [usize],
     /// Where each buffer starts.
     base: &'a [usize],
     blob: Option<&'a [u8]>,
@@ -219,7 +224,8 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
     }
     let json_len = w.bytes - 20;
     if let Some(Bin {
-        buffers,
+        src,
+        lens,
         base,
         blob,
         len,
@@ -238,10 +244,10 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
             }
             Ok::<(), std::io::Error>(())
         };
-        for (data, from) in buffers.iter().zip(base) {
+        for (i, (n, from)) in lens.iter().zip(base).enumerate() {
             zeros(&mut w, *from, &mut at).map_err(io)?;
-            w.write_all(data).map_err(io)?;
-            at += data.len();
+            src.write_buffer(i, &mut w).map_err(io)?;
+            at += n;
         }
         if let Some(blob) = blob {
             zeros(&mut w, at.next_multiple_of(4), &mut at).map_err(io)?;
@@ -572,6 +578,7 @@ mod tests {
             json: doc.to_string(),
             buffers,
             base_dir: PathBuf::from("/nonexistent/in"),
+            bin_file: None,
         });
         scene
     }

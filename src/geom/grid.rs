@@ -18,15 +18,24 @@ pub struct BoxGrid {
 impl BoxGrid {
     /// Indexes `boxes` (empty boxes are never found).
     pub fn new(boxes: Vec<Aabb>) -> BoxGrid {
+        let mut g = BoxGrid::index(boxes.len(), |i| boxes[i]);
+        g.boxes = boxes;
+        g
+    }
+
+    /// Indexes `count` boxes given by `box_of` without keeping them: for millions of small boxes
+    /// (a level's triangles) that are cheaper to recompute than to store; query with
+    /// [`BoxGrid::query_by`].
+    pub fn index(count: usize, box_of: impl Fn(usize) -> Aabb) -> BoxGrid {
         let mut all = Aabb::EMPTY;
-        let mut sizes: Vec<f64> = Vec::with_capacity(boxes.len());
-        for b in boxes.iter().filter(|b| !b.is_empty()) {
-            all = all.union(b);
+        let mut sizes: Vec<f64> = Vec::with_capacity(count);
+        for b in (0..count).map(&box_of).filter(|b| !b.is_empty()) {
+            all = all.union(&b);
             sizes.push(b.size().max_element());
         }
         if all.is_empty() {
             return BoxGrid {
-                boxes,
+                boxes: Vec::new(),
                 origin: DVec3::ZERO,
                 cell: 1.0,
                 dims: [1, 1, 1],
@@ -57,25 +66,25 @@ impl BoxGrid {
             dims,
             buckets: vec![Vec::new(); dims.iter().product()],
         };
-        for (i, b) in boxes.iter().enumerate() {
+        for i in 0..count {
+            let b = box_of(i);
             if b.is_empty() {
                 continue;
             }
-            let (lo, hi) = g.range(b);
+            let (lo, hi) = g.range(&b);
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
-                        let k = g.index(x, y, z);
+                        let k = g.bucket(x, y, z);
                         g.buckets[k].push(i as u32);
                     }
                 }
             }
         }
-        g.boxes = boxes;
         g
     }
 
-    fn index(&self, x: usize, y: usize, z: usize) -> usize {
+    fn bucket(&self, x: usize, y: usize, z: usize) -> usize {
         (z * self.dims[1] + y) * self.dims[0] + x
     }
 
@@ -96,6 +105,11 @@ impl BoxGrid {
 
     /// Indices of the boxes that meet `b` grown by `pad` on every side, ascending.
     pub fn query(&self, b: &Aabb, pad: f64) -> Vec<usize> {
+        self.query_by(b, pad, |i| self.boxes[i])
+    }
+
+    /// [`BoxGrid::query`] of a grid made by [`BoxGrid::index`], with the same `box_of`.
+    pub fn query_by(&self, b: &Aabb, pad: f64, box_of: impl Fn(usize) -> Aabb) -> Vec<usize> {
         if b.is_empty() {
             return Vec::new();
         }
@@ -108,8 +122,8 @@ impl BoxGrid {
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
-                    for &i in &self.buckets[self.index(x, y, z)] {
-                        let c = &self.boxes[i as usize];
+                    for &i in &self.buckets[self.bucket(x, y, z)] {
+                        let c = box_of(i as usize);
                         if (0..3).all(|k| c.min[k] <= q.max[k] && c.max[k] >= q.min[k]) {
                             out.push(i as usize);
                         }

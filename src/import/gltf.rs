@@ -66,7 +66,12 @@ impl Ctx {
 const VALIDATOR_HINT: &str =
     "the exporter wrote an invalid glTF; check it with the Khronos glTF validator and re-export";
 
-pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Diagnostic> {
+/// Reads a glTF; owned `bytes` are dropped as soon as the JSON text and buffers are copied out.
+pub fn import(
+    bytes: std::borrow::Cow<'_, [u8]>,
+    path: &Path,
+    base_dir: &Path,
+) -> Result<Imported, Diagnostic> {
     let ctx = Ctx::new(path);
     if bytes.is_empty() {
         return Err(ctx
@@ -74,10 +79,10 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
             .hint("the export may have failed; export the level again"));
     }
     let (format, json_bytes, bin) = if bytes.starts_with(b"glTF") {
-        let (json, bin) = split_glb(&ctx, bytes)?;
+        let (json, bin) = split_glb(&ctx, &bytes)?;
         (Format::Glb, json, bin)
     } else {
-        (Format::Gltf, bytes, None)
+        (Format::Gltf, &bytes[..], None)
     };
     let text = parse_json(&ctx, json_bytes)?;
     let Some(root) = schema::Root::new(&text) else {
@@ -93,6 +98,18 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
     check_required_extensions(&ctx, &root)?;
     let doc = schema::Doc::from_root(&ctx, &root)?;
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
+    // Where buffer 0 came from in the file, if it is the BIN chunk (see `release_bin`).
+    let bin_file = bin
+        .filter(|b| doc.buffers.first().is_some_and(|b0| b0.uri.is_none()) && !b.is_empty())
+        .map(|b| crate::scene::BinInFile {
+            path: path.to_path_buf(),
+            offset: (b.as_ptr() as usize - bytes.as_ptr() as usize) as u64,
+            len: b.len(),
+            file_len: bytes.len() as u64,
+            modified: None,
+            released: false,
+        });
+    drop(bytes);
 
     let mut scene = Scene::new(path.to_path_buf(), format);
     let mut diagnostics = Diagnostics::default();
@@ -116,6 +133,7 @@ pub fn import(bytes: &[u8], path: &Path, base_dir: &Path) -> Result<Imported, Di
         json: text,
         buffers,
         base_dir: base_dir.to_path_buf(),
+        bin_file,
     });
     Ok(Imported { scene, diagnostics })
 }

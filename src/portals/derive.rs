@@ -20,9 +20,12 @@ use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, 
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
 
-/// Triangles that block sight, indexed by their bounds.
+/// Triangles that block sight, indexed by their bounds. Vertices are stored once in world
+/// space and triangles as indices, and the bounds are recomputed when asked: on a big level
+/// this is the portals stage's largest allocation (a third of it as [DVec3; 3] and boxes).
 pub(crate) struct Opaque {
-    tris: Vec<[DVec3; 3]>,
+    verts: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
     grid: BoxGrid,
 }
 
@@ -36,31 +39,41 @@ impl Opaque {
         skip.extend(tagging.footprints.iter().map(|n| n.node));
         skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
         skip.extend(cells.props.iter().copied());
-        let mut tris = Vec::new();
-        for n in scene.walk() {
-            if skip.contains(&n) {
-                continue;
-            }
-            let node = &scene.nodes[n];
-            let Some(m) = node.mesh else { continue };
+        let blocking: Vec<(NodeId, usize)> = scene
+            .walk()
+            .into_iter()
+            .filter(|n| !skip.contains(n))
+            .filter_map(|n| Some((n, scene.nodes[n].mesh?)))
+            .collect();
+        let meshes = || blocking.iter().map(|&(_, m)| &scene.meshes[m]);
+        let mut verts = Vec::with_capacity(meshes().map(|m| m.positions.len()).sum());
+        let mut tris = Vec::with_capacity(meshes().map(|m| m.triangles.len()).sum());
+        for &(n, m) in &blocking {
+            let world = scene.nodes[n].world;
             let mesh = &scene.meshes[m];
-            let w: Vec<DVec3> = mesh
-                .positions
-                .iter()
-                .map(|p| node.world.transform_point3(*p))
-                .collect();
-            for t in &mesh.triangles {
-                tris.push(t.map(|i| w[i as usize]));
-            }
+            // More than 2^32 vertices cannot come from a glTF (indices are u32) and would not
+            // fit in memory as f64 anyway; stop rather than wrap.
+            let Ok(base) = u32::try_from(verts.len()) else {
+                break;
+            };
+            verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
+            tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
         }
-        let grid = BoxGrid::new(tris.iter().map(|t| Aabb::from_points(t.iter())).collect());
-        Opaque { tris, grid }
+        let grid = BoxGrid::index(tris.len(), |i| tri_box(&verts, &tris[i]));
+        Opaque { verts, tris, grid }
     }
 
     /// Triangles whose bounds meet `b`, in scene order.
-    fn near<'a>(&'a self, b: &'a Aabb) -> impl Iterator<Item = &'a [DVec3; 3]> + 'a {
-        self.grid.query(b, 0.0).into_iter().map(|i| &self.tris[i])
+    fn near<'a>(&'a self, b: &'a Aabb) -> impl Iterator<Item = [DVec3; 3]> + 'a {
+        self.grid
+            .query_by(b, 0.0, |i| tri_box(&self.verts, &self.tris[i]))
+            .into_iter()
+            .map(|i| self.tris[i].map(|v| self.verts[v as usize]))
     }
+}
+
+fn tri_box(verts: &[DVec3], t: &[u32; 3]) -> Aabb {
+    Aabb::from_points(t.iter().map(|&v| &verts[v as usize]))
 }
 
 /// A face's plane frame: 2D coordinates on the plane, CCW about the normal.
@@ -275,7 +288,7 @@ pub(crate) fn derive(
                 covered.extend(
                     opaque
                         .near(&bb)
-                        .filter_map(|t| slab_shadow(t, face.plane.normal, d - eps, d + eps, &f)),
+                        .filter_map(|t| slab_shadow(&t, face.plane.normal, d - eps, d + eps, &f)),
                 );
                 for shadow in &covered[shadows..] {
                     left.cut(shadow);
@@ -446,7 +459,7 @@ fn pair_openings(
             bb.max += DVec3::splat(eps);
             let blockers: Vec<Vec<DVec2>> = opaque
                 .near(&bb)
-                .filter_map(|t| slab_shadow(t, na, lo, hi, &f))
+                .filter_map(|t| slab_shadow(&t, na, lo, hi, &f))
                 .collect();
             let closed = shared.iter().all(|s| {
                 s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)

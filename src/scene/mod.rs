@@ -126,9 +126,28 @@ pub struct GltfSource {
     /// has checked that it parses.
     pub json: String,
     /// Resolved data of every buffer, in document order (GLB BIN chunk, data: URI or file).
+    /// A GLB's BIN chunk is empty here once [`GltfSource::release_bin`] let it go; read the
+    /// buffers through [`GltfSource::buffer_data`].
     pub buffers: Vec<Vec<u8>>,
     /// The directory external URIs are relative to.
     pub base_dir: PathBuf,
+    /// Where buffer 0 lies in the input file, when it is a GLB's BIN chunk.
+    pub bin_file: Option<BinInFile>,
+}
+
+/// A GLB's BIN chunk in the input file, to read back at export instead of holding it through
+/// the pipeline (on a big level it is half the file and a seventh of the peak memory).
+#[derive(Debug, Clone)]
+pub struct BinInFile {
+    pub path: PathBuf,
+    pub offset: u64,
+    pub len: usize,
+    /// The file as it was read (length, modification time): if it differs at export, the
+    /// chunk is not read back from a changed file.
+    pub file_len: u64,
+    pub modified: Option<std::time::SystemTime>,
+    /// True once buffer 0 was emptied.
+    pub released: bool,
 }
 
 impl GltfSource {
@@ -154,6 +173,80 @@ impl GltfSource {
     /// object.
     pub fn members(&self) -> Option<Vec<(String, &serde_json::value::RawValue)>> {
         json_text::members(&self.json)
+    }
+
+    /// Lets buffer 0 go when it is the BIN chunk of the file at `path`, as it still is on disk
+    /// (`meta`): [`GltfSource::buffer_data`] reads it back.
+    pub fn release_bin(&mut self, meta: &std::fs::Metadata) {
+        let Some(b) = self.bin_file.as_mut() else {
+            return;
+        };
+        if b.released
+            || meta.len() != b.file_len
+            || self.buffers.first().map(Vec::len) != Some(b.len)
+        {
+            return;
+        }
+        b.modified = meta.modified().ok();
+        b.released = true;
+        self.buffers[0] = Vec::new();
+    }
+
+    /// The released BIN chunk's reader, positioned at the chunk (an error if the file changed
+    /// since it was read); `None` when nothing was released.
+    fn released_bin(&self) -> Option<std::io::Result<std::io::Take<std::fs::File>>> {
+        use std::io::{Read, Seek};
+        let b = self.bin_file.as_ref().filter(|b| b.released)?;
+        Some((|| {
+            let mut f = std::fs::File::open(&b.path)?;
+            let meta = f.metadata()?;
+            if meta.len() != b.file_len || meta.modified().ok() != b.modified {
+                return Err(std::io::Error::other(format!(
+                    "the input `{}` changed while it was being converted; convert it again",
+                    b.path.display()
+                )));
+            }
+            f.seek(std::io::SeekFrom::Start(b.offset))?;
+            Ok(f.take(b.len as u64))
+        })())
+    }
+
+    /// Each buffer's length (a released BIN chunk's too).
+    pub fn buffer_lens(&self) -> Vec<usize> {
+        let mut lens: Vec<usize> = self.buffers.iter().map(Vec::len).collect();
+        if let (Some(b), Some(first)) = (self.bin_file.as_ref(), lens.first_mut()) {
+            if b.released {
+                *first = b.len;
+            }
+        }
+        lens
+    }
+
+    /// Writes buffer `i`, a released BIN chunk straight from the input file.
+    pub fn write_buffer(&self, i: usize, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        if i == 0 {
+            if let Some(r) = self.released_bin() {
+                let want = self.bin_file.as_ref().map_or(0, |b| b.len as u64);
+                if std::io::copy(&mut r?, w)? != want {
+                    return Err(std::io::Error::other("the input file was cut short"));
+                }
+                return Ok(());
+            }
+        }
+        w.write_all(self.buffers.get(i).map_or(&[], Vec::as_slice))
+    }
+
+    /// Every buffer's data, reading a released BIN chunk back from the input file (an error if
+    /// the file changed since it was read).
+    pub fn buffer_data(&self) -> std::io::Result<std::borrow::Cow<'_, [Vec<u8>]>> {
+        let Some(r) = self.released_bin() else {
+            return Ok(std::borrow::Cow::Borrowed(&self.buffers));
+        };
+        let mut data = Vec::with_capacity(self.bin_file.as_ref().map_or(0, |b| b.len));
+        std::io::Read::read_to_end(&mut r?, &mut data)?;
+        let mut all = self.buffers.clone();
+        all[0] = data;
+        Ok(std::borrow::Cow::Owned(all))
     }
 }
 

@@ -33,6 +33,9 @@ pub fn build(
         .map(|&r| (r, None, DMat4::IDENTITY))
         .collect();
     let mut visited = vec![false; doc.nodes.len()];
+    // Exact room: a big level has tens of thousands of each.
+    scene.nodes.reserve_exact(doc.nodes.len());
+    scene.meshes.reserve_exact(doc.meshes.len());
     while let Some((n, parent, parent_world)) = stack.pop() {
         let (Some(node), Some(seen)) = (doc.nodes.get(n), visited.get_mut(n)) else {
             continue;

@@ -74,7 +74,7 @@ impl<'a> Builder<'a> {
             name: mesh.name.clone(),
             positions: Vec::new(),
             triangles: Vec::new(),
-            primitives: Vec::new(),
+            primitives: Vec::with_capacity(prims.len()),
             extras: mesh.extras.clone(),
             source: SourceRef::pointer(mp.clone()),
         };
@@ -126,7 +126,7 @@ impl<'a> Builder<'a> {
             };
             // glTF lets a primitive omit POSITION (an extension may supply it); without it there
             // is nothing to bound space with, so it is passed over like a renderer would.
-            let Some(&pos_acc) = attributes.get("POSITION") else {
+            let Some(pos_acc) = attributes.position else {
                 continue;
             };
             // Primitives of one mesh often share their POSITION accessor (one per material);
@@ -136,6 +136,8 @@ impl<'a> Builder<'a> {
                     .reader
                     .positions(pos_acc, &format!("{pp}/attributes/POSITION"))?;
                 // Non-finite vertices are left out of the mesh so every stored position is finite.
+                // Exact room (not doubling growth): on a big level these are most of the scene.
+                out.positions.reserve_exact(positions.len());
                 let mut vertices = Vertices {
                     remap: Vec::with_capacity(positions.len()),
                     bad: 0,
@@ -180,6 +182,10 @@ impl<'a> Builder<'a> {
                 }
             };
             let first_triangle = out.triangles.len();
+            out.triangles.reserve_exact(match mode {
+                4 => indices.len() / 3,
+                _ => indices.len().saturating_sub(2),
+            });
             let mut dropped = 0usize;
             let mut degenerate = 0usize;
             for [a, b, c] in assemble(mode, &indices) {

@@ -6,8 +6,6 @@
 //! reported with its JSON pointer instead of one error for the whole file. Required fields are
 //! `Option`s so their absence is reported by whoever needs them, with the pointer to the field.
 
-use std::collections::BTreeMap;
-
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use serde_json::value::RawValue;
@@ -54,7 +52,7 @@ pub struct Mesh {
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
 pub struct Primitive {
-    pub attributes: Option<BTreeMap<String, u64>>,
+    pub attributes: Option<Attributes>,
     pub indices: Option<u64>,
     pub material: Option<u64>,
     pub mode: Option<u64>,
@@ -226,4 +224,37 @@ pub fn array<T: DeserializeOwned>(ctx: &Ctx, root: &Root, key: &str) -> Result<V
 /// `i` as an index into a list of `len` items, if it is one.
 pub fn index(i: u64, len: usize) -> Option<usize> {
     usize::try_from(i).ok().filter(|&i| i < len)
+}
+
+/// A primitive's attributes: each must be an accessor index, as the schema says, but only
+/// POSITION is kept (a map per primitive was a tenth of a big level's import peak).
+#[derive(Debug, Default)]
+pub struct Attributes {
+    pub position: Option<u64>,
+}
+
+impl<'de> Deserialize<'de> for Attributes {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Attributes;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a map of attribute names to accessor indices")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> Result<Attributes, A::Error> {
+                let mut out = Attributes::default();
+                while let Some(k) = m.next_key::<std::borrow::Cow<'de, str>>()? {
+                    let v: u64 = m.next_value()?;
+                    if k == "POSITION" {
+                        out.position = Some(v);
+                    }
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_map(V)
+    }
 }
