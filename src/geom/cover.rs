@@ -216,10 +216,10 @@ pub fn is_covered(
         .collect();
     order.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut budget: f64 = order.iter().map(|o| o.0).sum();
-    let mut left = Remainder::new(region, grow, sliver);
-    if signed_area(region).abs() > budget + closed {
+    if signed_area(region).abs() > budget + closed || open_somewhere(region, covers, grow, closed) {
         return false;
     }
+    let mut left = Remainder::new(region, grow, sliver);
     for (b, c) in order {
         left.cut(c);
         budget -= b;
@@ -231,6 +231,47 @@ pub fn is_covered(
         }
     }
     left.at_most(closed)
+}
+
+/// True when a disc of area more than `closed` inside `region` (convex, either winding) is
+/// shown to meet none of the `covers` (grown by `grow`): a door in a wall is usually found by
+/// one of a few sample points, without cutting. Each test is sufficient only (a half-plane of
+/// the cover that leaves the disc outside), so "false" means "not shown".
+fn open_somewhere(region: &[DVec2], covers: &[Vec<DVec2>], grow: f64, closed: f64) -> bool {
+    // The disc's radius: its area is 1.3·closed.
+    let r = (1.3 * closed / std::f64::consts::PI).sqrt();
+    let region = ccw(region);
+    let n = region.len();
+    if n < 3 {
+        return false;
+    }
+    let inside = |p: DVec2, margin: f64, ring: &[DVec2]| {
+        (0..ring.len()).all(|i| {
+            let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
+            let len = a.distance(b);
+            len > 0.0 && (b - a).perp_dot(p - a) / len >= margin
+        })
+    };
+    let (lo, hi) = bounds(&region);
+    let centroid = region.iter().copied().sum::<DVec2>() / n as f64;
+    let grid = (1..=5)
+        .flat_map(|i| (1..=5).map(move |j| lo + (hi - lo) * DVec2::new(i as f64, j as f64) / 6.0));
+    std::iter::once(centroid).chain(grid).any(|p| {
+        inside(p, r, &region)
+            && covers.iter().all(|c| {
+                // Some edge of the cover (either winding) with the disc and the grown cover
+                // apart: the grown cover is within grow·√2 of the ring.
+                let sign = if signed_area(c) < 0.0 { -1.0 } else { 1.0 };
+                c.len() < 3
+                    || (0..c.len()).any(|i| {
+                        let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                        let len = a.distance(b);
+                        len > 0.0
+                            && sign * (b - a).perp_dot(p - a) / len
+                                < -(r + std::f64::consts::SQRT_2 * grow)
+                    })
+            })
+    })
 }
 
 /// The area of `region` not covered by `covers` (see [`Remainder`]), or `None` when it would
@@ -390,6 +431,26 @@ mod tests {
         let point = rect(4.0 + 1e-5, 0.99, 4.1, 1.01);
         let left = uncovered_area(&point, needle.iter().map(Vec::as_slice), 1e-6, 1e-15).unwrap();
         assert!((left - (0.1 - 1e-5) * 0.02).abs() < 1e-12, "{left}");
+    }
+
+    #[test]
+    fn a_door_is_seen_without_cutting_and_a_wall_is_not_taken_for_one() {
+        let wall = rect(0., 0., 6., 2.);
+        let jambs = [
+            rect(0., 0., 2., 2.),
+            rect(4., 0., 6., 2.),
+            rect(2., 1.8, 4., 2.),
+        ];
+        assert!(open_somewhere(&wall, &jambs, 1e-6, 1e-12));
+        assert!(!is_covered(&wall, &jambs, 1e-6, 1e-15, 1e-12));
+        // The door filled: no point is shown open, and the cuts find it closed.
+        let mut filled = jambs.to_vec();
+        filled.push(rect(2., 0., 4., 1.8));
+        assert!(!open_somewhere(&wall, &filled, 1e-6, 1e-12));
+        assert!(is_covered(&wall, &filled, 1e-6, 1e-15, 1e-12));
+        // A crack narrower than the grown covers is not an opening at any sample point.
+        let cracked = [rect(0., 0., 3., 2.), rect(3. + 1e-7, 0., 6., 2.)];
+        assert!(!open_somewhere(&wall, &cracked, 1e-6, 1e-12));
     }
 
     #[test]

@@ -104,27 +104,42 @@ impl Frame2 {
 
 /// The part of a triangle between two parallel planes (`lo <= n·p <= hi`), projected.
 fn slab_shadow(t: &[DVec3; 3], n: DVec3, lo: f64, hi: f64, f: &Frame2) -> Option<Vec<DVec2>> {
-    let mut poly: Vec<DVec3> = t.to_vec();
-    for (normal, d) in [(n, hi), (-n, -lo)] {
-        poly = clip_polygon(&poly, normal, d);
-        if poly.len() < 3 {
-            return None;
-        }
+    // Most triangles near a face are wholly on one side of the slab, or wholly in it (then
+    // clipping would return them as they are): decided here without clipping.
+    let d = t.map(|p| n.dot(p));
+    if d.iter().all(|&x| x > hi) || d.iter().all(|&x| -x > -lo) {
+        return None;
     }
-    let ring: Vec<DVec2> = poly.iter().map(|p| f.to2(*p)).collect();
+    let ring: Vec<DVec2> = if d.iter().all(|&x| x <= hi && -x <= -lo) {
+        t.iter().map(|p| f.to2(*p)).collect()
+    } else {
+        let mut poly: Vec<DVec3> = t.to_vec();
+        for (normal, d) in [(n, hi), (-n, -lo)] {
+            poly = clip_polygon(&poly, normal, d);
+            if poly.len() < 3 {
+                return None;
+            }
+        }
+        poly.iter().map(|p| f.to2(*p)).collect()
+    };
     (signed_area(&ring).abs() > 0.0).then_some(ring)
 }
 
-/// Whether the boxes of two rings come within `gap` of each other.
-fn boxes_meet(a: &[DVec2], b: &[DVec2], gap: f64) -> bool {
+/// Whether the boxes of two rings, their points snapped to `grid` as the booleans snap them,
+/// overlap with some area. If not, so does not the intersection of the snapped rings.
+fn snapped_boxes_overlap(a: &[DVec2], b: &[DVec2], grid: f64) -> bool {
     let bounds = |r: &[DVec2]| {
         r.iter().fold(
             (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-            |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+            |(lo, hi), q| {
+                let s = (*q / grid).round();
+                (lo.min(s), hi.max(s))
+            },
         )
     };
     let ((alo, ahi), (blo, bhi)) = (bounds(a), bounds(b));
-    alo.x <= bhi.x + gap && blo.x <= ahi.x + gap && alo.y <= bhi.y + gap && blo.y <= ahi.y + gap
+    // Not `<=`: a shared edge is no overlap. NaN compares false and keeps the pair.
+    !(ahi.x <= blo.x || bhi.x <= alo.x || ahi.y <= blo.y || bhi.y <= alo.y)
 }
 
 /// Mean width (twice the area over the perimeter): openings thinner than the tolerance are
@@ -416,10 +431,11 @@ fn pair_openings(
             let f = Frame2::new(&fa.plane);
             let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
             let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
-            // Rings whose boxes are more than a grid step apart stay apart once snapped, and
-            // the boolean would find nothing (most face pairs of neighbouring cells: a
-            // diagonal neighbour's wall is in the same plane, but further along it).
-            if !boxes_meet(&ra, &rb, grid) {
+            // Rings whose boxes, snapped to the boolean's grid, do not overlap with some area
+            // have an intersection without area, which the boolean drops: most face pairs of
+            // neighbouring cells (a diagonal neighbour's wall is in the same plane, further
+            // along it, touching at most along an edge).
+            if !snapped_boxes_overlap(&ra, &rb, grid) {
                 continue;
             }
             let shared = intersection(&[ra], &[rb], grid);
