@@ -119,14 +119,7 @@ pub fn union(a: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
 mod tests {
     use super::*;
 
-    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<DVec2> {
-        vec![
-            DVec2::new(x0, y0),
-            DVec2::new(x1, y0),
-            DVec2::new(x1, y1),
-            DVec2::new(x0, y1),
-        ]
-    }
+    use crate::geom::shapes::rect;
 
     #[test]
     fn door_is_wall_minus_blockers() {

@@ -365,14 +365,7 @@ fn signed_area(r: &[DVec2]) -> f64 {
 mod tests {
     use super::*;
 
-    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<DVec2> {
-        vec![
-            DVec2::new(x0, y0),
-            DVec2::new(x1, y0),
-            DVec2::new(x1, y1),
-            DVec2::new(x0, y1),
-        ]
-    }
+    use crate::geom::shapes::rect;
 
     fn left(covers: &[Vec<DVec2>], region: &[DVec2]) -> f64 {
         uncovered_area(region, covers.iter().map(Vec::as_slice), 0.0, 1e-12).unwrap()

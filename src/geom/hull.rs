@@ -81,6 +81,16 @@ pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
         let Some(n) = (b - a).cross(c - a).try_normalize() else {
             continue;
         };
+        // A hull face made of many triangles gives the same plane many times: those are
+        // dropped before the plane is pushed out to the farthest point (a pass over all
+        // points), with the triangle's own offset, which is within rounding of it.
+        let guess = Plane {
+            normal: n,
+            d: n.dot(a),
+        };
+        if planes.iter().any(|q| q.same_as(&guess, eps, 1e-9)) {
+            continue;
+        }
         let d = points
             .iter()
             .map(|p| n.dot(*p))
