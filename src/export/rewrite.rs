@@ -642,7 +642,27 @@ mod tests {
         let ann = annotation(vec![]);
         let (mine, whole) = both(&scene, &ann, OutFormat::Glb);
         assert!(mine.is_none());
-        let written = gltf_out::write(&scene, ann, Path::new("out.glb"), OutFormat::Glb).unwrap();
+        let written = gltf_out::write(
+            &scene,
+            ann_clone(&ann),
+            Path::new("out.glb"),
+            OutFormat::Glb,
+        )
+        .unwrap();
         assert_eq!(written, whole);
+        // Into a file, as convert writes: what the streamed path wrote before it declined is
+        // gone, not left before or after the whole document.
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out.glb");
+        let mut f = std::fs::File::options()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(true)
+            .open(&out)
+            .unwrap();
+        gltf_out::write_to(&scene, ann, &out, OutFormat::Glb, &mut f).unwrap();
+        drop(f);
+        assert_eq!(std::fs::read(&out).unwrap(), whole);
     }
 }
