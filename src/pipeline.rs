@@ -144,14 +144,7 @@ pub fn write_annotated_file(
     crate::export::atomic::write_with(
         out,
         |f| write_annotated_to(tagged, cells, portals, pvs, out, format, f),
-        |e| {
-            Diagnostic::new(
-                crate::diag::Code::OUTPUT_FAILED,
-                format!("cannot write `{}`: {e}", out.display()),
-                crate::diag::Location::file(out),
-            )
-            .hint("check that the folder exists and is writable; nothing was written")
-        },
+        |e| crate::export::atomic::failed(out, e),
     )
 }
 

@@ -219,23 +219,10 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         pipeline::write_annotated_file(&t, &cells, &portals, stored, &out, format)?;
         Ok(())
     };
-    written.map_err(|e| {
-        Diagnostic::new(
-            Code::OUTPUT_FAILED,
-            format!("cannot write `{}`: {e}", out.display()),
-            Location::file(&out),
-        )
-        .hint("check that the folder exists and is writable; nothing was written")
-    })?;
+    written.map_err(|e| portcullis::export::atomic::failed(&out, e))?;
     let write_extra = |path: &Path, bytes: &[u8]| {
-        portcullis::export::atomic::write(path, bytes).map_err(|e| {
-            Diagnostic::new(
-                Code::OUTPUT_FAILED,
-                format!("cannot write `{}`: {e}", path.display()),
-                Location::file(path),
-            )
-            .hint("check that the folder exists and is writable")
-        })
+        portcullis::export::atomic::write(path, bytes)
+            .map_err(|e| portcullis::export::atomic::failed(path, e))
     };
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
@@ -309,14 +296,8 @@ fn write_prt(
 ) -> Result<(), Diagnostic> {
     let (text, d) = portcullis::prt::write(cells, portals, out);
     diags.extend(d);
-    portcullis::export::atomic::write(out, text.as_bytes()).map_err(|e| {
-        Diagnostic::new(
-            Code::OUTPUT_FAILED,
-            format!("cannot write `{}`: {e}", out.display()),
-            Location::file(out),
-        )
-        .hint("check that the folder exists and is writable")
-    })
+    portcullis::export::atomic::write(out, text.as_bytes())
+        .map_err(|e| portcullis::export::atomic::failed(out, e))
 }
 
 pub fn run(a: &ConvertArgs, style: &Style) -> i32 {

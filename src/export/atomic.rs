@@ -5,6 +5,17 @@
 use std::io::Write;
 use std::path::Path;
 
+/// The diagnostic for an output that could not be written (`OUTPUT_FAILED`): nothing was,
+/// since every output goes through this module.
+pub fn failed(path: &Path, e: impl std::fmt::Display) -> crate::diag::Diagnostic {
+    crate::diag::Diagnostic::new(
+        crate::diag::Code::OUTPUT_FAILED,
+        format!("cannot write `{}`: {e}", path.display()),
+        crate::diag::Location::file(path),
+    )
+    .hint("check that the folder exists and is writable; nothing was written")
+}
+
 /// Writes `bytes` to `path` atomically.
 pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     write_with(path, |f| f.write_all(bytes), |e| e)

@@ -152,14 +152,7 @@ pub fn write_to(
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let failed = |e: std::io::Error| {
-        Diagnostic::new(
-            Code::OUTPUT_FAILED,
-            format!("cannot write `{}`: {e}", out.display()),
-            Location::file(out),
-        )
-        .hint("check that the folder exists and is writable; nothing was written")
-    };
+    let failed = |e: std::io::Error| super::atomic::failed(out, e);
     if let Some(src) = &scene.gltf {
         // The streamed rewrite gives the same bytes as the whole-document path below, which
         // stays for the documents it declines (a repeated key).
@@ -183,13 +176,9 @@ pub(super) fn write_whole(
 ) -> Result<Vec<u8>, Diagnostic> {
     let (mut doc, mut bin) = match &scene.gltf {
         Some(src) => {
-            let buffers = src.buffer_data().map_err(|e| {
-                Diagnostic::new(
-                    Code::OUTPUT_FAILED,
-                    format!("cannot write `{}`: {e}", out.display()),
-                    Location::file(out),
-                )
-            })?;
+            let buffers = src
+                .buffer_data()
+                .map_err(|e| super::atomic::failed(out, e))?;
             from_gltf(src, &buffers, format, out_dir)
         }
         None => from_scene(&super::bake::world_space(scene), format),

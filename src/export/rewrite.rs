@@ -55,16 +55,6 @@ pub(crate) fn write(
     out_dir: &Path,
     sink: &mut dyn Sink,
 ) -> Result<(), Failed> {
-    rewrite(src, ann, format, out_dir, sink)
-}
-
-fn rewrite(
-    src: &GltfSource,
-    ann: &mut Annotation,
-    format: OutFormat,
-    out_dir: &Path,
-    sink: &mut dyn Sink,
-) -> Result<(), Failed> {
     let Annotation {
         root: ours,
         nodes,
