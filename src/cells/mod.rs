@@ -515,12 +515,12 @@ impl Frame {
 /// put the exact input coordinates back (volumes then add up to f64 precision, not to the grid).
 pub struct ExactVertices {
     grid: f64,
-    map: std::collections::HashMap<(i64, i64), (usize, DVec2)>,
+    map: std::collections::HashMap<(i64, i64), (usize, DVec2), foldhash::fast::FixedState>,
 }
 
 impl ExactVertices {
     pub fn new(points: impl Iterator<Item = DVec2>, grid: f64) -> Self {
-        let mut map = std::collections::HashMap::new();
+        let mut map = std::collections::HashMap::with_hasher(Default::default());
         for (i, p) in points.enumerate() {
             map.entry(Self::key(p, grid)).or_insert((i, p));
         }

@@ -63,6 +63,12 @@ struct Row {
     export: f64,
     /// (method, seconds, visible pairs) for flood, fast, full and sampled.
     vis: Vec<(String, f64, usize)>,
+    /// CPU seconds (every thread) of import, tags, cells, portals, check and export: on a
+    /// shared machine they move less than wall times, and they show how parallel a stage is.
+    cpu: Vec<f64>,
+    /// Wall seconds of a whole `portcullis convert FILE -o OUT.glb --vis none` process, as a
+    /// user runs it (start-up, reading, every stage, writing, exit).
+    process: f64,
     /// Peak memory of the convert stages (import to export, no PVS).
     peak_rss_bytes: Option<u64>,
     /// Peak memory once every PVS method ran too.
@@ -81,6 +87,31 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let t = Instant::now();
     let v = f();
     (v, t.elapsed().as_secs_f64())
+}
+
+/// CPU seconds this process has used so far, user and system, every thread.
+#[cfg(unix)]
+fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } != 0 {
+        return 0.0;
+    }
+    let s = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    s(u.ru_utime) + s(u.ru_stime)
+}
+
+#[cfg(not(unix))]
+fn cpu_seconds() -> f64 {
+    0.0
+}
+
+/// [`timed`], with the CPU seconds the step used pushed onto `cpu`.
+fn timed_cpu<T>(cpu: &mut Vec<f64>, f: impl FnOnce() -> T) -> (T, f64) {
+    let c = cpu_seconds();
+    let r = timed(f);
+    cpu.push(cpu_seconds() - c);
+    r
 }
 
 /// Reading and writing the file with the gltf crate alone: parse the GLB (JSON and BIN chunk)
@@ -103,6 +134,25 @@ fn floor(input: &Path, out: &Path) -> Result<f64, String> {
     let written = glb.to_vec().map_err(|e| e.to_string())?;
     std::fs::write(out, written).map_err(|e| e.to_string())?;
     Ok(t.elapsed().as_secs_f64())
+}
+
+/// Wall seconds of `portcullis convert` on the level as its own process, without a PVS.
+fn convert_process(exe: &Path, dir: &Path, rooms: usize, seed: u64) -> Result<f64, String> {
+    let t = Instant::now();
+    let out = std::process::Command::new(exe)
+        .arg("convert")
+        .arg(level_path(dir, rooms, seed))
+        .arg("-o")
+        .arg(dir.join(format!("process_{rooms}.glb")))
+        .args(["--vis", "none"])
+        .output()
+        .map_err(|e| format!("error: cannot run `{}`: {e}\n", exe.display()))?;
+    let t = t.elapsed().as_secs_f64();
+    match out.status.code() {
+        // 1: the level has findings; the conversion still ran to the end.
+        Some(0 | 1) => Ok(t),
+        _ => Err(String::from_utf8_lossy(&out.stderr).into_owned()),
+    }
 }
 
 fn level_path(dir: &Path, rooms: usize, seed: u64) -> PathBuf {
@@ -150,7 +200,8 @@ fn one(
         file_bytes,
         ..Default::default()
     };
-    let (imported, t) = timed(|| {
+    let mut cpu = Vec::new();
+    let (imported, t) = timed_cpu(&mut cpu, || {
         portcullis::import::import_path(&input, &portcullis::import::ImportOptions::default())
     });
     let imported = imported.map_err(|d| d.to_string())?;
@@ -163,18 +214,24 @@ fn one(
         .sum();
     let config = portcullis::config::Config::default();
     let rules = portcullis::config::rule_set(&config, None).map_err(|d| d.to_string())?;
-    let (mut tagged, t) = timed(|| portcullis::pipeline::tag(imported, config, rules));
+    let (mut tagged, t) = timed_cpu(&mut cpu, || {
+        portcullis::pipeline::tag(imported, config, rules)
+    });
     row.tags = t;
-    let (cells, t) = timed(|| portcullis::pipeline::build_cells(&mut tagged));
+    let (cells, t) = timed_cpu(&mut cpu, || portcullis::pipeline::build_cells(&mut tagged));
     row.cells_s = t;
-    let (portals, t) = timed(|| portcullis::pipeline::build_portals(&mut tagged, &cells));
+    let (portals, t) = timed_cpu(&mut cpu, || {
+        portcullis::pipeline::build_portals(&mut tagged, &cells)
+    });
     row.portals_s = t;
-    let (_, t) = timed(|| portcullis::pipeline::check_level(&mut tagged, &cells, &portals, false));
+    let (_, t) = timed_cpu(&mut cpu, || {
+        portcullis::pipeline::check_level(&mut tagged, &cells, &portals, false)
+    });
     row.check = t;
     row.cells = cells.cells.len();
     row.portals = portals.portals.len();
     let out = dir.join(format!("annotated_{rooms}.glb"));
-    let (written, t) = timed(|| {
+    let (written, t) = timed_cpu(&mut cpu, || {
         portcullis::pipeline::write_annotated_file(
             &tagged,
             &cells,
@@ -187,6 +244,7 @@ fn one(
     });
     written?;
     row.export = t;
+    row.cpu = cpu;
     // The convert's peak (no PVS), then the PVS methods' on top of it.
     row.peak_rss_bytes = peak_rss();
     let graph = portcullis::vis::VisGraph::from_portal_set(
@@ -224,6 +282,8 @@ fn fastest(a: Option<Row>, b: Row) -> Row {
         portals_s: min(a.portals_s, b.portals_s),
         check: min(a.check, b.check),
         export: min(a.export, b.export),
+        cpu: a.cpu.iter().zip(&b.cpu).map(|(x, y)| x.min(*y)).collect(),
+        process: min(a.process, b.process),
         vis: a
             .vis
             .iter()
@@ -238,14 +298,14 @@ fn fastest(a: Option<Row>, b: Row) -> Row {
 
 fn table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| rooms | triangles | file | cells | portals | floor (gltf read+write) | import | tags | cells | portals | check | export | convert total (no PVS) | total / floor | peak memory (convert) | memory / file |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| rooms | triangles | file | cells | portals | floor (gltf read+write) | import | tags | cells | portals | check | export | stages total (no PVS) | total / floor | convert process | process / floor | peak memory (convert) | memory / file |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mb = |b: f64| format!("{:.1} MB", b / 1e6);
     for r in rows {
         let total = r.import + r.tags + r.cells_s + r.portals_s + r.check + r.export;
         let peak = r.peak_rss_bytes.map(|b| b as f64);
         s.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.1} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.3} s | {:.1} | {:.3} s | {:.1} | {} | {} |\n",
             r.rooms,
             r.triangles,
             mb(r.file_bytes as f64),
@@ -260,8 +320,22 @@ fn table(rows: &[Row]) -> String {
             r.export,
             total,
             total / r.floor.max(1e-9),
+            r.process,
+            r.process / r.floor.max(1e-9),
             peak.map_or("n/a".into(), mb),
             peak.map_or("n/a".into(), |p| format!("{:.1}", p / r.file_bytes as f64)),
+        ));
+    }
+    s.push_str(
+        "\nCPU seconds per stage (every thread; a stage on two threads can take twice its wall time):\n\n| rooms | import | tags | cells | portals | check | export | total |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let cells: Vec<String> = r.cpu.iter().map(|c| format!("{c:.3} s")).collect();
+        s.push_str(&format!(
+            "| {} | {} | {:.3} s |\n",
+            r.rooms,
+            cells.join(" | "),
+            r.cpu.iter().sum::<f64>()
         ));
     }
     s
@@ -354,6 +428,7 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             let row = child("--one").and_then(|out| {
                 let mut r: Row = serde_json::from_slice(&out)
                     .map_err(|e| format!("error: unreadable measurements for {n} rooms: {e}\n"))?;
+                r.process = convert_process(&exe, dir, n, a.seed)?;
                 let floor = child("--floor")?;
                 r.floor = String::from_utf8_lossy(&floor)
                     .trim()

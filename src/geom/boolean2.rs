@@ -28,17 +28,22 @@ fn add(overlay: &mut Overlay<i64>, ring: &[DVec2], grid: f64, shape: ShapeType) 
     }
 }
 
-fn run(subject: &[Vec<DVec2>], clip: &[Vec<DVec2>], rule: OverlayRule, grid: f64) -> Vec<Polygon2> {
+fn run<R: AsRef<[DVec2]>>(
+    subject: &[R],
+    clip: &[R],
+    rule: OverlayRule,
+    grid: f64,
+) -> Vec<Polygon2> {
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();
     }
-    let n = subject.iter().chain(clip).map(Vec::len).sum();
+    let n = subject.iter().chain(clip).map(|r| r.as_ref().len()).sum();
     let mut overlay = Overlay::<i64>::new(n);
     for r in subject {
-        add(&mut overlay, r, grid, ShapeType::Subject);
+        add(&mut overlay, r.as_ref(), grid, ShapeType::Subject);
     }
     for r in clip {
-        add(&mut overlay, r, grid, ShapeType::Clip);
+        add(&mut overlay, r.as_ref(), grid, ShapeType::Clip);
     }
     let shapes = overlay.overlay(rule, FillRule::EvenOdd);
     polygons(&shapes, grid)
@@ -92,20 +97,20 @@ pub fn intersection(a: &[Vec<DVec2>], b: &[Vec<DVec2>], grid: f64) -> Vec<Polygo
 
 /// `a − b`, where `b` may be any pile of rings, overlapping and of either winding (they are
 /// merged first: two faces on one plane, front and back, must not cancel out).
-pub fn difference(a: &[Polygon2], b: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
+pub fn difference<R: AsRef<[DVec2]>>(a: &[Polygon2], b: &[R], grid: f64) -> Vec<Polygon2> {
     let merged = union(b, grid);
     run(&rings(a), &rings(&merged), OverlayRule::Difference, grid)
 }
 
 /// The union of rings; overlapping rings are merged (non-zero would double-count holes made of
 /// triangles, so each ring is added as its own positive shape first).
-pub fn union(a: &[Vec<DVec2>], grid: f64) -> Vec<Polygon2> {
+pub fn union<R: AsRef<[DVec2]>>(a: &[R], grid: f64) -> Vec<Polygon2> {
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();
     }
-    let mut overlay = Overlay::<i64>::new(a.iter().map(Vec::len).sum());
+    let mut overlay = Overlay::<i64>::new(a.iter().map(|r| r.as_ref().len()).sum());
     for r in a {
-        let mut r = r.clone();
+        let mut r = r.as_ref().to_vec();
         if signed_area(&r) < 0.0 {
             r.reverse();
         }

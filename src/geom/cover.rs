@@ -201,9 +201,9 @@ pub fn grown_area_bound(cover: &[DVec2], grow: f64) -> f64 {
 /// True when `covers` (grown by `grow`) leave at most `closed` of `region` uncovered. Gives up
 /// (false) as soon as the covers not yet cut could not remove what is left, so a region with
 /// a real opening costs little more than the sum of its covers' areas.
-pub fn is_covered(
+pub fn is_covered<R: AsRef<[DVec2]>>(
     region: &[DVec2],
-    covers: &[Vec<DVec2>],
+    covers: &[R],
     grow: f64,
     sliver: f64,
     closed: f64,
@@ -212,7 +212,7 @@ pub fn is_covered(
     // cut falls fastest.
     let mut order: Vec<(f64, &[DVec2])> = covers
         .iter()
-        .map(|c| (grown_area_bound(c, grow), c.as_slice()))
+        .map(|c| (grown_area_bound(c.as_ref(), grow), c.as_ref()))
         .collect();
     order.sort_by(|a, b| b.0.total_cmp(&a.0));
     let mut budget: f64 = order.iter().map(|o| o.0).sum();
@@ -237,7 +237,12 @@ pub fn is_covered(
 /// shown to meet none of the `covers` (grown by `grow`): a door in a wall is usually found by
 /// one of a few sample points, without cutting. Each test is sufficient only (a half-plane of
 /// the cover that leaves the disc outside), so "false" means "not shown".
-fn open_somewhere(region: &[DVec2], covers: &[Vec<DVec2>], grow: f64, closed: f64) -> bool {
+fn open_somewhere<R: AsRef<[DVec2]>>(
+    region: &[DVec2],
+    covers: &[R],
+    grow: f64,
+    closed: f64,
+) -> bool {
     // The disc's radius: its area is 1.3·closed.
     let r = (1.3 * closed / std::f64::consts::PI).sqrt();
     let region = ccw(region);
@@ -256,21 +261,48 @@ fn open_somewhere(region: &[DVec2], covers: &[Vec<DVec2>], grow: f64, closed: f6
     let centroid = region.iter().copied().sum::<DVec2>() / n as f64;
     let grid = (1..=5)
         .flat_map(|i| (1..=5).map(move |j| lo + (hi - lo) * DVec2::new(i as f64, j as f64) / 6.0));
+    // Each cover's edges (start, direction, length, the winding's sign), computed once rather
+    // than per sample point.
+    let mut edges: Vec<(DVec2, DVec2, f64, f64)> = Vec::new();
+    let mut spans: Vec<(usize, usize)> = Vec::with_capacity(covers.len());
+    for c in covers {
+        let c = c.as_ref();
+        let start = edges.len();
+        if c.len() >= 3 {
+            let sign = if signed_area(c) < 0.0 { -1.0 } else { 1.0 };
+            edges.extend((0..c.len()).map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                (a, b - a, a.distance(b), sign)
+            }));
+        }
+        spans.push((start, edges.len()));
+    }
+    let apart = -(r + std::f64::consts::SQRT_2 * grow);
+    // Some edge of the cover (either winding) with the disc and the grown cover apart: the
+    // grown cover is within grow·√2 of the ring. A cover without three points is apart.
+    let clear = |p: DVec2, (start, end): (usize, usize)| {
+        start == end
+            || edges[start..end]
+                .iter()
+                .any(|&(a, d, len, sign)| len > 0.0 && sign * d.perp_dot(p - a) / len < apart)
+    };
+    // The cover that stopped the last point is tried first: neighbouring points are usually
+    // under the same one (the answer does not depend on the order).
+    let mut last = 0;
     std::iter::once(centroid).chain(grid).any(|p| {
-        inside(p, r, &region)
-            && covers.iter().all(|c| {
-                // Some edge of the cover (either winding) with the disc and the grown cover
-                // apart: the grown cover is within grow·√2 of the ring.
-                let sign = if signed_area(c) < 0.0 { -1.0 } else { 1.0 };
-                c.len() < 3
-                    || (0..c.len()).any(|i| {
-                        let (a, b) = (c[i], c[(i + 1) % c.len()]);
-                        let len = a.distance(b);
-                        len > 0.0
-                            && sign * (b - a).perp_dot(p - a) / len
-                                < -(r + std::f64::consts::SQRT_2 * grow)
-                    })
-            })
+        if !inside(p, r, &region) {
+            return false;
+        }
+        if spans.get(last).is_some_and(|&s| !clear(p, s)) {
+            return false;
+        }
+        match spans.iter().position(|&s| !clear(p, s)) {
+            Some(k) => {
+                last = k;
+                false
+            }
+            None => true,
+        }
     })
 }
 

@@ -110,22 +110,36 @@ impl BoxGrid {
 
     /// [`BoxGrid::query`] of a grid made by [`BoxGrid::index`], with the same `box_of`.
     pub fn query_by(&self, b: &Aabb, pad: f64, box_of: impl Fn(usize) -> Aabb) -> Vec<usize> {
+        let mut out = Vec::new();
+        self.query_into(b, pad, box_of, &mut out);
+        out.into_iter().map(|i| i as usize).collect()
+    }
+
+    /// [`BoxGrid::query_by`] into a buffer the caller reuses (cleared first): an inner loop
+    /// that queries per face pair allocates nothing.
+    pub fn query_into(
+        &self,
+        b: &Aabb,
+        pad: f64,
+        box_of: impl Fn(usize) -> Aabb,
+        out: &mut Vec<u32>,
+    ) {
+        out.clear();
         if b.is_empty() {
-            return Vec::new();
+            return;
         }
         let q = Aabb {
             min: b.min - DVec3::splat(pad),
             max: b.max + DVec3::splat(pad),
         };
         let (lo, hi) = self.range(&q);
-        let mut out: Vec<usize> = Vec::new();
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
                     for &i in &self.buckets[self.bucket(x, y, z)] {
                         let c = box_of(i as usize);
                         if (0..3).all(|k| c.min[k] <= q.max[k] && c.max[k] >= q.min[k]) {
-                            out.push(i as usize);
+                            out.push(i);
                         }
                     }
                 }
@@ -133,7 +147,6 @@ impl BoxGrid {
         }
         out.sort_unstable();
         out.dedup();
-        out
     }
 
     /// Every pair `(i, j)`, `i < j`, of boxes within `pad` of each other, in ascending order.

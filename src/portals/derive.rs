@@ -1,129 +1,23 @@
 //! Openings between cells (and to the exterior), from the cells' faces and the level's opaque
 //! triangles.
 
-use std::collections::HashSet;
-
 use rayon::prelude::*;
 
 use glam::{DVec2, DVec3};
 
+use super::opaque::{Frame2, Opaque, Shadows, Slab};
 use super::{reversed, Portal, PortalSet};
 use crate::cells::{CellSet, ExactVertices};
 use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
-use crate::geom::boolean2::{difference, intersection, signed_area};
+use crate::geom::boolean2::{difference, intersection};
 use crate::geom::cover::{is_covered, Remainder};
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{clip_polygon, convex_ring_on_plane, polygon_area, usable_polygon};
-use crate::scene::{NodeId, Scene};
+use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area, usable_polygon};
+use crate::scene::Scene;
 use crate::tags::Tagging;
-
-/// Triangles that block sight, indexed by their bounds. Vertices are stored once in world
-/// space and triangles as indices, and the bounds are recomputed when asked: on a big level
-/// this is the portals stage's largest allocation (a third of it as [DVec3; 3] and boxes).
-pub(crate) struct Opaque {
-    verts: Vec<DVec3>,
-    tris: Vec<[u32; 3]>,
-    grid: BoxGrid,
-}
-
-impl Opaque {
-    pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet) -> Opaque {
-        let mut skip: HashSet<NodeId> = HashSet::new();
-        skip.extend(tagging.portals.iter().map(|p| p.node));
-        skip.extend(tagging.ignored.iter().map(|n| n.node));
-        skip.extend(tagging.detail.iter().map(|n| n.node));
-        skip.extend(tagging.bounds.iter().map(|n| n.node));
-        skip.extend(tagging.footprints.iter().map(|n| n.node));
-        skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
-        skip.extend(cells.props.iter().copied());
-        let blocking: Vec<(NodeId, usize)> = scene
-            .walk()
-            .into_iter()
-            .filter(|n| !skip.contains(n))
-            .filter_map(|n| Some((n, scene.nodes[n].mesh?)))
-            .collect();
-        let meshes = || blocking.iter().map(|&(_, m)| &scene.meshes[m]);
-        let mut verts = Vec::with_capacity(meshes().map(|m| m.positions.len()).sum());
-        let mut tris = Vec::with_capacity(meshes().map(|m| m.triangles.len()).sum());
-        for &(n, m) in &blocking {
-            let world = scene.nodes[n].world;
-            let mesh = &scene.meshes[m];
-            // More than 2^32 vertices cannot come from a glTF (indices are u32) and would not
-            // fit in memory as f64 anyway; stop rather than wrap.
-            let Ok(base) = u32::try_from(verts.len()) else {
-                break;
-            };
-            verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
-            tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
-        }
-        let grid = BoxGrid::index(tris.len(), |i| tri_box(&verts, &tris[i]));
-        Opaque { verts, tris, grid }
-    }
-
-    /// Triangles whose bounds meet `b`, in scene order.
-    fn near<'a>(&'a self, b: &'a Aabb) -> impl Iterator<Item = [DVec3; 3]> + 'a {
-        self.grid
-            .query_by(b, 0.0, |i| tri_box(&self.verts, &self.tris[i]))
-            .into_iter()
-            .map(|i| self.tris[i].map(|v| self.verts[v as usize]))
-    }
-}
-
-fn tri_box(verts: &[DVec3], t: &[u32; 3]) -> Aabb {
-    Aabb::from_points(t.iter().map(|&v| &verts[v as usize]))
-}
-
-/// A face's plane frame: 2D coordinates on the plane, CCW about the normal.
-#[derive(Clone, Copy)]
-struct Frame2 {
-    origin: DVec3,
-    u: DVec3,
-    v: DVec3,
-}
-
-impl Frame2 {
-    fn new(p: &Plane) -> Frame2 {
-        let (u, v) = p.basis();
-        Frame2 {
-            origin: p.normal * p.d,
-            u,
-            v,
-        }
-    }
-    fn to2(&self, p: DVec3) -> DVec2 {
-        let d = p - self.origin;
-        DVec2::new(d.dot(self.u), d.dot(self.v))
-    }
-    fn to3(&self, q: DVec2, offset: DVec3) -> DVec3 {
-        self.origin + offset + self.u * q.x + self.v * q.y
-    }
-}
-
-/// The part of a triangle between two parallel planes (`lo <= n·p <= hi`), projected.
-fn slab_shadow(t: &[DVec3; 3], n: DVec3, lo: f64, hi: f64, f: &Frame2) -> Option<Vec<DVec2>> {
-    // Most triangles near a face are wholly on one side of the slab, or wholly in it (then
-    // clipping would return them as they are): decided here without clipping.
-    let d = t.map(|p| n.dot(p));
-    if d.iter().all(|&x| x > hi) || d.iter().all(|&x| -x > -lo) {
-        return None;
-    }
-    let ring: Vec<DVec2> = if d.iter().all(|&x| x <= hi && -x <= -lo) {
-        t.iter().map(|p| f.to2(*p)).collect()
-    } else {
-        let mut poly: Vec<DVec3> = t.to_vec();
-        for (normal, d) in [(n, hi), (-n, -lo)] {
-            poly = clip_polygon(&poly, normal, d);
-            if poly.len() < 3 {
-                return None;
-            }
-        }
-        poly.iter().map(|p| f.to2(*p)).collect()
-    };
-    (signed_area(&ring).abs() > 0.0).then_some(ring)
-}
 
 /// Whether the boxes of two rings, their points snapped to `grid` as the booleans snap them,
 /// overlap with some area. If not, so does not the intersection of the snapped rings.
@@ -250,7 +144,9 @@ pub(crate) fn derive(
     // portals are numbered the same whatever the thread count.
     let found: Vec<PairOpenings> = pairs
         .par_iter()
-        .map(|&(a, b)| pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k))
+        .map_init(Shadows::default, |shadows, &(a, b)| {
+            pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
+        })
         .collect();
     for ((a, b), found) in pairs.into_iter().zip(found) {
         for (cell, face, ring) in found.claims {
@@ -280,7 +176,7 @@ pub(crate) fn derive(
         .cells
         .par_iter()
         .enumerate()
-        .map(|(c, cell)| {
+        .map_init(Shadows::default, |shadows, (c, cell)| {
             let mut out = Vec::new();
             for (i, face) in cell.poly.faces.iter().enumerate() {
                 let f = Frame2::new(&face.plane);
@@ -294,18 +190,21 @@ pub(crate) fn derive(
                 if left.at_most(k.closed) {
                     continue;
                 }
-                let mut covered: Vec<Vec<DVec2>> = claimed[c][i].clone();
                 let mut bb = Aabb::from_points(face.points.iter());
                 bb.min -= DVec3::splat(eps);
                 bb.max += DVec3::splat(eps);
                 let d = face.plane.d;
-                let shadows = covered.len();
-                covered.extend(
-                    opaque
-                        .near(&bb)
-                        .filter_map(|t| slab_shadow(&t, face.plane.normal, d - eps, d + eps, &f)),
-                );
-                for shadow in &covered[shadows..] {
+                let slab = Slab {
+                    n: face.plane.normal,
+                    lo: d - eps,
+                    hi: d + eps,
+                    frame: &f,
+                };
+                opaque.shadows(&bb, &slab, shadows);
+                let mut covered: Vec<&[DVec2]> = claimed[c][i].iter().map(Vec::as_slice).collect();
+                let claims = covered.len();
+                covered.extend(shadows.rings());
+                for shadow in &covered[claims..] {
                     left.cut(shadow);
                 }
                 if left.at_most(k.closed) {
@@ -320,7 +219,7 @@ pub(crate) fn derive(
                     face.points
                         .iter()
                         .map(|p| f.to2(*p))
-                        .chain(covered.iter().flatten().copied()),
+                        .chain(covered.iter().flat_map(|r| r.iter()).copied()),
                     grid,
                 );
                 for o in difference(&whole, &covered, grid)
@@ -395,6 +294,7 @@ struct PairOpenings {
     portals: Vec<(Vec<DVec3>, Vec<DVec3>, DVec3, f64)>,
 }
 
+#[allow(clippy::too_many_arguments)]
 fn pair_openings(
     a: usize,
     b: usize,
@@ -403,6 +303,7 @@ fn pair_openings(
     near_cells: &BoxGrid,
     cfg: &PortalsConfig,
     k: &Limits,
+    shadows: &mut Shadows,
 ) -> PairOpenings {
     let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
     // Faces this close to opposite are treated as facing each other.
@@ -473,10 +374,14 @@ fn pair_openings(
             let mut bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()));
             bb.min -= DVec3::splat(eps);
             bb.max += DVec3::splat(eps);
-            let blockers: Vec<Vec<DVec2>> = opaque
-                .near(&bb)
-                .filter_map(|t| slab_shadow(&t, na, lo, hi, &f))
-                .collect();
+            let slab = Slab {
+                n: na,
+                lo,
+                hi,
+                frame: &f,
+            };
+            opaque.shadows(&bb, &slab, shadows);
+            let blockers = shadows.rings();
             let closed = shared.iter().all(|s| {
                 s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
             });
@@ -489,7 +394,7 @@ fn pair_openings(
                     .iter()
                     .chain(fb.points.iter())
                     .map(|p| f.to2(*p))
-                    .chain(blockers.iter().flatten().copied()),
+                    .chain(blockers.iter().flat_map(|r| r.iter()).copied()),
                 grid,
             );
             for o in open.iter().filter(|o| mean_width(o) >= min_width) {

@@ -27,6 +27,7 @@ use crate::tags::Tagging;
 mod authored;
 mod derive;
 pub mod loops;
+mod opaque;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Portal {

@@ -1,0 +1,278 @@
+//! The level's opaque triangles, and their shadows on a cell face: what blocks sight through
+//! the region two faces share.
+//!
+//! On a big level this is the portals stage's inner loop (every face pair two cells share asks
+//! for the triangles near it, a hundred and more on a floor), so nothing here allocates per
+//! triangle: candidates and shadows go into buffers the caller keeps between face pairs.
+
+use std::collections::HashSet;
+
+use glam::{DVec2, DVec3};
+
+use crate::cells::CellSet;
+use crate::geom::aabb::Aabb;
+use crate::geom::boolean2::signed_area;
+use crate::geom::grid::BoxGrid;
+use crate::scene::{NodeId, Scene};
+use crate::tags::Tagging;
+
+/// Triangles that block sight, indexed by their bounds. Vertices are stored once in world
+/// space and triangles as indices, and the bounds are recomputed when asked: on a big level
+/// this is the portals stage's largest allocation (a third of it as [DVec3; 3] and boxes).
+pub(crate) struct Opaque {
+    verts: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    grid: BoxGrid,
+}
+
+/// A face's plane frame: 2D coordinates on the plane, CCW about the normal.
+#[derive(Clone, Copy)]
+pub(crate) struct Frame2 {
+    origin: DVec3,
+    u: DVec3,
+    v: DVec3,
+}
+
+impl Frame2 {
+    pub fn new(p: &crate::geom::plane::Plane) -> Frame2 {
+        let (u, v) = p.basis();
+        Frame2 {
+            origin: p.normal * p.d,
+            u,
+            v,
+        }
+    }
+    pub fn to2(&self, p: DVec3) -> DVec2 {
+        let d = p - self.origin;
+        DVec2::new(d.dot(self.u), d.dot(self.v))
+    }
+    pub fn to3(&self, q: DVec2, offset: DVec3) -> DVec3 {
+        self.origin + offset + self.u * q.x + self.v * q.y
+    }
+}
+
+/// The slab a face pair looks through: points with `lo <= n·p <= hi`, projected by `frame`.
+pub(crate) struct Slab<'a> {
+    pub n: DVec3,
+    pub lo: f64,
+    pub hi: f64,
+    pub frame: &'a Frame2,
+}
+
+/// Shadows of the triangles in a slab, as rings in one flat buffer (in triangle order), plus the
+/// candidate buffer of the grid query; kept by the caller between face pairs.
+#[derive(Default)]
+pub(crate) struct Shadows {
+    candidates: Vec<u32>,
+    pts: Vec<DVec2>,
+    ends: Vec<usize>,
+}
+
+impl Shadows {
+    /// The rings, in the order of the triangles that cast them.
+    pub fn rings(&self) -> Vec<&[DVec2]> {
+        let mut start = 0;
+        self.ends
+            .iter()
+            .map(|&end| {
+                let r = &self.pts[start..end];
+                start = end;
+                r
+            })
+            .collect()
+    }
+}
+
+impl Opaque {
+    pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet) -> Opaque {
+        let mut skip: HashSet<NodeId> = HashSet::new();
+        skip.extend(tagging.portals.iter().map(|p| p.node));
+        skip.extend(tagging.ignored.iter().map(|n| n.node));
+        skip.extend(tagging.detail.iter().map(|n| n.node));
+        skip.extend(tagging.bounds.iter().map(|n| n.node));
+        skip.extend(tagging.footprints.iter().map(|n| n.node));
+        skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
+        skip.extend(cells.props.iter().copied());
+        let blocking: Vec<(NodeId, usize)> = scene
+            .walk()
+            .into_iter()
+            .filter(|n| !skip.contains(n))
+            .filter_map(|n| Some((n, scene.nodes[n].mesh?)))
+            .collect();
+        let meshes = || blocking.iter().map(|&(_, m)| &scene.meshes[m]);
+        let mut verts = Vec::with_capacity(meshes().map(|m| m.positions.len()).sum());
+        let mut tris = Vec::with_capacity(meshes().map(|m| m.triangles.len()).sum());
+        for &(n, m) in &blocking {
+            let world = scene.nodes[n].world;
+            let mesh = &scene.meshes[m];
+            // More than 2^32 vertices cannot come from a glTF (indices are u32) and would not
+            // fit in memory as f64 anyway; stop rather than wrap.
+            let Ok(base) = u32::try_from(verts.len()) else {
+                break;
+            };
+            verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
+            tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
+        }
+        let grid = BoxGrid::index(tris.len(), |i| tri_box(&verts, &tris[i]));
+        Opaque { verts, tris, grid }
+    }
+
+    fn triangle(&self, i: u32) -> [DVec3; 3] {
+        self.tris[i as usize].map(|v| self.verts[v as usize])
+    }
+
+    /// Fills `out` with the shadows in `slab` of the triangles whose bounds meet `b`, in scene
+    /// order (the order the booleans and exact vertices depend on).
+    pub fn shadows(&self, b: &Aabb, slab: &Slab, out: &mut Shadows) {
+        out.pts.clear();
+        out.ends.clear();
+        self.grid.query_into(
+            b,
+            0.0,
+            |i| tri_box(&self.verts, &self.tris[i]),
+            &mut out.candidates,
+        );
+        for &i in &out.candidates {
+            if slab_shadow(&self.triangle(i), slab, &mut out.pts) {
+                out.ends.push(out.pts.len());
+            }
+        }
+    }
+}
+
+fn tri_box(verts: &[DVec3], t: &[u32; 3]) -> Aabb {
+    Aabb::from_points(t.iter().map(|&v| &verts[v as usize]))
+}
+
+/// Appends to `out` the part of a triangle inside the slab, projected, and says whether it did
+/// (a part without area is not appended).
+fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
+    let (n, lo, hi) = (slab.n, slab.lo, slab.hi);
+    // Most triangles near a face are wholly on one side of the slab, or wholly in it (then
+    // clipping would return them as they are): decided here without clipping.
+    let d = t.map(|p| n.dot(p));
+    if d.iter().all(|&x| x > hi) || d.iter().all(|&x| -x > -lo) {
+        return false;
+    }
+    let start = out.len();
+    if d.iter().all(|&x| x <= hi && -x <= -lo) {
+        out.extend(t.iter().map(|p| slab.frame.to2(*p)));
+    } else {
+        // A triangle clipped by two planes has at most five corners.
+        let mut a = [DVec3::ZERO; 8];
+        let mut b = [DVec3::ZERO; 8];
+        a[..3].copy_from_slice(t);
+        let k = clip_into(&a[..3], n, hi, &mut b);
+        if k < 3 {
+            return false;
+        }
+        let k = clip_into(&b[..k], -n, -lo, &mut a);
+        if k < 3 {
+            return false;
+        }
+        out.extend(a[..k].iter().map(|p| slab.frame.to2(*p)));
+    }
+    if signed_area(&out[start..]).abs() > 0.0 {
+        true
+    } else {
+        out.truncate(start);
+        false
+    }
+}
+
+/// [`crate::geom::polyhedron::clip_polygon`] into a fixed buffer (the same arithmetic, so the
+/// same points): the part of `poly` with `normal·p <= d`; returns the number of points.
+fn clip_into(poly: &[DVec3], normal: DVec3, d: f64, out: &mut [DVec3; 8]) -> usize {
+    let mut k = 0;
+    for i in 0..poly.len() {
+        let a = poly[i];
+        let b = poly[(i + 1) % poly.len()];
+        let (da, db) = (normal.dot(a) - d, normal.dot(b) - d);
+        if da <= 0.0 {
+            out[k] = a;
+            k += 1;
+        }
+        if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+            out[k] = a + (b - a) * (da / (da - db));
+            k += 1;
+        }
+    }
+    k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::plane::Plane;
+    use crate::geom::polyhedron::clip_polygon;
+
+    /// The fixed-buffer clip gives the points the allocating one gives, for triangles in, across
+    /// and touching a slab.
+    #[test]
+    fn clip_into_matches_clip_polygon() {
+        let mut s = 11u64;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
+        };
+        let n = DVec3::new(0.3, 0.9, -0.1).normalize();
+        for _ in 0..2000 {
+            let t = [0, 1, 2].map(|_| DVec3::new(r(), r(), r()));
+            let (lo, hi) = (-0.25, 0.5);
+            let mut want = clip_polygon(&t, n, hi);
+            if want.len() >= 3 {
+                want = clip_polygon(&want, -n, -lo);
+            }
+            let mut a = [DVec3::ZERO; 8];
+            let mut b = [DVec3::ZERO; 8];
+            a[..3].copy_from_slice(&t);
+            let k = clip_into(&a[..3], n, hi, &mut b);
+            let got: Vec<DVec3> = if k < 3 {
+                b[..k].to_vec()
+            } else {
+                let k2 = clip_into(&b[..k], -n, -lo, &mut a);
+                a[..k2].to_vec()
+            };
+            if want.len() >= 3 && got.len() >= 3 {
+                assert_eq!(got, want);
+            } else {
+                assert!(want.len() < 3 && got.len() < 3);
+            }
+        }
+    }
+
+    /// Shadows of a wall's triangles on its own plane are the triangles; a triangle standing
+    /// on the plane casts none; one beyond the slab casts none.
+    #[test]
+    fn shadows_in_a_slab() {
+        let plane = Plane {
+            normal: DVec3::Z,
+            d: 0.0,
+        };
+        let frame = Frame2::new(&plane);
+        let slab = Slab {
+            n: DVec3::Z,
+            lo: -1e-6,
+            hi: 1e-6,
+            frame: &frame,
+        };
+        let mut out = Vec::new();
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::Y];
+        assert!(slab_shadow(&flat, &slab, &mut out));
+        assert_eq!(out.len(), 3);
+        let standing = [DVec3::ZERO, DVec3::X, DVec3::new(0.0, 0.0, 1.0)];
+        assert!(!slab_shadow(&standing, &slab, &mut out));
+        assert_eq!(out.len(), 3, "a rejected shadow leaves nothing behind");
+        let beyond = flat.map(|p| p + DVec3::Z);
+        assert!(!slab_shadow(&beyond, &slab, &mut out));
+        let crossing = [
+            DVec3::new(0.0, 0.0, -1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 1.0, 1.0),
+        ];
+        assert!(slab_shadow(&crossing, &slab, &mut out));
+        assert!(out.len() > 3);
+    }
+}
