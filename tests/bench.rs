@@ -21,20 +21,33 @@ fn a_small_bench_fills_every_column() {
         .find(|l| l.starts_with("| 10 |"))
         .unwrap_or_else(|| panic!("no row for 10 rooms: {text}"));
     let cells: Vec<&str> = row.split('|').map(str::trim).collect();
-    // | rooms | triangles | file | cells | portals | floor | ... | peak memory | memory / file |
-    assert_eq!(cells.len(), 18, "{row}");
+    // | rooms | triangles | file | cells | portals | floor | ... | convert process | process /
+    // floor | peak memory | memory / file |
+    assert_eq!(cells.len(), 20, "{row}");
     let triangles: usize = cells[2].parse().unwrap();
     assert!(triangles > 1000, "{row}");
     assert!(
-        cells[6].ends_with(" s") && cells[15].ends_with(" MB"),
+        cells[6].ends_with(" s") && cells[15].ends_with(" s") && cells[17].ends_with(" MB"),
         "{row}"
     );
+    let process: f64 = cells[15].trim_end_matches(" s").parse().unwrap();
+    assert!(process > 0.0, "{row}");
+    let rows: Vec<&str> = text.lines().filter(|l| l.starts_with("| 10 |")).collect();
+    // CPU seconds: six stages and their total, the total their sum (to the rounding shown).
+    let cpu: Vec<f64> = rows[1]
+        .split('|')
+        .map(str::trim)
+        .filter(|c| c.ends_with(" s"))
+        .map(|c| c.trim_end_matches(" s").parse().unwrap())
+        .collect();
+    assert_eq!(cpu.len(), 7, "{}", rows[1]);
+    assert!(
+        (cpu[..6].iter().sum::<f64>() - cpu[6]).abs() < 0.004,
+        "{}",
+        rows[1]
+    );
     // The PVS table has the one method asked for, and the others as n/a.
-    let vis = text
-        .lines()
-        .filter(|l| l.starts_with("| 10 |"))
-        .nth(1)
-        .unwrap();
+    let vis = rows[2];
     assert!(vis.contains("n/a") && vis.contains("pairs"), "{vis}");
     // A method that does not exist is a usage error.
     let bad = Command::cargo_bin("portcullis")

@@ -265,6 +265,18 @@ impl ConvexPolyhedron {
             candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
             let mut changed = false;
             for (_, i) in candidates {
+                let gone = current.faces[i].plane;
+                // No other plane leaning towards this one's front: without it the shape is
+                // unbounded along its normal, so it stays (a box's faces, most cells'). Said
+                // here without rebuilding the polyhedron, which would only find the same.
+                if current
+                    .faces
+                    .iter()
+                    .enumerate()
+                    .all(|(j, f)| j == i || f.plane.normal.dot(gone.normal) <= 0.0)
+                {
+                    continue;
+                }
                 let others: Vec<Plane> = current
                     .faces
                     .iter()
@@ -272,7 +284,6 @@ impl ConvexPolyhedron {
                     .filter(|(j, _)| *j != i)
                     .map(|(_, f)| f.plane)
                     .collect();
-                let gone = current.faces[i].plane;
                 if let Some(p) = ConvexPolyhedron::from_planes(&others, &bounds, eps) {
                     if p.faces
                         .iter()

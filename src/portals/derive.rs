@@ -36,6 +36,14 @@ fn snapped_boxes_overlap(a: &[DVec2], b: &[DVec2], grid: f64) -> bool {
     !(ahi.x <= blo.x || bhi.x <= alo.x || ahi.y <= blo.y || bhi.y <= alo.y)
 }
 
+/// The bounds of some 2D points.
+fn ring_bounds<'a>(pts: impl Iterator<Item = &'a DVec2>) -> (DVec2, DVec2) {
+    pts.fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+    )
+}
+
 /// Mean width (twice the area over the perimeter): openings thinner than the tolerance are
 /// float noise along edges that should meet, not holes.
 fn mean_width(p: &Polygon2) -> f64 {
@@ -381,7 +389,22 @@ fn pair_openings(
                 frame: &f,
             };
             opaque.shadows(&bb, &slab, shadows);
-            let blockers = shadows.rings();
+            // Only the blockers within 2·eps of the shared region: the others (the next
+            // room's wall, in the same plane past the corner) leave the same region open, and
+            // none of their points is near enough to be put back as an exact vertex.
+            let (slo, shi) = ring_bounds(shared.iter().flat_map(|s| s.outer.iter()));
+            let reach = 2.0 * eps;
+            let blockers: Vec<&[DVec2]> = shadows
+                .rings()
+                .into_iter()
+                .filter(|r| {
+                    let (lo, hi) = ring_bounds(r.iter());
+                    lo.x <= shi.x + reach
+                        && lo.y <= shi.y + reach
+                        && hi.x >= slo.x - reach
+                        && hi.y >= slo.y - reach
+                })
+                .collect();
             let closed = shared.iter().all(|s| {
                 s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
             });
