@@ -84,19 +84,18 @@ pub fn import(
     } else {
         (Format::Gltf, &bytes[..], None)
     };
-    let text = parse_json(&ctx, json_bytes)?;
-    let Some(root) = schema::Root::new(&text) else {
-        return Err(ctx
-            .diag(
-                Code::GLTF_INVALID_JSON,
-                "",
-                "the top level of a glTF document must be a JSON object",
-            )
-            .hint(VALIDATOR_HINT));
+    // The text is checked and read at once, on two threads: on a big level each is a pass over
+    // tens of megabytes. The check decides first, as it would alone; what was read is kept
+    // only if the checked text is the text that was read (see `parse_json`).
+    let (checked, early) = rayon::join(
+        || parse_json(&ctx, json_bytes),
+        || std::str::from_utf8(trimmed(json_bytes)).map(|s| read_doc(&ctx, s)),
+    );
+    let (text, verbatim) = checked?;
+    let doc = match early {
+        Ok(doc) if verbatim => doc?,
+        _ => read_doc(&ctx, &text)?,
     };
-    check_version(&ctx, &root)?;
-    check_required_extensions(&ctx, &root)?;
-    let doc = schema::Doc::from_root(&ctx, &root)?;
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
     // Where buffer 0 came from in the file, if it is the BIN chunk (see `release_bin`).
     let bin_file = bin
@@ -125,9 +124,17 @@ pub fn import(
         .collect();
     {
         let reader = accessor::Reader::new(&ctx, &doc, &buffers);
-        let mut meshes = mesh::Builder::new(&ctx, &doc, reader);
-        graph::build(&ctx, &doc, &mut scene, &mut meshes, &mut diagnostics)?;
-        meshes.finish(&mut diagnostics);
+        let meshes = mesh::Builder::new(&ctx, &doc, reader);
+        let mut tally = mesh::Tally::default();
+        graph::build(
+            &ctx,
+            &doc,
+            &mut scene,
+            &meshes,
+            &mut tally,
+            &mut diagnostics,
+        )?;
+        meshes.finish(tally, &mut diagnostics);
     }
     scene.gltf = Some(GltfSource {
         json: text,
@@ -223,22 +230,47 @@ fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8
     Ok((json, bin))
 }
 
-/// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
-/// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
-fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<String, Diagnostic> {
-    // Tolerate what real exporters emit although the spec forbids it: a UTF-8 BOM, and NUL
-    // padding at the end of a GLB JSON chunk.
+/// The JSON chunk without what real exporters emit although the spec forbids it: a UTF-8 BOM,
+/// and NUL padding at the end of a GLB JSON chunk.
+fn trimmed(bytes: &[u8]) -> &[u8] {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let end = bytes
         .iter()
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
-    let bytes = bytes.get(..end).unwrap_or(bytes);
+    bytes.get(..end).unwrap_or(bytes)
+}
+
+/// What the importer reads of a checked text: the root object, the version, the required
+/// extensions and the arrays the scene is built from, with the first problem in that order.
+fn read_doc(ctx: &Ctx, text: &str) -> Result<schema::Doc, Diagnostic> {
+    let Some(root) = schema::Root::new(text) else {
+        return Err(ctx
+            .diag(
+                Code::GLTF_INVALID_JSON,
+                "",
+                "the top level of a glTF document must be a JSON object",
+            )
+            .hint(VALIDATOR_HINT));
+    };
+    check_version(ctx, &root)?;
+    check_required_extensions(ctx, &root)?;
+    schema::Doc::from_root(ctx, &root)
+}
+
+/// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
+/// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
+/// `true` with it when the text is [`trimmed`] `bytes` as they are (not written back from a
+/// `Value`).
+fn parse_json(ctx: &Ctx, bytes: &[u8]) -> Result<(String, bool), Diagnostic> {
+    let bytes = trimmed(bytes);
     // A text only a `Value` parse reads right is parsed, and written back as plain JSON.
-    let as_value = || serde_json::from_slice::<Value>(bytes).map(|v| v.to_string());
+    let as_value = || serde_json::from_slice::<Value>(bytes).map(|v| (v.to_string(), false));
     let checked = match json_text::check(bytes) {
         // A checked text is UTF-8 (JSON outside strings is ASCII, strings are checked).
-        Ok(()) => std::str::from_utf8(bytes).map_or_else(|_| as_value(), |s| Ok(s.to_owned())),
+        Ok(()) => {
+            std::str::from_utf8(bytes).map_or_else(|_| as_value(), |s| Ok((s.to_owned(), true)))
+        }
         Err(e) if e.to_string().contains(json_text::RAW_VALUE_KEY) => as_value(),
         Err(e) => Err(e),
     };

@@ -6,7 +6,7 @@
 //! allocated, so the largest allocation is bounded by the bytes actually present in the file
 //! (times a small factor), whatever count the JSON claims.
 
-use std::cell::Cell;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
 
@@ -103,8 +103,11 @@ pub struct Reader<'a> {
     buffers: &'a [Vec<u8>],
     /// Elements still allowed to be read. Each read is bounded by its bytes, but one accessor
     /// can be referenced by thousands of meshes for a few bytes of JSON each; this keeps the
-    /// total proportional to the file's size.
-    budget: Cell<u64>,
+    /// total proportional to the file's size. Shared by the threads building meshes.
+    budget: AtomicU64,
+    initial: u64,
+    /// Set once a read was refused for want of budget.
+    exhausted: AtomicBool,
 }
 
 impl<'a> Reader<'a> {
@@ -117,20 +120,38 @@ impl<'a> Reader<'a> {
             ctx,
             doc,
             buffers,
-            budget: Cell::new(budget),
+            budget: AtomicU64::new(budget),
+            initial: budget,
+            exhausted: AtomicBool::new(false),
         }
     }
 
+    /// Whether a read was refused for want of budget since the last [`Reader::reset`].
+    pub fn exhausted(&self) -> bool {
+        self.exhausted.load(Ordering::Relaxed)
+    }
+
+    /// The whole budget back, for reading everything again in one order.
+    pub fn reset(&self) {
+        self.budget.store(self.initial, Ordering::Relaxed);
+        self.exhausted.store(false, Ordering::Relaxed);
+    }
+
     fn charge(&self, count: u64, pointer: &str) -> Result<(), Diagnostic> {
-        match self.budget.get().checked_sub(count) {
-            Some(left) => {
-                self.budget.set(left);
-                Ok(())
-            }
-            None => Err(self.oob(
+        let charged = self
+            .budget
+            .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
+                b.checked_sub(count)
+            });
+        match charged {
+            Ok(_) => Ok(()),
+            Err(_) => Err({
+                self.exhausted.store(true, Ordering::Relaxed);
+                self.oob(
                 pointer,
                 "the file's accessors, counted every time a mesh uses them, hold far more elements than its buffers could; refusing to read more",
-            )),
+            )
+            }),
         }
     }
 

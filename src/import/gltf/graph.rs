@@ -7,7 +7,7 @@
 
 use glam::{DMat4, DQuat, DVec3};
 
-use super::mesh::Builder;
+use super::mesh::{Builder, Tally};
 use super::schema::{index, Doc, Node as GNode};
 use super::Ctx;
 use crate::diag::{Code, Diagnostic, Diagnostics};
@@ -17,7 +17,25 @@ pub fn build(
     ctx: &Ctx,
     doc: &Doc,
     scene: &mut Scene,
-    meshes: &mut Builder<'_>,
+    meshes: &Builder<'_>,
+    tally: &mut Tally,
+    diagnostics: &mut Diagnostics,
+) -> Result<(), Diagnostic> {
+    // The walk numbers each mesh where a node first uses it; the meshes are built afterwards,
+    // all at once. A mesh that fails is reported before whatever stopped the walk after its
+    // first use, as building it there would have.
+    let mut order: Vec<usize> = Vec::new();
+    let walked = walk(ctx, doc, scene, &mut order, diagnostics);
+    scene.meshes = meshes.build_all(&order, tally)?;
+    walked
+}
+
+/// The nodes, with mesh ids given in order of first use (`order` gets the glTF mesh of each).
+fn walk(
+    ctx: &Ctx,
+    doc: &Doc,
+    scene: &mut Scene,
+    order: &mut Vec<usize>,
     diagnostics: &mut Diagnostics,
 ) -> Result<(), Diagnostic> {
     let parents = parents(ctx, doc)?;
@@ -35,7 +53,6 @@ pub fn build(
     let mut visited = vec![false; doc.nodes.len()];
     // Exact room: a big level has tens of thousands of each.
     scene.nodes.reserve_exact(doc.nodes.len());
-    scene.meshes.reserve_exact(doc.meshes.len());
     while let Some((n, parent, parent_world)) = stack.pop() {
         let (Some(node), Some(seen)) = (doc.nodes.get(n), visited.get_mut(n)) else {
             continue;
@@ -77,9 +94,8 @@ pub fn build(
                 match mesh_ids.get(mi).copied().flatten() {
                     Some(id) => Some(id),
                     None => {
-                        let built = meshes.build(mi)?;
-                        let id = scene.meshes.len();
-                        scene.meshes.push(built);
+                        let id = order.len();
+                        order.push(mi);
                         if let Some(slot) = mesh_ids.get_mut(mi) {
                             *slot = Some(id);
                         }

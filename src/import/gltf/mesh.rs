@@ -20,10 +20,17 @@ struct Vertices {
     first_bad: Option<(usize, glam::DVec3)>,
 }
 
+/// Builds scene meshes; shared by the threads that build them (see [`Builder::build_all`]).
 pub struct Builder<'a> {
     ctx: &'a Ctx,
     doc: &'a Doc,
     reader: Reader<'a>,
+}
+
+/// What building meshes dropped and found, added up in mesh order so the report does not depend
+/// on which thread built which mesh.
+#[derive(Default)]
+pub struct Tally {
     found: Vec<Diagnostic>,
     non_triangles: usize,
     first_non_triangles: Option<String>,
@@ -31,22 +38,71 @@ pub struct Builder<'a> {
     first_degenerate: Option<String>,
 }
 
+impl Tally {
+    fn add(&mut self, o: Tally) {
+        self.found.extend(o.found);
+        self.non_triangles += o.non_triangles;
+        if let Some(f) = o.first_non_triangles {
+            self.first_non_triangles.get_or_insert(f);
+        }
+        self.degenerate += o.degenerate;
+        if let Some(f) = o.first_degenerate {
+            self.first_degenerate.get_or_insert(f);
+        }
+    }
+}
+
 impl<'a> Builder<'a> {
     pub fn new(ctx: &'a Ctx, doc: &'a Doc, reader: Reader<'a>) -> Self {
-        Builder {
-            ctx,
-            doc,
-            reader,
-            found: Vec::new(),
-            non_triangles: 0,
-            first_non_triangles: None,
-            degenerate: 0,
-            first_degenerate: None,
+        Builder { ctx, doc, reader }
+    }
+
+    /// The scene meshes of glTF meshes `order` (which the caller has checked exist), built on
+    /// every thread, with what they dropped added to `tally` in that order; or the error the
+    /// first of them to fail gives, as building them one by one in that order would.
+    pub fn build_all(&self, order: &[usize], tally: &mut Tally) -> Result<Vec<Mesh>, Diagnostic> {
+        use rayon::prelude::*;
+        // Each mesh is built into its slot, in runs on every thread, each run stopping at its
+        // first failure (so the first run that failed holds the first failure in order). The
+        // slots become the list in place, so a big level's meshes are never held twice.
+        const RUN: usize = 512;
+        let mut slots: Vec<Option<Mesh>> = Vec::with_capacity(order.len());
+        slots.resize_with(order.len(), || None);
+        let runs: Vec<(Option<Diagnostic>, Tally)> = slots
+            .par_chunks_mut(RUN)
+            .zip(order.par_chunks(RUN))
+            .map(|(slots, run)| {
+                let mut t = Tally::default();
+                for (slot, &m) in slots.iter_mut().zip(run) {
+                    match self.build(m, &mut t) {
+                        Ok(mesh) => *slot = Some(mesh),
+                        Err(e) => return (Some(e), t),
+                    }
+                }
+                (None, t)
+            })
+            .collect();
+        if self.reader.exhausted() {
+            // Which mesh runs out of the read budget depends on the order of the reads:
+            // read again one by one, in order, so the same mesh is blamed every time.
+            drop(slots);
+            self.reader.reset();
+            return order.iter().map(|&m| self.build(m, tally)).collect();
         }
+        for (failed, t) in runs {
+            tally.add(t);
+            if let Some(e) = failed {
+                return Err(e);
+            }
+        }
+        // `filter_map` collects in place (`flatten` would allocate the list a second time).
+        #[allow(clippy::filter_map_identity)]
+        let out: Vec<Mesh> = slots.into_iter().filter_map(|m| m).collect();
+        Ok(out)
     }
 
     /// Builds the scene mesh of glTF mesh `m`, which the caller has checked exists.
-    pub fn build(&mut self, m: usize) -> Result<Mesh, Diagnostic> {
+    fn build(&self, m: usize, tally: &mut Tally) -> Result<Mesh, Diagnostic> {
         let mp = format!("/meshes/{m}");
         let Some(mesh) = self.doc.meshes.get(m) else {
             return Err(self.ctx.diag(
@@ -83,8 +139,8 @@ impl<'a> Builder<'a> {
             let mode = prim.mode.unwrap_or(4);
             match mode {
                 0..=3 => {
-                    self.non_triangles += 1;
-                    self.first_non_triangles.get_or_insert(pp);
+                    tally.non_triangles += 1;
+                    tally.first_non_triangles.get_or_insert(pp);
                     continue;
                 }
                 4..=6 => {}
@@ -200,12 +256,12 @@ impl<'a> Builder<'a> {
                 }
             }
             if degenerate > 0 {
-                self.degenerate += degenerate;
-                self.first_degenerate.get_or_insert_with(|| pp.clone());
+                tally.degenerate += degenerate;
+                tally.first_degenerate.get_or_insert_with(|| pp.clone());
             }
             if let Some((i, v)) = vertices.first_bad {
                 let bad = vertices.bad;
-                self.found.push(
+                tally.found.push(
                     self.ctx
                         .diag(
                             Code::GEOM_NON_FINITE,
@@ -237,9 +293,9 @@ impl<'a> Builder<'a> {
 
     /// Reports what was dropped across the whole file, once per kind, so a level with thousands
     /// of line primitives does not drown the other findings.
-    pub fn finish(self, diagnostics: &mut Diagnostics) {
-        diagnostics.extend(self.found);
-        if let Some(first) = self.first_non_triangles {
+    pub fn finish(&self, tally: Tally, diagnostics: &mut Diagnostics) {
+        diagnostics.extend(tally.found);
+        if let Some(first) = tally.first_non_triangles {
             diagnostics.push(
                 self.ctx
                     .diag(
@@ -247,13 +303,13 @@ impl<'a> Builder<'a> {
                         first,
                         format!(
                             "{} point or line primitive(s) were skipped (first shown); they bound no space",
-                            self.non_triangles
+                            tally.non_triangles
                         ),
                     )
                     .hint("nothing to do unless those primitives were meant to be surfaces"),
             );
         }
-        if let Some(first) = self.first_degenerate {
+        if let Some(first) = tally.first_degenerate {
             diagnostics.push(
                 self.ctx
                     .diag(
@@ -261,7 +317,7 @@ impl<'a> Builder<'a> {
                         first,
                         format!(
                             "{} degenerate triangle(s) (a vertex index repeated) were dropped (first primitive shown)",
-                            self.degenerate
+                            tally.degenerate
                         ),
                     )
                     .hint("harmless; Blender's Mesh > Clean Up > Delete Loose/Degenerate removes them at the source"),

@@ -165,13 +165,29 @@ impl Doc {
                 )
             })?),
         };
+        // The big arrays are read on two threads (a big level has a hundred thousand nodes,
+        // accessors and buffer views); the first problem in the order below is reported.
+        let ((scenes, nodes), ((meshes, accessors), buffer_views)) = rayon::join(
+            || (array(ctx, root, "scenes"), array(ctx, root, "nodes")),
+            || {
+                rayon::join(
+                    || {
+                        rayon::join(
+                            || array(ctx, root, "meshes"),
+                            || array(ctx, root, "accessors"),
+                        )
+                    },
+                    || array(ctx, root, "bufferViews"),
+                )
+            },
+        );
         Ok(Doc {
             scene,
-            scenes: array(ctx, root, "scenes")?,
-            nodes: array(ctx, root, "nodes")?,
-            meshes: array(ctx, root, "meshes")?,
-            accessors: array(ctx, root, "accessors")?,
-            buffer_views: array(ctx, root, "bufferViews")?,
+            scenes: scenes?,
+            nodes: nodes?,
+            meshes: meshes?,
+            accessors: accessors?,
+            buffer_views: buffer_views?,
             buffers: array(ctx, root, "buffers")?,
             materials: array(ctx, root, "materials")?,
         })
@@ -183,7 +199,11 @@ impl Doc {
 /// Each item is read from its text; one that does not read (or repeats a field, which a
 /// `Value` would have collapsed) is read again from its `Value`, which decides, so results and
 /// messages are those of reading the parsed document.
-pub fn array<T: DeserializeOwned>(ctx: &Ctx, root: &Root, key: &str) -> Result<Vec<T>, Diagnostic> {
+pub fn array<T: DeserializeOwned + Send>(
+    ctx: &Ctx,
+    root: &Root,
+    key: &str,
+) -> Result<Vec<T>, Diagnostic> {
     let Some(v) = root.get(key) else {
         return Ok(Vec::new());
     };
@@ -199,10 +219,9 @@ pub fn array<T: DeserializeOwned>(ctx: &Ctx, root: &Root, key: &str) -> Result<V
             )
             .hint("the exporter wrote an invalid glTF; check it with the Khronos glTF validator"));
     };
-    let mut out = Vec::with_capacity(items.len());
-    for (i, item) in items.iter().enumerate() {
-        let t = match serde_json::from_str::<T>(item.get()) {
-            Ok(t) => t,
+    let item = |i: usize, item: &RawValue| -> Result<T, Diagnostic> {
+        match serde_json::from_str::<T>(item.get()) {
+            Ok(t) => Ok(t),
             Err(_) => {
                 let item: Value = serde_json::from_str(item.get()).unwrap_or_default();
                 T::deserialize(&item).map_err(|e| {
@@ -214,12 +233,15 @@ pub fn array<T: DeserializeOwned>(ctx: &Ctx, root: &Root, key: &str) -> Result<V
                     .hint(
                         "the exporter wrote an invalid glTF; check it with the Khronos glTF validator",
                     )
-                })?
+                })
             }
-        };
-        out.push(t);
-    }
-    Ok(out)
+        }
+    };
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, it)| item(i, it))
+        .collect()
 }
 
 /// `i` as an index into a list of `len` items, if it is one.
