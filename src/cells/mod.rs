@@ -526,9 +526,24 @@ impl ExactVertices {
         }
         ExactVertices { grid, map }
     }
-    /// The input order of the vertex at `p` (the earliest input vertex there).
+    /// The input order of the vertex at `p` (the earliest input vertex there): of the input
+    /// vertices within a grid step of `p`, the earliest, not the nearest. Coincident vertices
+    /// of a turned level differ in their last bits and may round to neighbouring grid keys;
+    /// the nearest of them is then a coin toss, and so was the order of a room's cells
+    /// (tests/cells_props.rs, an L turned by (1.47, -0.52, -0.04) rad).
     pub fn index_of(&self, p: DVec2) -> Option<usize> {
-        self.nearest(p).map(|(i, _)| i)
+        let (kx, ky) = Self::key(p, self.grid);
+        let mut earliest: Option<usize> = None;
+        for dx in -2..=2 {
+            for dy in -2..=2 {
+                if let Some(&(i, q)) = self.map.get(&(kx + dx, ky + dy)) {
+                    if q.distance(p) <= self.grid && earliest.is_none_or(|e| i < e) {
+                        earliest = Some(i);
+                    }
+                }
+            }
+        }
+        earliest.or_else(|| self.nearest(p).map(|(i, _)| i))
     }
     fn nearest(&self, p: DVec2) -> Option<(usize, DVec2)> {
         let (kx, ky) = Self::key(p, self.grid);
@@ -573,8 +588,17 @@ pub(crate) fn plan_pieces(
     let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
     let mut pieces = Vec::new();
     for poly in union_triangles(&split_t_junctions(flat, eps.max(grid)), grid) {
-        let outer = simplify_ring(&poly.outer, eps);
-        let holes: Vec<Vec<DVec2>> = poly.holes.iter().map(|h| simplify_ring(h, eps)).collect();
+        // The union snapped every vertex to the grid: a vertex on a straight edge can come
+        // back a whole grid step off it (an L turned by (1.47, -0.52, -0.04) rad kept such a
+        // vertex on its long edge at exactly eps + 1e-10, which then framed and split the plan
+        // differently; tests/cells_props.rs). Within the tolerance plus that step is straight.
+        let straight = eps + grid;
+        let outer = simplify_ring(&poly.outer, straight);
+        let holes: Vec<Vec<DVec2>> = poly
+            .holes
+            .iter()
+            .map(|h| simplify_ring(h, straight))
+            .collect();
         if outer.len() < 3 {
             continue;
         }

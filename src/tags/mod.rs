@@ -164,9 +164,29 @@ impl Class {
 pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
     let mut diags = Diagnostics::default();
     let order = scene.walk();
-    let classes: Vec<Option<Class>> = (0..scene.nodes.len())
-        .map(|n| classify(scene, rules, n, &mut diags))
-        .collect();
+    // Each node is classified on its own (on every thread: a big level has tens of thousands),
+    // what that reports kept in node order; so are the near misses of unclassified names.
+    use rayon::prelude::*;
+    let classified: Vec<(Option<Class>, Option<near_miss::Miss>, Diagnostics)> =
+        (0..scene.nodes.len())
+            .into_par_iter()
+            .map(|n| {
+                let mut d = Diagnostics::default();
+                let class = classify(scene, rules, n, &mut d);
+                let miss = match (&class, scene.nodes[n].name.as_deref()) {
+                    (None, Some(name)) => near_miss::check(rules, name),
+                    _ => None,
+                };
+                (class, miss, d)
+            })
+            .collect();
+    let mut classes: Vec<Option<Class>> = Vec::with_capacity(classified.len());
+    let mut misses: Vec<Option<near_miss::Miss>> = Vec::with_capacity(classified.len());
+    for (class, miss, d) in classified {
+        classes.push(class);
+        misses.push(miss);
+        diags.extend(d.0);
+    }
     let rule_id = |c: &Class| rules.rules[c.rule].spec.id.clone();
     let loc = |n: NodeId| {
         Location::file(&scene.path)
@@ -405,7 +425,7 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
                     }
                 }
                 if let Some(name) = scene.nodes[n].name.as_deref() {
-                    if let Some(miss) = near_miss::check(rules, name) {
+                    if let Some(miss) = misses[n].take() {
                         let rule = &rules.rules[miss.rule].spec;
                         let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
                         diags.push(
