@@ -109,20 +109,28 @@ pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> 
 
 /// The level's extent, centre and largest stored coordinate, for the tolerance policy.
 fn level_frame(scene: &Scene) -> (Aabb, f64) {
-    let mut b = Aabb::EMPTY;
-    let mut max_abs: f64 = 0.0;
-    for n in scene.walk() {
-        for p in scene.world_positions_used(n) {
-            b.add(p);
-        }
-        if let Some(m) = scene.nodes[n].mesh {
-            for p in &scene.meshes[m].positions {
-                max_abs = max_abs.max(p.abs().max_element());
+    // Per node on every thread: boxes and maxima combine exactly in any order.
+    scene
+        .walk()
+        .into_par_iter()
+        .map(|n| {
+            let mut b = Aabb::EMPTY;
+            let mut max_abs: f64 = 0.0;
+            for p in scene.world_positions_used(n) {
+                b.add(p);
             }
-        }
-        max_abs = max_abs.max(scene.nodes[n].world.w_axis.truncate().abs().max_element());
-    }
-    (b, max_abs)
+            if let Some(m) = scene.nodes[n].mesh {
+                for p in &scene.meshes[m].positions {
+                    max_abs = max_abs.max(p.abs().max_element());
+                }
+            }
+            max_abs = max_abs.max(scene.nodes[n].world.w_axis.truncate().abs().max_element());
+            (b, max_abs)
+        })
+        .reduce(
+            || (Aabb::EMPTY, 0.0),
+            |(a, x), (b, y)| (a.union(&b), x.max(y)),
+        )
 }
 
 /// Builds the cells of every tagged room.
@@ -165,17 +173,22 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     // footprints higher on a turned level (tests/metamorphic.rs, panda3d_culling).
     let top = scene
         .walk()
-        .into_iter()
-        .flat_map(|n| scene.world_positions_used(n))
-        .map(|p| (p - origin).dot(frame.up))
-        .fold(f64::NEG_INFINITY, f64::max);
+        .into_par_iter()
+        .map(|n| {
+            scene
+                .world_positions_used(n)
+                .into_iter()
+                .map(|p| (p - origin).dot(frame.up))
+                .fold(f64::NEG_INFINITY, f64::max)
+        })
+        .reduce(|| f64::NEG_INFINITY, f64::max);
     // Structure of rooms made only of floor: extruded like footprints (see `floor_only`).
     let floors: Vec<NodeId> = tagging
         .rooms
-        .iter()
+        .par_iter()
         .filter(|r| r.bounds.is_empty() && r.footprints.is_empty())
         .filter(|r| floor_only(&node_triangles(scene, &r.structure, origin), frame.up))
-        .flat_map(|r| r.structure.iter().copied())
+        .flat_map_iter(|r| r.structure.iter().copied())
         .collect();
     // Footprints (tagged, or rooms made only of floor) are where cells start, not what they
     // rise to; portals, bounds and ignored nodes block nothing.

@@ -111,18 +111,20 @@ impl BoxGrid {
     /// [`BoxGrid::query`] of a grid made by [`BoxGrid::index`], with the same `box_of`.
     pub fn query_by(&self, b: &Aabb, pad: f64, box_of: impl Fn(usize) -> Aabb) -> Vec<usize> {
         let mut out = Vec::new();
-        self.query_into(b, pad, box_of, &mut out);
+        self.query_into(b, pad, box_of, &mut out, &mut Marks::default());
         out.into_iter().map(|i| i as usize).collect()
     }
 
-    /// [`BoxGrid::query_by`] into a buffer the caller reuses (cleared first): an inner loop
-    /// that queries per face pair allocates nothing.
+    /// [`BoxGrid::query_by`] into buffers the caller reuses (`out` is cleared first): an inner
+    /// loop that queries per face pair allocates nothing. A box in several buckets is found in
+    /// each; `marks` keeps it from being listed twice, so only the answer is sorted.
     pub fn query_into(
         &self,
         b: &Aabb,
         pad: f64,
         box_of: impl Fn(usize) -> Aabb,
         out: &mut Vec<u32>,
+        marks: &mut Marks,
     ) {
         out.clear();
         if b.is_empty() {
@@ -137,16 +139,22 @@ impl BoxGrid {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
                     for &i in &self.buckets[self.bucket(x, y, z)] {
+                        if marks.is_set(i) {
+                            continue;
+                        }
                         let c = box_of(i as usize);
                         if (0..3).all(|k| c.min[k] <= q.max[k] && c.max[k] >= q.min[k]) {
+                            marks.set(i);
                             out.push(i);
                         }
                     }
                 }
             }
         }
+        for &i in out.iter() {
+            marks.clear(i);
+        }
         out.sort_unstable();
-        out.dedup();
     }
 
     /// Every pair `(i, j)`, `i < j`, of boxes within `pad` of each other, in ascending order.
@@ -160,6 +168,30 @@ impl BoxGrid {
             }
         }
         out
+    }
+}
+
+/// A set of box indices as bits, grown as needed and left empty after each query.
+#[derive(Default)]
+pub struct Marks(Vec<u64>);
+
+impl Marks {
+    fn is_set(&self, i: u32) -> bool {
+        self.0
+            .get(i as usize / 64)
+            .is_some_and(|w| w & (1 << (i % 64)) != 0)
+    }
+    fn set(&mut self, i: u32) {
+        let w = i as usize / 64;
+        if w >= self.0.len() {
+            self.0.resize(w + 1, 0);
+        }
+        self.0[w] |= 1 << (i % 64);
+    }
+    fn clear(&mut self, i: u32) {
+        if let Some(w) = self.0.get_mut(i as usize / 64) {
+            *w &= !(1 << (i % 64));
+        }
     }
 }
 

@@ -12,7 +12,7 @@ use glam::{DVec2, DVec3};
 use crate::cells::CellSet;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::signed_area;
-use crate::geom::grid::BoxGrid;
+use crate::geom::grid::{BoxGrid, Marks};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
 
@@ -64,22 +64,35 @@ pub(crate) struct Slab<'a> {
 #[derive(Default)]
 pub(crate) struct Shadows {
     candidates: Vec<u32>,
+    marks: Marks,
     pts: Vec<DVec2>,
     ends: Vec<usize>,
 }
 
 impl Shadows {
-    /// The rings, in the order of the triangles that cast them.
+    /// The rings, in the order of the triangles that cast them, each once: a ring with the
+    /// same corners as an earlier one (to the bit, in any order) is left out. A wall between
+    /// two rooms is usually modelled from both sides, the same triangles twice; a boolean or a
+    /// cover test gives the same answer for one copy as for two, at half the cost.
     pub fn rings(&self) -> Vec<&[DVec2]> {
+        let mut seen: HashSet<[(u64, u64); 5], foldhash::fast::FixedState> =
+            HashSet::with_capacity_and_hasher(self.ends.len(), Default::default());
         let mut start = 0;
-        self.ends
-            .iter()
-            .map(|&end| {
-                let r = &self.pts[start..end];
-                start = end;
-                r
-            })
-            .collect()
+        let mut out = Vec::with_capacity(self.ends.len());
+        for &end in &self.ends {
+            let r = &self.pts[start..end];
+            start = end;
+            // Shadows are convex with at most five corners: their corner set is the ring.
+            let mut key = [(u64::MAX, u64::MAX); 5];
+            for (k, q) in key.iter_mut().zip(r) {
+                *k = (q.x.to_bits(), q.y.to_bits());
+            }
+            key.sort_unstable();
+            if r.len() > 5 || seen.insert(key) {
+                out.push(r);
+            }
+        }
+        out
     }
 }
 
@@ -131,6 +144,7 @@ impl Opaque {
             0.0,
             |i| tri_box(&self.verts, &self.tris[i]),
             &mut out.candidates,
+            &mut out.marks,
         );
         for &i in &out.candidates {
             if slab_shadow(&self.triangle(i), slab, &mut out.pts) {
