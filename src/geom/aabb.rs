@@ -32,6 +32,24 @@ impl Aabb {
             max: self.max.max(o.max),
         }
     }
+    /// The box grown by `pad` on every side.
+    pub fn grown(&self, pad: f64) -> Aabb {
+        Aabb {
+            min: self.min - DVec3::splat(pad),
+            max: self.max + DVec3::splat(pad),
+        }
+    }
+    /// The points in both boxes (empty if none).
+    pub fn intersection(&self, o: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        }
+    }
+    /// Whether the two boxes share a point (touching counts; an empty box meets nothing).
+    pub fn meets(&self, o: &Aabb) -> bool {
+        (0..3).all(|k| self.min[k] <= o.max[k] && self.max[k] >= o.min[k])
+    }
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }

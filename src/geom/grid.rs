@@ -116,8 +116,7 @@ impl BoxGrid {
     }
 
     /// [`BoxGrid::query_by`] into buffers the caller reuses (`out` is cleared first): an inner
-    /// loop that queries per face pair allocates nothing. A box in several buckets is found in
-    /// each; `marks` keeps it from being listed twice, so only the answer is sorted.
+    /// loop that queries per face pair allocates nothing.
     pub fn query_into(
         &self,
         b: &Aabb,
@@ -130,31 +129,37 @@ impl BoxGrid {
         if b.is_empty() {
             return;
         }
-        let q = Aabb {
-            min: b.min - DVec3::splat(pad),
-            max: b.max + DVec3::splat(pad),
-        };
-        let (lo, hi) = self.range(&q);
+        let q = b.grown(pad);
+        self.visit(b, pad, marks, |i| {
+            if box_of(i as usize).meets(&q) {
+                out.push(i);
+            }
+        });
+        out.sort_unstable();
+    }
+
+    /// Calls `f` once for every box index in a bucket that `b` grown by `pad` covers, in no
+    /// particular order: a superset of the boxes meeting it, for callers that test each one
+    /// themselves and sort only what they keep. A box in several buckets is offered once;
+    /// `marks` (left empty afterwards) remembers which were.
+    pub fn visit(&self, b: &Aabb, pad: f64, marks: &mut Marks, mut f: impl FnMut(u32)) {
+        if b.is_empty() {
+            return;
+        }
+        let (lo, hi) = self.range(&b.grown(pad));
+        marks.seen.clear();
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
                     for &i in &self.buckets[self.bucket(x, y, z)] {
-                        if marks.is_set(i) {
-                            continue;
-                        }
-                        let c = box_of(i as usize);
-                        if (0..3).all(|k| c.min[k] <= q.max[k] && c.max[k] >= q.min[k]) {
-                            marks.set(i);
-                            out.push(i);
+                        if marks.set(i) {
+                            f(i);
                         }
                     }
                 }
             }
         }
-        for &i in out.iter() {
-            marks.clear(i);
-        }
-        out.sort_unstable();
+        marks.clear_seen();
     }
 
     /// Every pair `(i, j)`, `i < j`, of boxes within `pad` of each other, in ascending order.
@@ -171,27 +176,35 @@ impl BoxGrid {
     }
 }
 
-/// A set of box indices as bits, grown as needed and left empty after each query.
+/// A set of box indices as bits, grown as needed and left empty after each query (the indices
+/// set are listed, so clearing costs what setting did).
 #[derive(Default)]
-pub struct Marks(Vec<u64>);
+pub struct Marks {
+    bits: Vec<u64>,
+    seen: Vec<u32>,
+}
 
 impl Marks {
-    fn is_set(&self, i: u32) -> bool {
-        self.0
-            .get(i as usize / 64)
-            .is_some_and(|w| w & (1 << (i % 64)) != 0)
-    }
-    fn set(&mut self, i: u32) {
+    /// Sets `i`; false if it was set already.
+    fn set(&mut self, i: u32) -> bool {
         let w = i as usize / 64;
-        if w >= self.0.len() {
-            self.0.resize(w + 1, 0);
+        if w >= self.bits.len() {
+            self.bits.resize(w + 1, 0);
         }
-        self.0[w] |= 1 << (i % 64);
+        let bit = 1 << (i % 64);
+        if self.bits[w] & bit != 0 {
+            return false;
+        }
+        self.bits[w] |= bit;
+        self.seen.push(i);
+        true
     }
-    fn clear(&mut self, i: u32) {
-        if let Some(w) = self.0.get_mut(i as usize / 64) {
-            *w &= !(1 << (i % 64));
+
+    fn clear_seen(&mut self) {
+        for &i in &self.seen {
+            self.bits[i as usize / 64] &= !(1 << (i % 64));
         }
+        self.seen.clear();
     }
 }
 

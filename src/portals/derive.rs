@@ -377,11 +377,26 @@ fn pair_openings(
                     .collect();
                 out.claims.push((b, ib, back));
             }
-            // What blocks: everything on the plane, or inside the wall slab.
+            // What blocks: everything on the plane, or inside the wall slab, within 2·eps of
+            // the shared region: the others (the next room's wall, in the same plane past the
+            // corner) leave the same region open, and none of their points is near enough to
+            // be put back as an exact vertex. The grid is asked for the box around that part
+            // of the slab, which holds every triangle whose shadow can be kept (a long wall
+            // shared with a short room's asks for the short room's part only).
             let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
-            let mut bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()));
-            bb.min -= DVec3::splat(eps);
-            bb.max += DVec3::splat(eps);
+            let (slo, shi) = ring_bounds(shared.iter().flat_map(|s| s.outer.iter()));
+            let reach = 2.0 * eps;
+            let (slo, shi) = (slo - DVec2::splat(reach), shi + DVec2::splat(reach));
+            let mut near = Aabb::EMPTY;
+            for t in [-eps, gap + eps] {
+                for c in [slo, DVec2::new(shi.x, slo.y), shi, DVec2::new(slo.x, shi.y)] {
+                    near.add(f.to3(c, na * t));
+                }
+            }
+            // Never more than the faces' own box, as ever (the 2·eps reach can pass it).
+            let bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()))
+                .grown(eps)
+                .intersection(&near);
             let slab = Slab {
                 n: na,
                 lo,
@@ -389,20 +404,12 @@ fn pair_openings(
                 frame: &f,
             };
             opaque.shadows(&bb, &slab, shadows);
-            // Only the blockers within 2·eps of the shared region: the others (the next
-            // room's wall, in the same plane past the corner) leave the same region open, and
-            // none of their points is near enough to be put back as an exact vertex.
-            let (slo, shi) = ring_bounds(shared.iter().flat_map(|s| s.outer.iter()));
-            let reach = 2.0 * eps;
             let blockers: Vec<&[DVec2]> = shadows
                 .rings()
                 .into_iter()
                 .filter(|r| {
                     let (lo, hi) = ring_bounds(r.iter());
-                    lo.x <= shi.x + reach
-                        && lo.y <= shi.y + reach
-                        && hi.x >= slo.x - reach
-                        && hi.y >= slo.y - reach
+                    lo.x <= shi.x && lo.y <= shi.y && hi.x >= slo.x && hi.y >= slo.y
                 })
                 .collect();
             let closed = shared.iter().all(|s| {

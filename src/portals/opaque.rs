@@ -60,11 +60,14 @@ pub(crate) struct Slab<'a> {
 }
 
 /// Shadows of the triangles in a slab, as rings in one flat buffer (in triangle order), plus the
-/// candidate buffer of the grid query; kept by the caller between face pairs.
+/// buffers of the grid query; kept by the caller between face pairs.
 #[derive(Default)]
 pub(crate) struct Shadows {
-    candidates: Vec<u32>,
     marks: Marks,
+    /// Shadows in the order the grid offered their triangles, and (triangle, start, end) of
+    /// each in `scratch`.
+    scratch: Vec<DVec2>,
+    kept: Vec<(u32, usize, usize)>,
     pts: Vec<DVec2>,
     ends: Vec<usize>,
 }
@@ -135,21 +138,34 @@ impl Opaque {
     }
 
     /// Fills `out` with the shadows in `slab` of the triangles whose bounds meet `b`, in scene
-    /// order (the order the booleans and exact vertices depend on).
+    /// order (the order the booleans and exact vertices depend on). Each triangle near `b` is
+    /// boxed and clipped in one pass, and only the shadows kept are sorted: most candidates
+    /// stand across the slab and cast none.
     pub fn shadows(&self, b: &Aabb, slab: &Slab, out: &mut Shadows) {
         out.pts.clear();
         out.ends.clear();
-        self.grid.query_into(
-            b,
-            0.0,
-            |i| tri_box(&self.verts, &self.tris[i]),
-            &mut out.candidates,
-            &mut out.marks,
-        );
-        for &i in &out.candidates {
-            if slab_shadow(&self.triangle(i), slab, &mut out.pts) {
-                out.ends.push(out.pts.len());
+        out.kept.clear();
+        out.scratch.clear();
+        let Shadows {
+            marks,
+            kept,
+            scratch,
+            ..
+        } = out;
+        self.grid.visit(b, 0.0, marks, |i| {
+            let t = self.triangle(i);
+            if !Aabb::from_points(&t).meets(b) {
+                return;
             }
+            let start = scratch.len();
+            if slab_shadow(&t, slab, scratch) {
+                kept.push((i, start, scratch.len()));
+            }
+        });
+        kept.sort_unstable_by_key(|k| k.0);
+        for &(_, start, end) in kept.iter() {
+            out.pts.extend_from_slice(&out.scratch[start..end]);
+            out.ends.push(out.pts.len());
         }
     }
 }
