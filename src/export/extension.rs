@@ -3,6 +3,7 @@
 //! cell, no empty arrays). Documented in schemas/PORTCULLIS_portals.md and checked against
 //! schemas/PORTCULLIS_portals.schema.json.
 
+use super::parallel::Source;
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::{json, Map, Value};
 
@@ -157,6 +158,59 @@ impl Serialize for Json<'_> {
     }
 }
 
+impl<'r> Json<'r> {
+    /// The root extension object as sources of the parallel writer: `cells` and `portals` a
+    /// run of elements at a time, the same bytes as serializing it.
+    pub(crate) fn sources(self, out: &mut Vec<Source<'r>>) -> serde_json::Result<()> {
+        let (Value::Object(members), Some((cells, tagging, portals))) =
+            (self.root, self.lazy.level)
+        else {
+            out.push(Source::Job(Box::new(move |b| {
+                serde_json::to_writer(b, &self)
+            })));
+            return Ok(());
+        };
+        out.push(Source::bytes(b"{"));
+        for (i, (k, v)) in members.iter().enumerate() {
+            out.push(Source::key(k, i == 0)?);
+            match (k.as_str(), v) {
+                ("cells", Value::Null) => {
+                    let cells = Cells {
+                        cells,
+                        tagging,
+                        nodes: &self.lazy.cell_nodes,
+                    };
+                    out.push(Source::bytes(b"["));
+                    out.push(Source::Items {
+                        len: cells.len(),
+                        render: std::sync::Arc::new(Box::new(move |i, b| {
+                            serde_json::to_writer(b, &cells.cell(i))
+                        })),
+                    });
+                    out.push(Source::bytes(b"]"));
+                }
+                ("portals", Value::Null) => {
+                    let portals = Portals {
+                        portals,
+                        nodes: &self.lazy.portal_nodes,
+                    };
+                    out.push(Source::bytes(b"["));
+                    out.push(Source::Items {
+                        len: portals.len(),
+                        render: std::sync::Arc::new(Box::new(move |i, b| {
+                            serde_json::to_writer(b, &portals.portal(i))
+                        })),
+                    });
+                    out.push(Source::bytes(b"]"));
+                }
+                _ => out.push(Source::value(v)),
+            }
+        }
+        out.push(Source::bytes(b"}"));
+        Ok(())
+    }
+}
+
 /// A number as [`num`] writes it.
 struct Num(f64);
 
@@ -172,22 +226,31 @@ struct Cells<'a> {
     nodes: &'a [Vec<usize>],
 }
 
+impl<'a> Cells<'a> {
+    fn len(&self) -> usize {
+        self.cells.cells.len().min(self.nodes.len())
+    }
+
+    fn cell(&self, i: usize) -> CellJson<'a, impl Iterator<Item = [Num; 4]> + 'a> {
+        let (c, nodes) = (&self.cells.cells[i], &self.nodes[i]);
+        let planes = c.poly.faces.iter().map(|f| {
+            let (n, d) = (f.plane.normal, f.plane.d);
+            [Num(n.x), Num(n.y), Num(n.z), Num(d)]
+        });
+        let v3 = |v: glam::DVec3| [Num(v.x), Num(v.y), Num(v.z)];
+        CellJson {
+            room: &self.tagging.rooms[c.room].name,
+            planes: Seq::new(planes),
+            min: v3(c.bounds.min),
+            max: v3(c.bounds.max),
+            nodes,
+        }
+    }
+}
+
 impl Serialize for Cells<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_seq(self.cells.cells.iter().zip(self.nodes).map(|(c, nodes)| {
-            let planes = c.poly.faces.iter().map(|f| {
-                let (n, d) = (f.plane.normal, f.plane.d);
-                [Num(n.x), Num(n.y), Num(n.z), Num(d)]
-            });
-            let v3 = |v: glam::DVec3| [Num(v.x), Num(v.y), Num(v.z)];
-            CellJson {
-                room: &self.tagging.rooms[c.room].name,
-                planes: Seq::new(planes),
-                min: v3(c.bounds.min),
-                max: v3(c.bounds.max),
-                nodes,
-            }
-        }))
+        s.collect_seq((0..self.len()).map(|i| self.cell(i)))
     }
 }
 
@@ -237,15 +300,19 @@ struct Portals<'a> {
     nodes: &'a [Option<usize>],
 }
 
+impl<'a> Portals<'a> {
+    fn len(&self) -> usize {
+        self.portals.portals.len().min(self.nodes.len())
+    }
+
+    fn portal(&self, i: usize) -> PortalJson<'a> {
+        PortalJson(&self.portals.portals[i], self.nodes[i])
+    }
+}
+
 impl Serialize for Portals<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_seq(
-            self.portals
-                .portals
-                .iter()
-                .zip(self.nodes)
-                .map(|(p, node)| PortalJson(p, *node)),
-        )
+        s.collect_seq((0..self.len()).map(|i| self.portal(i)))
     }
 }
 

@@ -7,6 +7,7 @@ pub mod bake;
 pub mod debug;
 pub mod extension;
 pub mod gltf_out;
+pub(crate) mod parallel;
 pub mod read;
 pub(crate) mod rewrite;
 pub mod sink;

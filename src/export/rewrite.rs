@@ -20,9 +20,10 @@ use serde_json::{json, Value};
 
 use super::extension::{Annotation, Json, NAME};
 use super::gltf_out::{self as out, OutFormat};
+use super::parallel::{self, Failure, Render, RenderText, Source};
 use super::sink::{Counted, Sink};
 use super::transcode::{Element, Transcode};
-use crate::scene::json_text;
+use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
 /// Why the streamed rewrite did not write a document: it declines it (the whole-document path
@@ -208,7 +209,11 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
     w.write_all(&2u32.to_le_bytes()).map_err(io)?;
     w.write_all(&[0; 8]).map_err(io)?;
     w.write_all(b"JSON").map_err(io)?;
-    written(serde_json::to_writer(&mut w, doc))?;
+    match parallel::write(doc.sources()?, &mut w) {
+        Ok(()) => {}
+        Err(Failure::Io(e)) => return Err(Failed::Io(e)),
+        Err(Failure::Render(e)) => written(Err(e))?,
+    }
     while w.bytes % 4 != 0 {
         w.write_all(b" ").map_err(io)?;
     }
@@ -402,6 +407,81 @@ impl Serialize for Document<'_, '_> {
         }
         map.end()
     }
+}
+
+impl<'r> Document<'r, '_> {
+    /// The document as sources of the parallel writer ([`Document::serialize`] member by
+    /// member, big arrays a run of elements at a time).
+    fn sources(&self) -> serde_json::Result<Vec<Source<'r>>> {
+        let mut v = vec![Source::bytes(b"{")];
+        for (i, (k, slot)) in self.root.0.iter().enumerate() {
+            v.push(Source::key(k, i == 0)?);
+            match (k.as_str(), slot, self.ours) {
+                ("extensions", Slot::Parsed(Value::Object(e)), Some(ours)) => {
+                    v.push(Source::bytes(b"{"));
+                    for (j, (k, x)) in e.iter().enumerate() {
+                        v.push(Source::key(k, j == 0)?);
+                        if k == NAME {
+                            ours.sources(&mut v)?;
+                        } else {
+                            v.push(Source::value(x));
+                        }
+                    }
+                    v.push(Source::bytes(b"}"));
+                }
+                (_, Slot::Text(t), _) => {
+                    let text = t.get();
+                    v.extend(array(text, Edit::Copy, None).unwrap_or_else(|| {
+                        vec![Source::Job(Box::new(move |b| {
+                            serde_json::to_writer(b, &Transcode(text))
+                        }))]
+                    }));
+                }
+                (_, Slot::Parsed(x), _) => v.push(Source::value(x)),
+                (_, Slot::Stream { text, edit, extra }, _) => {
+                    let (text, edit, extra) = (*text, *edit, extra.as_ref());
+                    v.extend(array(text.get(), edit, extra).unwrap_or_else(|| {
+                        vec![Source::Job(Box::new(move |b| {
+                            serde_json::to_writer(b, &Stream { text, edit, extra })
+                        }))]
+                    }));
+                }
+            }
+        }
+        v.push(Source::bytes(b"}"));
+        Ok(v)
+    }
+}
+
+/// An array's text as sources, each element through `edit` as [`StreamVisitor`] does it, then
+/// `extra`; `None` if the text is not an array.
+fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<Vec<Source<'r>>> {
+    let elements = Elements::of(text)?;
+    let render: RenderText<'r> = match edit {
+        Edit::Copy => Box::new(|_, e, b| serde_json::to_writer(b, &Transcode(e))),
+        Edit::Views(base) => Box::new(move |_, e, b| {
+            let mut v: Value = serde_json::from_str(e)?;
+            out::rebase_view(&mut v, base);
+            serde_json::to_writer(b, &v)
+        }),
+        Edit::Nodes(ours) => Box::new(move |i, e, b| {
+            let mut v: Value = serde_json::from_str(e)?;
+            out::strip_ours(&mut v);
+            if let Some(o) = ours.get(&i) {
+                out::add_ours(&mut v, (*o).clone());
+            }
+            serde_json::to_writer(b, &v)
+        }),
+    };
+    Some(vec![
+        Source::bytes(b"["),
+        Source::Text {
+            elements,
+            render: std::sync::Arc::new(render),
+            tail: extra.map(|x| -> Render<'r> { Box::new(move |b| serde_json::to_writer(b, x)) }),
+        },
+        Source::bytes(b"]"),
+    ])
 }
 
 /// The root's `extensions`, our member serialized from the annotation.

@@ -147,6 +147,137 @@ pub fn array_len(raw: &RawValue) -> Option<usize> {
         .ok()
 }
 
+/// The elements of a JSON array's text, each as its own text, taken a run at a time: what the
+/// parallel writer hands out as work without parsing the array first. The text must be valid
+/// JSON (every text here was checked on import); on anything else the elements found are
+/// meaningless but the scan still ends.
+pub struct Elements<'a> {
+    text: &'a str,
+    /// Where the next element (or the closing bracket) starts looking from.
+    pos: usize,
+    /// Elements handed out so far.
+    pub count: usize,
+}
+
+impl<'a> Elements<'a> {
+    /// The elements of `array`; `None` if it is not an array.
+    pub fn of(array: &'a str) -> Option<Elements<'a>> {
+        let start = array.len() - array.trim_start().len();
+        (array.as_bytes().get(start) == Some(&b'[')).then_some(Elements {
+            text: array,
+            pos: start + 1,
+            count: 0,
+        })
+    }
+
+    /// The next elements, at least one and about `bytes` of text, as the text running from
+    /// the first's start to the last's end (commas and whitespace between them included), and
+    /// how many there are; `None` once the array is done.
+    pub fn run(&mut self, bytes: usize) -> Option<(&'a str, usize)> {
+        let b = self.text.as_bytes();
+        let mut start = None;
+        let mut end = self.pos;
+        let mut n = 0;
+        loop {
+            let i = skip_space(b, self.pos);
+            match b.get(i) {
+                None | Some(b']') => {
+                    self.pos = b.len();
+                    break;
+                }
+                Some(b',') => {
+                    self.pos = i + 1;
+                    continue;
+                }
+                Some(_) => {}
+            }
+            let s = *start.get_or_insert(i);
+            end = skip_value(b, i);
+            self.pos = end;
+            n += 1;
+            if end - s >= bytes {
+                break;
+            }
+        }
+        self.count += n;
+        start.map(|s| (&self.text[s..end], n))
+    }
+}
+
+/// Each element's text in a run of elements from [`Elements::run`].
+pub fn split_run(run: &str) -> impl Iterator<Item = &str> {
+    let b = run.as_bytes();
+    let mut pos = 0;
+    std::iter::from_fn(move || {
+        let i = skip_space(b, pos);
+        let i = if b.get(i) == Some(&b',') {
+            skip_space(b, i + 1)
+        } else {
+            i
+        };
+        if i >= b.len() {
+            return None;
+        }
+        pos = skip_value(b, i);
+        Some(&run[i..pos])
+    })
+}
+
+fn skip_space(b: &[u8], mut i: usize) -> usize {
+    while i < b.len() && matches!(b[i], b' ' | b'\t' | b'\n' | b'\r') {
+        i += 1;
+    }
+    i
+}
+
+/// The end of the value starting at `i` (valid JSON assumed): strings to their closing quote,
+/// objects and arrays to their matching bracket, anything else to the next delimiter.
+fn skip_value(b: &[u8], i: usize) -> usize {
+    let string_end = |mut j: usize| {
+        while j < b.len() {
+            match b[j] {
+                b'"' => return j + 1,
+                b'\\' => j += 2,
+                _ => j += 1,
+            }
+        }
+        b.len()
+    };
+    match b.get(i) {
+        Some(b'"') => string_end(i + 1),
+        Some(b'{' | b'[') => {
+            let mut depth = 0usize;
+            let mut j = i;
+            while j < b.len() {
+                match b[j] {
+                    b'"' => {
+                        j = string_end(j + 1);
+                        continue;
+                    }
+                    b'{' | b'[' => depth += 1,
+                    b'}' | b']' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            return j + 1;
+                        }
+                    }
+                    _ => {}
+                }
+                j += 1;
+            }
+            b.len()
+        }
+        _ => {
+            let mut j = i;
+            while j < b.len() && !matches!(b[j], b',' | b']' | b'}' | b' ' | b'\t' | b'\n' | b'\r')
+            {
+                j += 1;
+            }
+            j.max(i + 1).min(b.len())
+        }
+    }
+}
+
 /// Each glTF node's name (`None` where a node has no string name, or is not an object).
 pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
     let Some(members) = src.members() else {
@@ -168,6 +299,29 @@ pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Runs of any size cover every element once, in order, each exactly as a parser reads it:
+    /// strings holding brackets, commas, quotes and backslashes, nesting, numbers, whitespace.
+    #[test]
+    fn element_runs_are_the_elements() {
+        let text = r#" [ {"a": "x]\\\",}[", "b": [1, [2, {}]]} , "s\"]" ,-1.5e3,true ,null,[],
+            {"c":{"d":"}}"}} ,0 ] "#;
+        let want: Vec<&RawValue> = serde_json::from_str(text).unwrap();
+        for size in [0, 1, 7, 40, 1000] {
+            let mut e = Elements::of(text).unwrap();
+            let mut got = Vec::new();
+            while let Some((run, n)) = e.run(size) {
+                let items: Vec<&str> = split_run(run).collect();
+                assert_eq!(items.len(), n, "size {size}: {run:?}");
+                got.extend(items);
+            }
+            assert_eq!(e.count, want.len());
+            let want: Vec<&str> = want.iter().map(|r| r.get()).collect();
+            assert_eq!(got, want, "size {size}");
+        }
+        assert!(Elements::of(r#"{"a": 1}"#).is_none());
+        assert_eq!(Elements::of(" [ ] ").unwrap().run(10), None);
+    }
 
     #[test]
     fn members_keep_first_place_and_last_value() {
