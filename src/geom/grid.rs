@@ -47,8 +47,12 @@ impl BoxGrid {
         // a handful of buckets.
         let n = sizes.len().max(1) as f64;
         let by_count = (extent.x * extent.y * extent.z / (2.0 * n)).cbrt();
-        sizes.sort_by(f64::total_cmp);
-        let median = sizes.get(sizes.len() / 2).copied().unwrap_or(0.0);
+        let mid = sizes.len() / 2;
+        let median = if sizes.is_empty() {
+            0.0
+        } else {
+            *sizes.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
         let mut cell = by_count.max(median).max(extent.max_element() * 1e-6);
         let dims_for = |cell: f64| {
             [0, 1, 2].map(|k| ((extent[k] / cell).floor() as usize + 1).clamp(1, 1 << 20))

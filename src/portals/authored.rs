@@ -1,6 +1,8 @@
 //! Authored portals: linked to the derived portal they cover (which takes their name, kind and
 //! flags), or, for mirrors and teleporters, made into transformed portals of their own.
 
+use rayon::prelude::*;
+
 use glam::{DMat4, DVec3};
 
 use super::{Portal, PortalSet};
@@ -91,6 +93,39 @@ fn overlap(a: &[DVec3], b: &[DVec3], plane: &Plane, grid: f64) -> f64 {
     .sum()
 }
 
+/// The derived two-way portals an authored quad lies on: parallel within `cos_tol`, within
+/// `reach` of its plane, and overlapping it by more than 1% of the smaller of the two.
+fn overlapping(
+    q: &Quad,
+    set: &PortalSet,
+    near: &BoxGrid,
+    reach: f64,
+    cos_tol: f64,
+    grid: f64,
+) -> Vec<usize> {
+    let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
+        normal: q.normal,
+        d: 0.0,
+    });
+    let mut candidates: Vec<usize> = Vec::new();
+    let around = Aabb::from_points(q.ring.iter());
+    for i in near.query(&around, reach) {
+        let p = &set.portals[i];
+        if p.to.is_none() || p.transform.is_some() || p.normal.dot(q.normal).abs() < cos_tol {
+            continue;
+        }
+        let dist = (p.normal.dot(p.polygon[0]) - p.normal.dot(q.centre)).abs();
+        if dist > reach {
+            continue;
+        }
+        let a = overlap(&q.ring, &p.polygon, &plane, grid);
+        if a > 0.01 * p.area.min(polygon_area(&q.ring, q.normal)) {
+            candidates.push(i);
+        }
+    }
+    candidates
+}
+
 fn cell_at(cells: &CellSet, p: DVec3, eps: f64) -> Option<usize> {
     (0..cells.cells.len()).find(|&c| cells.cells[c].poly.contains(p, eps))
 }
@@ -140,8 +175,30 @@ pub(crate) fn link(
     );
     // Which authored node claimed each derived portal, to spot two quads in one opening.
     let mut claimed_by: Vec<Option<NodeId>> = vec![None; set.portals.len()];
-    for ap in &tagging.portals {
-        let Some(q) = quad(scene, ap.node, eps) else {
+    // Each quad's outline and the derived portals it overlaps depend on nothing the loop below
+    // changes (it flags derived portals and appends transformed ones the grid never holds), so
+    // they are found first, on every thread.
+    let prepared: Vec<(Option<Quad>, Vec<usize>)> = tagging
+        .portals
+        .par_iter()
+        .map(|ap| {
+            let q = quad(scene, ap.node, eps);
+            let candidates = match &q {
+                Some(q) if ap.kind == PortalKind::Plain => overlapping(
+                    q,
+                    set,
+                    &near,
+                    cfg.max_wall_thickness + 10.0 * eps,
+                    cos_tol,
+                    grid,
+                ),
+                _ => Vec::new(),
+            };
+            (q, candidates)
+        })
+        .collect();
+    for (ap, (q, candidates)) in tagging.portals.iter().zip(prepared) {
+        let Some(q) = q else {
             // No mesh is a tag problem, reported there; a mesh without area is reported here.
             let node = &scene.nodes[ap.node];
             if let Some(m) = node.mesh {
@@ -208,26 +265,6 @@ pub(crate) fn link(
                 );
             }
             continue;
-        }
-        let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
-            normal: q.normal,
-            d: 0.0,
-        });
-        let mut candidates: Vec<usize> = Vec::new();
-        let around = Aabb::from_points(q.ring.iter());
-        for i in near.query(&around, cfg.max_wall_thickness + 10.0 * eps) {
-            let p = &set.portals[i];
-            if p.to.is_none() || p.transform.is_some() || p.normal.dot(q.normal).abs() < cos_tol {
-                continue;
-            }
-            let dist = (p.normal.dot(p.polygon[0]) - p.normal.dot(q.centre)).abs();
-            if dist > cfg.max_wall_thickness + 10.0 * eps {
-                continue;
-            }
-            let a = overlap(&q.ring, &p.polygon, &plane, grid);
-            if a > 0.01 * p.area.min(polygon_area(&q.ring, q.normal)) {
-                candidates.push(i);
-            }
         }
         // Direction: the named source room, else the named target, else the way it faces
         // (Godot's convention: a portal faces out of the room it belongs to).
