@@ -225,6 +225,8 @@ fn one(
         portcullis::pipeline::build_portals(&mut tagged, &cells)
     });
     row.portals_s = t;
+    // As `convert` does, so the peak below is the convert's.
+    portcullis::pipeline::release_free_memory();
     let (_, t) = timed_cpu(&mut cpu, || {
         portcullis::pipeline::check_level(&mut tagged, &cells, &portals, false)
     });

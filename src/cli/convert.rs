@@ -168,7 +168,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     })?;
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
-    release_free_memory();
+    pipeline::release_free_memory();
     let method = portcullis::vis::Method::parse(&a.vis_method);
     let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
     let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
@@ -196,7 +196,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         portcullis::vis::of_level(cells.cells.len(), &portals, cells.tolerance.distance, &opts)
     });
     if pvs.is_some() {
-        release_free_memory();
+        pipeline::release_free_memory();
     }
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
@@ -370,15 +370,4 @@ fn progress_bar(n: u64) -> indicatif::ProgressBar {
         bar.set_style(style);
     }
     bar
-}
-
-/// Hands the heap a stage freed (portals, the PVS) back to the system before the next
-/// allocates its own: glibc keeps it otherwise, and the next stage's large blocks do not
-/// always fit in it (on a big level, 30 MB more at the export after a PVS).
-fn release_free_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only returns free pages of the allocator's heap to the system.
-    unsafe {
-        libc::malloc_trim(0);
-    }
 }
