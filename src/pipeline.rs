@@ -160,20 +160,33 @@ fn write_annotated_to(
 ) -> Result<(), Diagnostic> {
     use crate::export::{extension, gltf_out};
     let scene = &tagged.scene;
-    let mut ann = extension::build(scene, &tagged.tagging, cells, portals, &|n| {
-        gltf_out::node_index(scene, n)
-    });
-    if let Some((p, m)) = pvs {
-        ann.set_visibility(p, m);
-    }
-    if scene.gltf.is_none() {
-        // A new glTF (from OBJ or USD) is not the input: hash what a reader of the written
-        // file will import, or the annotation would read back as stale.
-        if let Some(h) = written_hash(tagged, out, format) {
-            ann.root["inputHash"] = serde_json::json!(h);
+    let tagging = &tagged.tagging;
+    // The input hash is a pass over every position: it runs on a thread of its own while the
+    // output is written, and is waited for when the writer reaches it.
+    std::thread::scope(|s| {
+        let hashing = std::thread::Builder::new()
+            .spawn_scoped(s, || extension::input_hash(scene, tagging))
+            .ok();
+        let hash = extension::InputHash::pending(Box::new(move || {
+            hashing
+                .and_then(|h| h.join().ok())
+                .unwrap_or_else(|| extension::input_hash(scene, tagging))
+        }));
+        let mut ann = extension::build_deferred(&hash, tagging, cells, portals, &|n| {
+            gltf_out::node_index(scene, n)
+        });
+        if let Some((p, m)) = pvs {
+            ann.set_visibility(p, m);
         }
-    }
-    gltf_out::write_to(scene, ann, out, format, sink)
+        if scene.gltf.is_none() {
+            // A new glTF (from OBJ or USD) is not the input: hash what a reader of the written
+            // file will import, or the annotation would read back as stale.
+            if let Some(h) = written_hash(tagged, out, format) {
+                ann.root["inputHash"] = serde_json::json!(h);
+            }
+        }
+        gltf_out::write_to(scene, ann, out, format, sink)
+    })
 }
 
 /// The input hash of the glTF written for a non-glTF level: written without annotation, read

@@ -82,6 +82,47 @@ pub(crate) struct Lazy<'a> {
     cell_nodes: Vec<Vec<usize>>,
     /// Per portal, the glTF node it was authored as.
     portal_nodes: Vec<Option<usize>>,
+    /// The input hash, when the root's `inputHash` holds `null` until it is known.
+    hash: Option<&'a (dyn HashOf + Sync + 'a)>,
+}
+
+/// What a root `inputHash` of `null` is serialized from (a trait object, so the lifetime of
+/// what computes it does not pin the annotation's).
+pub(crate) trait HashOf {
+    /// The hash, waiting for it if it is still being computed.
+    fn get(&self) -> Option<&str>;
+}
+
+/// An input hash computed on another thread while the output is written: it reads every
+/// position of the level byte by byte (as long as a big level's whole JSON takes to render),
+/// and the root extension object usually comes last in the document.
+pub(crate) struct InputHash<'a> {
+    value: std::sync::OnceLock<String>,
+    pending: std::sync::Mutex<Option<PendingHash<'a>>>,
+}
+
+/// Waits for (or computes) the input hash.
+pub(crate) type PendingHash<'a> = Box<dyn FnOnce() -> String + Send + 'a>;
+
+impl<'a> InputHash<'a> {
+    pub fn pending(f: PendingHash<'a>) -> InputHash<'a> {
+        InputHash {
+            value: std::sync::OnceLock::new(),
+            pending: std::sync::Mutex::new(Some(f)),
+        }
+    }
+}
+
+impl HashOf for InputHash<'_> {
+    fn get(&self) -> Option<&str> {
+        // The first caller computes; any other waits for it (`get_or_init` blocks them).
+        let v = self.value.get_or_init(|| {
+            let pending = self.pending.lock().ok().and_then(|mut p| p.take());
+            pending.map(|f| f()).unwrap_or_default()
+        });
+        // Empty only if the computation was lost (a poisoned lock): then the root's null.
+        (!v.is_empty()).then_some(v.as_str())
+    }
 }
 
 impl<'a> Annotation<'a> {
@@ -151,6 +192,10 @@ impl Serialize for Json<'_> {
                         nodes: &self.lazy.portal_nodes,
                     },
                 )?,
+                ("inputHash", Value::Null) => match self.lazy.hash.and_then(|h| h.get()) {
+                    Some(h) => map.serialize_entry(k, h)?,
+                    None => map.serialize_entry(k, v)?,
+                },
                 _ => map.serialize_entry(k, v)?,
             }
         }
@@ -202,6 +247,16 @@ impl<'r> Json<'r> {
                         })),
                     });
                     out.push(Source::bytes(b"]"));
+                }
+                ("inputHash", Value::Null) => {
+                    // Rendered when the writer reaches it, by then long computed.
+                    let hash = self.lazy.hash;
+                    out.push(Source::Deferred(Box::new(move || {
+                        match hash.and_then(|h| h.get()) {
+                            Some(h) => serde_json::to_vec(h),
+                            None => serde_json::to_vec(v),
+                        }
+                    })));
                 }
                 _ => out.push(Source::value(v)),
             }
@@ -402,6 +457,20 @@ pub fn build<'a>(
     })
 }
 
+/// [`build`] with the input hash still to come from `hash` (a thread computing it while the
+/// output is written): the root's `inputHash` holds `null` and is serialized from `hash`.
+pub(crate) fn build_deferred<'a>(
+    hash: &'a (dyn HashOf + Sync + 'a),
+    tagging: &'a Tagging,
+    cells: &'a CellSet,
+    portals: &'a PortalSet,
+    node_index: &dyn Fn(NodeId) -> Option<usize>,
+) -> Annotation<'a> {
+    let mut ann = build_with_hash(cells, tagging, portals, node_index);
+    ann.lazy.hash = Some(hash);
+    ann
+}
+
 /// [`build`] but the input hash, whose place it holds.
 fn build_with_hash<'a>(
     cells: &'a CellSet,
@@ -470,6 +539,7 @@ fn build_with_hash<'a>(
             level: Some((cells, tagging, portals)),
             cell_nodes,
             portal_nodes,
+            hash: None,
         },
     }
 }

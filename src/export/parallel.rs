@@ -28,6 +28,9 @@ pub(crate) type RenderItem<'r> =
 pub(crate) enum Source<'r> {
     Bytes(Vec<u8>),
     Job(Render<'r>),
+    /// Rendered on the writing thread when the writer reaches it (a value another thread is
+    /// still computing, which a render on the pool would wait for).
+    Deferred(Box<dyn FnOnce() -> serde_json::Result<Vec<u8>> + 'r>),
     /// The elements of an array's text (between the brackets, which are sources of their own),
     /// each rendered by `render`, then `tail` as one more element if there is one.
     Text {
@@ -74,6 +77,7 @@ const ITEMS: usize = 256;
 /// One piece of work: bytes to write, or a render.
 enum Piece<'r> {
     Bytes(Vec<u8>),
+    Failed(std::sync::Mutex<Option<serde_json::Error>>),
     Job(Render<'r>),
     Run {
         text: &'r str,
@@ -94,6 +98,11 @@ impl Piece<'_> {
                 Ok(())
             }
             Piece::Job(r) => r(out),
+            Piece::Failed(e) => Err(e
+                .lock()
+                .ok()
+                .and_then(|mut e| e.take())
+                .unwrap_or_else(|| serde::ser::Error::custom("a deferred part failed"))),
             Piece::Run {
                 text,
                 first,
@@ -145,6 +154,18 @@ impl<'r> Pieces<'r> {
                     let b = std::mem::take(b);
                     self.current = None;
                     Piece::Bytes(b)
+                }
+                Some(Source::Deferred(_)) => {
+                    let Some(Source::Deferred(f)) = self.current.take() else {
+                        unreachable!()
+                    };
+                    match f() {
+                        Ok(b) => {
+                            size += b.len();
+                            Piece::Bytes(b)
+                        }
+                        Err(e) => Piece::Failed(std::sync::Mutex::new(Some(e))),
+                    }
                 }
                 Some(Source::Job(_)) => {
                     let Some(Source::Job(r)) = self.current.take() else {

@@ -703,6 +703,42 @@ mod tests {
         }
     }
 
+    /// What `convert` writes (the parallel writer, the input hash computed alongside and put in
+    /// when the writer reaches it) is what the whole-document path writes from an annotation
+    /// built with its hash, for every sample, in both containers.
+    #[test]
+    fn the_pipeline_writes_what_the_whole_document_path_writes() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut n = 0;
+        for dir in ["samples", "tests/fixtures/third_party"] {
+            for e in std::fs::read_dir(root.join(dir)).unwrap() {
+                let f = e.unwrap().path();
+                if !matches!(f.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
+                    continue;
+                }
+                let mut t = crate::pipeline::load_tagged(&f, &Default::default()).unwrap();
+                let cells = crate::pipeline::build_cells(&mut t);
+                let portals = crate::pipeline::build_portals(&mut t, &cells);
+                let scene = &t.scene;
+                let ann = extension::build(scene, &t.tagging, &cells, &portals, &|n| {
+                    gltf_out::node_index(scene, n)
+                });
+                assert!(ann.root["inputHash"].is_string());
+                let out = Path::new("/nonexistent/out/level.glb");
+                for format in FORMATS {
+                    let whole =
+                        gltf_out::write_whole(scene, &ann, out, out.parent().unwrap(), format)
+                            .unwrap();
+                    let mine = crate::pipeline::write_annotated(&t, &cells, &portals, out, format)
+                        .unwrap();
+                    assert!(mine == whole, "{} ({format:?})", f.display());
+                    n += 1;
+                }
+            }
+        }
+        assert!(n >= 20, "{n} files");
+    }
+
     #[test]
     fn a_repeated_key_in_a_copied_member_takes_the_whole_document_path() {
         let scene = scene_of(
