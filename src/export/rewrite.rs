@@ -241,7 +241,19 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
         };
         for (i, (n, from)) in lens.iter().zip(base).enumerate() {
             zeros(&mut w, *from, &mut at).map_err(io)?;
-            src.write_buffer(i, &mut w).map_err(io)?;
+            match src.released_buffer(i) {
+                // Straight from the input file into the output (see `Sink::copy_from`).
+                Some(r) => {
+                    let (mut r, want) = r.map_err(io)?;
+                    w.flush().map_err(io)?;
+                    let got = w.inner.get_mut().copy_from(&mut r).map_err(io)?;
+                    if got != want {
+                        return Err(io(std::io::Error::other("the input file was cut short")));
+                    }
+                    w.bytes += got;
+                }
+                None => src.write_buffer(i, &mut w).map_err(io)?,
+            }
             at += n;
         }
         if let Some(blob) = blob {

@@ -10,12 +10,23 @@ use std::io::{Cursor, Seek, SeekFrom, Write};
 pub trait Sink: Write + Seek {
     /// Empties the output (a writer that declined half-way starts over with another path).
     fn reset(&mut self) -> std::io::Result<()>;
+
+    /// Appends what `r` reads (the input's BIN chunk), returning how many bytes.
+    fn copy_from(&mut self, r: &mut std::io::Take<std::fs::File>) -> std::io::Result<u64> {
+        std::io::copy(r, self)
+    }
 }
 
 impl Sink for std::fs::File {
     fn reset(&mut self) -> std::io::Result<()> {
         self.set_len(0)?;
         self.seek(SeekFrom::Start(0)).map(|_| ())
+    }
+
+    /// File to file: the standard library has the kernel copy it (`copy_file_range` on Linux),
+    /// never through this process's memory.
+    fn copy_from(&mut self, r: &mut std::io::Take<std::fs::File>) -> std::io::Result<u64> {
+        std::io::copy(r, self)
     }
 }
 

@@ -222,6 +222,19 @@ impl GltfSource {
         lens
     }
 
+    /// Buffer `i` as a reader of the input file and its length, if it is a released BIN
+    /// chunk (an error if the file changed since it was read).
+    pub fn released_buffer(
+        &self,
+        i: usize,
+    ) -> Option<std::io::Result<(std::io::Take<std::fs::File>, u64)>> {
+        let len = self.bin_file.as_ref()?.len as u64;
+        (i == 0)
+            .then(|| self.released_bin())
+            .flatten()
+            .map(|r| r.map(|r| (r, len)))
+    }
+
     /// Writes buffer `i`, a released BIN chunk straight from the input file.
     pub fn write_buffer(&self, i: usize, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         if i == 0 {
