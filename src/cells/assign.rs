@@ -3,6 +3,7 @@
 //! cell it reaches into, and geometry in no cell at all is reported.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::{node_triangles, CellSet};
 use crate::diag::{Code, Diagnostic, Location};
@@ -37,14 +38,20 @@ fn node_in_cell(tris: &[[DVec3; 3]], cell: &ConvexPolyhedron, eps: f64) -> bool 
     })
 }
 
-pub(crate) fn assign(scene: &Scene, tagging: &Tagging, set: &mut CellSet) {
+/// Per cell, the nodes it renders (ascending), and a diagnostic for each node in no cell.
+/// Rooms are placed in parallel and their findings joined in room order, so the result does
+/// not depend on the thread count.
+pub(crate) fn find(
+    scene: &Scene,
+    tagging: &Tagging,
+    set: &CellSet,
+) -> (Vec<Vec<NodeId>>, Vec<Diagnostic>) {
     let eps = set.tolerance.distance;
     let loc = |n: NodeId| {
         Location::file(&scene.path)
             .with_source(scene.nodes[n].source.clone())
             .with_node(scene.node_path(n))
     };
-    let mut lists: Vec<Vec<NodeId>> = vec![Vec::new(); set.cells.len()];
     let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
         prefer
             .iter()
@@ -52,47 +59,62 @@ pub(crate) fn assign(scene: &Scene, tagging: &Tagging, set: &mut CellSet) {
             .find(|&c| set.cells[c].poly.contains(p, eps))
             .or_else(|| (0..set.cells.len()).find(|&c| set.cells[c].poly.contains(p, eps)))
     };
-    let mut outside = Vec::new();
-    let place_prop =
-        |n: NodeId, prefer: &[usize], lists: &mut Vec<Vec<NodeId>>, outside: &mut Vec<NodeId>| {
-            let pts = scene.world_positions_used(n);
-            if pts.is_empty() {
-                return;
+    // (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
+    type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
+    let place_prop = |n: NodeId, prefer: &[usize], out: &mut Placed| {
+        let pts = scene.world_positions_used(n);
+        if pts.is_empty() {
+            return;
+        }
+        let b = crate::geom::aabb::Aabb::from_points(pts.iter());
+        match containing((b.min + b.max) * 0.5, prefer) {
+            Some(c) => out.0.push((c, n)),
+            None => out.1.push(n),
+        }
+    };
+    let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();
+    let rooms: Vec<Placed> = tagging
+        .rooms
+        .par_iter()
+        .enumerate()
+        .map(|(ri, room)| {
+            let mut out: Placed = Default::default();
+            let mine = &set.room_cells[ri];
+            for &n in &room.structure {
+                if props.contains(&n) {
+                    continue;
+                }
+                let tris = node_triangles(scene, &[n], DVec3::ZERO);
+                let hit: Vec<usize> = mine
+                    .iter()
+                    .copied()
+                    .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
+                    .collect();
+                match (hit.is_empty(), mine.first()) {
+                    (false, _) => out.0.extend(hit.into_iter().map(|c| (c, n))),
+                    (true, Some(&c)) => out.0.push((c, n)),
+                    (true, None) => {}
+                }
             }
-            let b = crate::geom::aabb::Aabb::from_points(pts.iter());
-            match containing((b.min + b.max) * 0.5, prefer) {
-                Some(c) => lists[c].push(n),
-                None => outside.push(n),
-            }
-        };
-    for (ri, room) in tagging.rooms.iter().enumerate() {
-        let mine = &set.room_cells[ri];
-        for &n in &room.structure {
-            if set.props.contains(&n) {
-                continue;
-            }
-            let tris = node_triangles(scene, &[n], DVec3::ZERO);
-            let hit: Vec<usize> = mine
+            for &n in room
+                .detail
                 .iter()
-                .copied()
-                .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
-                .collect();
-            match (hit.is_empty(), mine.first()) {
-                (false, _) => hit.into_iter().for_each(|c| lists[c].push(n)),
-                (true, Some(&c)) => lists[c].push(n),
-                (true, None) => {}
+                .chain(room.structure.iter().filter(|n| props.contains(n)))
+            {
+                place_prop(n, mine, &mut out);
             }
-        }
-        for &n in room
-            .detail
-            .iter()
-            .chain(room.structure.iter().filter(|n| set.props.contains(n)))
-        {
-            place_prop(n, mine, &mut lists, &mut outside);
-        }
+            out
+        })
+        .collect();
+    let mut lists: Vec<Vec<NodeId>> = vec![Vec::new(); set.cells.len()];
+    let mut outside = Vec::new();
+    for (placed, out) in rooms {
+        placed.into_iter().for_each(|(c, n)| lists[c].push(n));
+        outside.extend(out);
     }
+    let mut loose: Placed = Default::default();
     for d in &tagging.detail {
-        place_prop(d.node, &[], &mut lists, &mut outside);
+        place_prop(d.node, &[], &mut loose);
     }
     if !set.cells.is_empty() {
         for u in &tagging.unassigned {
@@ -101,26 +123,29 @@ pub(crate) fn assign(scene: &Scene, tagging: &Tagging, set: &mut CellSet) {
                 .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
                 .collect();
             if hit.is_empty() {
-                outside.push(u.node);
+                loose.1.push(u.node);
             }
-            hit.into_iter().for_each(|c| lists[c].push(u.node));
+            loose.0.extend(hit.into_iter().map(|c| (c, u.node)));
         }
     }
-    for n in outside {
-        let pts = scene.world_positions_used(n);
-        let b = crate::geom::aabb::Aabb::from_points(pts.iter());
-        set.diagnostics.push(
+    loose.0.into_iter().for_each(|(c, n)| lists[c].push(n));
+    outside.extend(loose.1);
+    let diagnostics = outside
+        .into_iter()
+        .map(|n| {
+            let pts = scene.world_positions_used(n);
+            let b = crate::geom::aabb::Aabb::from_points(pts.iter());
             Diagnostic::new(
                 Code::CELL_GEOMETRY_OUTSIDE,
                 format!("`{}` lies in no cell, so no cell renders it", scene.node_label(n)),
                 loc(n).with_position(((b.min + b.max) * 0.5).to_array()),
             )
-            .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`"),
-        );
-    }
-    for (c, mut l) in lists.into_iter().enumerate() {
+            .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
+        })
+        .collect();
+    for l in &mut lists {
         l.sort_unstable();
         l.dedup();
-        set.cells[c].nodes = l;
     }
+    (lists, diagnostics)
 }

@@ -375,8 +375,17 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         overlaps: Vec::new(),
         diagnostics: diags,
     };
-    overlap::check(scene, tagging, cfg, &mut set);
-    assign::assign(scene, tagging, &mut set);
+    // Both only read the cells: found side by side, applied in the order they always were.
+    let ((overlaps, regions), (lists, outside)) = rayon::join(
+        || overlap::find(scene, tagging, cfg, &set),
+        || assign::find(scene, tagging, &set),
+    );
+    set.diagnostics.extend(overlaps);
+    set.overlaps = regions;
+    set.diagnostics.extend(outside);
+    for (c, l) in set.cells.iter_mut().zip(lists) {
+        c.nodes = l;
+    }
     set
 }
 

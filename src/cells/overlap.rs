@@ -5,10 +5,18 @@ use super::CellSet;
 use crate::config::CellsConfig;
 use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::grid::BoxGrid;
+use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::Scene;
 use crate::tags::Tagging;
 
-pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &mut CellSet) {
+/// The overlaps of `set`'s cells: a diagnostic and the shared region of each (what
+/// [`CellSet::overlaps`] holds).
+pub(crate) fn find(
+    scene: &Scene,
+    tagging: &Tagging,
+    cfg: &CellsConfig,
+    set: &CellSet,
+) -> (Vec<Diagnostic>, Vec<ConvexPolyhedron>) {
     let eps = set.tolerance.distance;
     // Only cells whose bounds overlap are compared (never all pairs).
     let mut order: Vec<usize> = (0..set.cells.len()).collect();
@@ -77,6 +85,5 @@ pub(crate) fn check(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, set: &m
             }
         }
     }
-    set.diagnostics.extend(found);
-    set.overlaps = regions;
+    (found, regions)
 }
