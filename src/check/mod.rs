@@ -10,6 +10,7 @@
 use std::path::PathBuf;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::cells::CellSet;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
@@ -103,7 +104,7 @@ impl<'a> Subject<'a> {
         };
         let cell_infos = cells
             .cells
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(i, c)| CellInfo {
                 poly: Some(c.poly.clone()),
@@ -114,7 +115,7 @@ impl<'a> Subject<'a> {
         // A derived portal has no node of its own: it is located at its source room's.
         let portal_at = portals
             .portals
-            .iter()
+            .par_iter()
             .map(|p| match p.authored {
                 Some(n) => node_at(n),
                 None => room_at(p.from),
@@ -122,7 +123,7 @@ impl<'a> Subject<'a> {
             .collect();
         let portal_label = portals
             .portals
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(i, p)| {
                 let name = p.authored.map(|n| scene.node_label(n));
@@ -205,13 +206,38 @@ pub fn starts(tagged: &Tagged) -> Vec<Start> {
 
 /// Runs every check.
 pub fn run(s: &Subject, opts: &Options) -> Findings {
-    let mut f = Findings::default();
-    portals::check(s, &mut f.diagnostics);
-    transforms::check(s, &mut f.diagnostics);
-    let seeds = seed_cells(s, &mut f.diagnostics);
-    graph::check(s, &seeds, &mut f.diagnostics);
-    loops(s, &mut f.diagnostics);
-    leaks::check(s, &seeds, opts, &mut f);
+    // The portal checks, the loops and the rest read the subject only: they run side by side
+    // and their findings are joined in this order, whatever the thread count.
+    let (mut f, (looped, rest)) = rayon::join(
+        || {
+            let mut f = Findings::default();
+            portals::check(s, &mut f.diagnostics);
+            f
+        },
+        || {
+            rayon::join(
+                || {
+                    let mut d = Diagnostics::default();
+                    loops(s, &mut d);
+                    d
+                },
+                || {
+                    let mut before = Diagnostics::default();
+                    transforms::check(s, &mut before);
+                    let seeds = seed_cells(s, &mut before);
+                    graph::check(s, &seeds, &mut before);
+                    let mut leaks = Findings::default();
+                    leaks::check(s, &seeds, opts, &mut leaks);
+                    (before, leaks)
+                },
+            )
+        },
+    );
+    let (before, leaks) = rest;
+    f.diagnostics.extend(before.0);
+    f.diagnostics.extend(looped.0);
+    f.diagnostics.extend(leaks.diagnostics.0);
+    f.leaks = leaks.leaks;
     f
 }
 
