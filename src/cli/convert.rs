@@ -265,15 +265,8 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         diagnostics: policy.apply(t.diagnostics.0.clone()),
         summary: summary(input, &out, cells.cells.len(), portals.portals.len()),
     };
-    drop_elsewhere((t, cells, portals, pvs));
+    portcullis::free::drop_elsewhere((t, cells, portals, pvs));
     Ok(outcome)
-}
-
-/// Frees `v` on a thread of its own: a big level is millions of allocations, and neither the
-/// next file of a batch nor the process's exit needs to wait for them to be freed one by one.
-fn drop_elsewhere<T: Send + 'static>(v: T) {
-    // If no thread can be had, the closure (and `v` with it) is dropped here.
-    let _ = std::thread::Builder::new().spawn(move || drop(v));
 }
 
 /// `-o OUT.prt`: only the portal file.

@@ -71,6 +71,42 @@ pub fn sniff_format(bytes: &[u8]) -> Option<Format> {
 }
 
 /// Reads a level file from disk.
+/// The file's bytes, as `std::fs::read` gives them. A big file is read a part per thread with
+/// positioned reads into one buffer: copying it out of the page cache, and the faults on the
+/// new buffer's pages, are the first cost of a big import, and they split.
+fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    #[cfg(unix)]
+    {
+        use rayon::prelude::*;
+        use std::io::{Read, Seek, SeekFrom};
+        use std::os::unix::fs::FileExt;
+        let mut f = std::fs::File::open(path)?;
+        let len = f.metadata()?.len();
+        let threads = rayon::current_num_threads();
+        if len >= 16 << 20 && threads > 1 {
+            let len = usize::try_from(len).map_err(std::io::Error::other)?;
+            let mut bytes = vec![0u8; len];
+            let part = len.div_ceil(threads);
+            let read = bytes
+                .par_chunks_mut(part)
+                .enumerate()
+                .try_for_each(|(k, p)| f.read_exact_at(p, (k * part) as u64));
+            match read {
+                Ok(()) => {
+                    // A file that grew meanwhile keeps its tail, as a plain read would.
+                    f.seek(SeekFrom::Start(len as u64))?;
+                    f.read_to_end(&mut bytes)?;
+                    return Ok(bytes);
+                }
+                // It shrank while being read: read it again whole.
+                Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+    std::fs::read(path)
+}
+
 pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic> {
     let format = format_from_path(path).ok_or_else(|| {
         Diagnostic::new(
@@ -86,7 +122,7 @@ pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagno
     if format == Format::Usd {
         return usd::import(path, opts).map(|i| note_empty(i, path));
     }
-    let bytes = std::fs::read(path).map_err(|e| {
+    let bytes = read_file(path).map_err(|e| {
         Diagnostic::new(
             Code::IO_READ_FAILED,
             format!("cannot read `{}`: {e}", path.display()),

@@ -232,6 +232,7 @@ pub(crate) fn derive(
             out
         })
         .collect();
+    crate::free::drop_elsewhere((claimed, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
             set.portals
