@@ -262,7 +262,12 @@ impl RuleSet {
             .enumerate()
             .filter(|(_, r)| r.spec.on == on)
             .find_map(|(i, r)| {
-                let caps = r.regex.as_ref()?.captures(&text)?;
+                let re = r.regex.as_ref()?;
+                // Most names match no rule: telling that is cheaper than asking for captures.
+                if !re.is_match(&text) {
+                    return None;
+                }
+                let caps = re.captures(&text)?;
                 let get = |g: &str| caps.name(g).map(|m| m.as_str().to_string());
                 let expand = |tpl: &Option<String>, group: &str| -> Option<String> {
                     match tpl {
