@@ -75,13 +75,6 @@ fn polygons(shapes: &[Vec<Vec<IntPoint<i64>>>], grid: f64) -> Vec<Polygon2> {
         .collect()
 }
 
-fn rings(polys: &[Polygon2]) -> Vec<Vec<DVec2>> {
-    polys
-        .iter()
-        .flat_map(|p| std::iter::once(p.outer.clone()).chain(p.holes.iter().cloned()))
-        .collect()
-}
-
 pub fn signed_area(r: &[DVec2]) -> f64 {
     let mut a = 0.0;
     for (i, p) in r.iter().enumerate() {
@@ -95,11 +88,43 @@ pub fn intersection(a: &[Vec<DVec2>], b: &[Vec<DVec2>], grid: f64) -> Vec<Polygo
     run(a, b, OverlayRule::Intersect, grid)
 }
 
-/// `a − b`, where `b` may be any pile of rings, overlapping and of either winding (they are
-/// merged first: two faces on one plane, front and back, must not cancel out).
+/// `a − b`, where `b` may be any pile of rings, overlapping and of either winding (two faces
+/// on one plane, front and back, must not cancel out). One overlay: `a`'s rings (outer rings
+/// counter-clockwise, holes clockwise) and `b`'s (each turned counter-clockwise) are filled by
+/// the non-zero rule, so a point any ring of `b` covers is taken out however many do.
 pub fn difference<R: AsRef<[DVec2]>>(a: &[Polygon2], b: &[R], grid: f64) -> Vec<Polygon2> {
-    let merged = union(b, grid);
-    run(&rings(a), &rings(&merged), OverlayRule::Difference, grid)
+    if !(grid.is_finite() && grid > 0.0) {
+        return Vec::new();
+    }
+    let n = a
+        .iter()
+        .map(|p| p.outer.len() + p.holes.iter().map(Vec::len).sum::<usize>())
+        .sum::<usize>()
+        + b.iter().map(|r| r.as_ref().len()).sum::<usize>();
+    let mut overlay = Overlay::<i64>::new(n);
+    let mut add_turned = |r: &[DVec2], ccw: bool, shape: ShapeType| {
+        if (signed_area(r) >= 0.0) == ccw {
+            add(&mut overlay, r, grid, shape);
+        } else {
+            let mut r = r.to_vec();
+            r.reverse();
+            add(&mut overlay, &r, grid, shape);
+        }
+    };
+    for p in a {
+        add_turned(&p.outer, true, ShapeType::Subject);
+        for h in &p.holes {
+            add_turned(h, false, ShapeType::Subject);
+        }
+    }
+    for r in b {
+        add_turned(r.as_ref(), true, ShapeType::Clip);
+    }
+    let shapes = overlay.overlay(OverlayRule::Difference, FillRule::NonZero);
+    polygons(&shapes, grid)
+        .into_iter()
+        .filter(|p| p.area() > grid * grid)
+        .collect()
 }
 
 /// The union of rings; overlapping rings are merged (non-zero would double-count holes made of
@@ -141,6 +166,36 @@ mod tests {
         );
         assert_eq!(open.len(), 1);
         assert!((open[0].area() - 2.0 * 1.8).abs() < 1e-9);
+        // Blockers overlapping each other, one of them clockwise (a wall's back face), and the
+        // same blocker twice: covered is covered, nothing cancels out.
+        let mut back = rect(1., 0., 3., 2.);
+        back.reverse();
+        let open = difference(
+            &shared,
+            &[
+                rect(0., 0., 2., 2.),
+                back,
+                rect(4., 0., 6., 2.),
+                rect(4., 0., 6., 2.),
+            ],
+            1e-6,
+        );
+        assert_eq!(open.len(), 1);
+        assert!((open[0].area() - 2.0).abs() < 1e-9, "{}", open[0].area());
+        // A subject with a hole keeps it.
+        let mut hole = rect(2., 0.5, 3., 1.5);
+        hole.reverse();
+        let framed = Polygon2 {
+            outer: rect(0., 0., 6., 2.),
+            holes: vec![hole],
+        };
+        let open = difference(&[framed], &[rect(0., 0., 1., 2.)], 1e-6);
+        assert_eq!(open.len(), 1);
+        assert!(
+            (open[0].area() - (10.0 - 1.0)).abs() < 1e-9,
+            "{}",
+            open[0].area()
+        );
         let u = union(&[rect(0., 0., 2., 2.), rect(1., 0., 3., 2.)], 1e-6);
         assert_eq!(u.len(), 1);
         assert!((u[0].area() - 6.0).abs() < 1e-9);
