@@ -41,7 +41,8 @@ pub struct BenchArgs {
     pub one: Option<usize>,
 
     /// Time the floor of one size alone and print it (used by the parent process, so the
-    /// floor runs in a fresh process as a program using only the gltf crate would).
+    /// floor runs in a fresh process, on the system allocator, as a program using only the
+    /// gltf crate would).
     #[arg(long, hide = true)]
     pub floor: Option<usize>,
 }
@@ -407,7 +408,12 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             return 2;
         }
         let child = |what: &str| {
-            let out = std::process::Command::new(&exe)
+            let mut cmd = std::process::Command::new(&exe);
+            if what == "--floor" {
+                // As a program using only the gltf crate would run: on the system allocator.
+                cmd.env(crate::ALLOCATOR_VAR, "system");
+            }
+            let out = cmd
                 .args([
                     "bench",
                     what,
