@@ -26,6 +26,7 @@ use serde::Serialize;
 use crate::config::CellsConfig;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::geom::aabb::Aabb;
+use crate::geom::grid::BoxGrid;
 use crate::geom::hull::{hull, HullError};
 use crate::geom::partition::{convex_partition, union_triangles, Polygon2};
 use crate::geom::plane::Plane;
@@ -80,6 +81,35 @@ pub struct CellSet {
     pub overlaps: Vec<ConvexPolyhedron>,
     #[serde(skip)]
     pub diagnostics: Diagnostics,
+}
+
+impl CellSet {
+    /// A grid over the cells' bounds, and every pair of cells within `pad` of each other in
+    /// the order of a sweep along x (cells by their lowest x, then index): the order the
+    /// overlap check and portal derivation have always visited pairs in, which numbers what
+    /// they find.
+    pub(crate) fn pairs_in_sweep_order(&self, pad: f64) -> (BoxGrid, Vec<(usize, usize)>) {
+        let mut order: Vec<usize> = (0..self.cells.len()).collect();
+        order.sort_by(|&a, &b| {
+            self.cells[a]
+                .bounds
+                .min
+                .x
+                .total_cmp(&self.cells[b].bounds.min.x)
+        });
+        let mut rank = vec![0usize; order.len()];
+        for (k, &c) in order.iter().enumerate() {
+            rank[c] = k;
+        }
+        let grid = BoxGrid::new(self.cells.iter().map(|c| c.bounds).collect());
+        let mut pairs: Vec<(usize, usize)> = grid
+            .pairs(pad)
+            .into_iter()
+            .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
+            .collect();
+        pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
+        (grid, pairs)
+    }
 }
 
 /// World-space triangles of a set of nodes, recentred by `-origin`.

@@ -4,7 +4,6 @@
 use super::CellSet;
 use crate::config::CellsConfig;
 use crate::diag::{Code, Diagnostic, Location};
-use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::Scene;
 use crate::tags::Tagging;
@@ -18,27 +17,8 @@ pub(crate) fn find(
     set: &CellSet,
 ) -> (Vec<Diagnostic>, Vec<ConvexPolyhedron>) {
     let eps = set.tolerance.distance;
-    // Only cells whose bounds overlap are compared (never all pairs).
-    let mut order: Vec<usize> = (0..set.cells.len()).collect();
-    order.sort_by(|&a, &b| {
-        set.cells[a]
-            .bounds
-            .min
-            .x
-            .total_cmp(&set.cells[b].bounds.min.x)
-    });
-    let mut rank = vec![0usize; order.len()];
-    for (k, &c) in order.iter().enumerate() {
-        rank[c] = k;
-    }
-    // Candidate pairs from a grid over the bounds, visited in the sweep's order.
-    let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
-    let mut pairs: Vec<(usize, usize)> = grid
-        .pairs(0.0)
-        .into_iter()
-        .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
-        .collect();
-    pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
+    // Only cells whose bounds overlap are compared (never all pairs), in the sweep's order.
+    let (_, pairs) = set.pairs_in_sweep_order(0.0);
     let mut found = Vec::new();
     let mut regions = Vec::new();
     for (a, b) in pairs {

@@ -225,28 +225,20 @@ impl<'r> Json<'r> {
                         tagging,
                         nodes: &self.lazy.cell_nodes,
                     };
-                    out.push(Source::bytes(b"["));
-                    out.push(Source::Items {
-                        len: cells.len(),
-                        render: std::sync::Arc::new(Box::new(move |i, b| {
-                            serde_json::to_writer(b, &cells.cell(i))
-                        })),
+                    let len = cells.len();
+                    items(out, len, move |i, b| {
+                        serde_json::to_writer(b, &cells.cell(i))
                     });
-                    out.push(Source::bytes(b"]"));
                 }
                 ("portals", Value::Null) => {
                     let portals = Portals {
                         portals,
                         nodes: &self.lazy.portal_nodes,
                     };
-                    out.push(Source::bytes(b"["));
-                    out.push(Source::Items {
-                        len: portals.len(),
-                        render: std::sync::Arc::new(Box::new(move |i, b| {
-                            serde_json::to_writer(b, &portals.portal(i))
-                        })),
+                    let len = portals.len();
+                    items(out, len, move |i, b| {
+                        serde_json::to_writer(b, &portals.portal(i))
                     });
-                    out.push(Source::bytes(b"]"));
                 }
                 ("inputHash", Value::Null) => {
                     // Rendered when the writer reaches it, by then long computed.
@@ -264,6 +256,20 @@ impl<'r> Json<'r> {
         out.push(Source::bytes(b"}"));
         Ok(())
     }
+}
+
+/// An array of `len` elements, each rendered by `render`, as sources of the parallel writer.
+fn items<'r>(
+    out: &mut Vec<Source<'r>>,
+    len: usize,
+    render: impl Fn(usize, &mut Vec<u8>) -> serde_json::Result<()> + Send + Sync + 'r,
+) {
+    out.push(Source::bytes(b"["));
+    out.push(Source::Items {
+        len,
+        render: std::sync::Arc::new(Box::new(render)),
+    });
+    out.push(Source::bytes(b"]"));
 }
 
 /// A number as [`num`] writes it.

@@ -123,7 +123,7 @@ pub(crate) fn derive(
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
         || Opaque::new(scene, tagging, cells),
-        || cell_pairs(cells, reach),
+        || cells.pairs_in_sweep_order(reach),
     );
     // For each cell face, the regions other cells claim (in that face's frame).
     let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
@@ -239,31 +239,6 @@ pub(crate) fn derive(
                 .push(Portal::plain(c, None, polygon, normal, area, false, None));
         }
     }
-}
-
-/// The cells' grid, and the cell pairs within `reach` of each other in the order of a sweep
-/// along x (cells by their lowest x, then index), so portals are numbered as they always were.
-fn cell_pairs(cells: &CellSet, reach: f64) -> (BoxGrid, Vec<(usize, usize)>) {
-    let mut order: Vec<usize> = (0..cells.cells.len()).collect();
-    order.sort_by(|&a, &b| {
-        cells.cells[a]
-            .bounds
-            .min
-            .x
-            .total_cmp(&cells.cells[b].bounds.min.x)
-    });
-    let mut rank = vec![0usize; order.len()];
-    for (k, &c) in order.iter().enumerate() {
-        rank[c] = k;
-    }
-    let near_cells = BoxGrid::new(cells.cells.iter().map(|c| c.bounds).collect());
-    let mut pairs: Vec<(usize, usize)> = near_cells
-        .pairs(reach)
-        .into_iter()
-        .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
-        .collect();
-    pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
-    (near_cells, pairs)
 }
 
 /// The distances derivation works with, all from the one tolerance.
