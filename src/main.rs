@@ -19,7 +19,8 @@ static GLOBAL: alloc::Chosen = alloc::Chosen;
 #[cfg(unix)]
 #[allow(non_upper_case_globals)]
 #[export_name = "_rjem_malloc_conf"]
-pub static malloc_conf: &[u8] = b"dirty_decay_ms:100,muzzy_decay_ms:0\0";
+pub static malloc_conf: alloc::CStrPtr =
+    alloc::CStrPtr(c"dirty_decay_ms:100,muzzy_decay_ms:0".as_ptr());
 
 /// The environment variable that picks the system allocator (`system`); read once, at the
 /// first allocation.
@@ -34,6 +35,13 @@ mod alloc {
 
     /// jemalloc, or the system allocator if the environment says so.
     pub struct Chosen;
+
+    /// A C string's address, as jemalloc reads its `malloc_conf` (a `const char *`).
+    #[repr(transparent)]
+    pub struct CStrPtr(pub *const std::ffi::c_char);
+
+    // SAFETY: it points at a string literal, never written.
+    unsafe impl Sync for CStrPtr {}
 
     /// 0: not read yet, 1: the system's, 2: jemalloc.
     static WHICH: AtomicU8 = AtomicU8::new(0);
