@@ -102,10 +102,7 @@ impl ConvexPolyhedron {
     /// The intersection of half-spaces `plane.distance(p) <= 0` inside `bounds` (which must
     /// contain the result; it only makes the start finite).
     pub fn from_planes(planes: &[Plane], bounds: &Aabb, eps: f64) -> Option<ConvexPolyhedron> {
-        let mut b = *bounds;
-        let pad = b.size().max_element().max(1.0);
-        b.min -= DVec3::splat(pad);
-        b.max += DVec3::splat(pad);
+        let b = bounds.grown(bounds.size().max_element().max(1.0));
         let mut p = ConvexPolyhedron::from_aabb(&b);
         for pl in planes {
             p = p.clip(pl, eps)?;

@@ -192,3 +192,25 @@ fn note_empty(mut imported: Imported, path: &Path) -> Imported {
     }
     imported
 }
+
+#[cfg(test)]
+mod tests {
+    /// A file big enough to be read a part per thread comes back byte for byte, each part at
+    /// its place (every 4-byte word holds its own offset), as `std::fs::read` gives it.
+    #[test]
+    fn a_big_file_read_in_parts_is_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.bin");
+        let len = (17 << 20) + 3;
+        let bytes: Vec<u8> = (0..len)
+            .map(|i| ((i / 4) as u32).to_le_bytes()[i % 4])
+            .collect();
+        std::fs::write(&path, &bytes).unwrap();
+        let threads = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .unwrap();
+        let read = threads.install(|| super::read_file(&path)).unwrap();
+        assert!(read == bytes, "the parts came back out of place");
+    }
+}

@@ -181,9 +181,7 @@ pub(crate) fn derive(
                 if left.at_most(k.closed) {
                     continue;
                 }
-                let mut bb = Aabb::from_points(face.points.iter());
-                bb.min -= DVec3::splat(eps);
-                bb.max += DVec3::splat(eps);
+                let bb = Aabb::from_points(face.points.iter()).grown(eps);
                 let d = face.plane.d;
                 let slab = Slab {
                     n: face.plane.normal,
