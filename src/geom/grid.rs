@@ -27,9 +27,19 @@ impl BoxGrid {
     /// (a level's triangles) that are cheaper to recompute than to store; query with
     /// [`BoxGrid::query_by`].
     pub fn index(count: usize, box_of: impl Fn(usize) -> Aabb) -> BoxGrid {
+        let count = u32::try_from(count).expect("a grid indexes at most 2^32 boxes");
+        BoxGrid::index_ids(0..count, |i| box_of(i as usize))
+    }
+
+    /// [`BoxGrid::index`] of some of the boxes only, `ids`: queries offer these ids, so several
+    /// grids over parts of one list answer in the list's numbering.
+    pub fn index_ids(
+        ids: impl Iterator<Item = u32> + Clone,
+        box_of: impl Fn(u32) -> Aabb,
+    ) -> BoxGrid {
         let mut all = Aabb::EMPTY;
-        let mut sizes: Vec<f64> = Vec::with_capacity(count);
-        for b in (0..count).map(&box_of).filter(|b| !b.is_empty()) {
+        let mut sizes: Vec<f64> = Vec::with_capacity(ids.size_hint().0);
+        for b in ids.clone().map(&box_of).filter(|b| !b.is_empty()) {
             all = all.union(&b);
             sizes.push(b.size().max_element());
         }
@@ -70,7 +80,7 @@ impl BoxGrid {
             dims,
             buckets: vec![Vec::new(); dims.iter().product()],
         };
-        for i in 0..count {
+        for i in ids {
             let b = box_of(i);
             if b.is_empty() {
                 continue;
@@ -80,7 +90,7 @@ impl BoxGrid {
                 for y in lo[1]..=hi[1] {
                     for x in lo[0]..=hi[0] {
                         let k = g.bucket(x, y, z);
-                        g.buckets[k].push(i as u32);
+                        g.buckets[k].push(i);
                     }
                 }
             }

@@ -122,7 +122,7 @@ pub(crate) fn derive(
     let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
-        || Opaque::new(scene, tagging, cells),
+        || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
         || cells.pairs_in_sweep_order(reach),
     );
     // For each cell face, the regions other cells claim (in that face's frame).

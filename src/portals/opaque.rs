@@ -8,6 +8,7 @@
 use std::collections::HashSet;
 
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 
 use crate::cells::CellSet;
 use crate::geom::aabb::Aabb;
@@ -19,10 +20,21 @@ use crate::tags::Tagging;
 /// Triangles that block sight, indexed by their bounds. Vertices are stored once in world
 /// space and triangles as indices, and the bounds are recomputed when asked: on a big level
 /// this is the portals stage's largest allocation (a third of it as [DVec3; 3] and boxes).
+///
+/// The triangles are indexed in eight grids, by the axes whose slabs can skip them: a
+/// triangle whose normal is at exactly a right angle to an axis, and which is wider along
+/// that axis than any slab, is never wholly inside a slab across the axis, and if it crosses
+/// one it stands at exactly a right angle to it and casts no shadow. A slab across an axis
+/// skips the four grids of triangles that it can skip. Two thirds of the triangles near a
+/// face pair of an axis-aligned level are of this kind (the floor under a wall, the walls
+/// meeting it, the jambs of a door in it).
 pub(crate) struct Opaque {
     verts: Vec<DVec3>,
     tris: Vec<[u32; 3]>,
-    grid: BoxGrid,
+    /// Grid `g` holds the triangles skippable by slabs across the axes whose bits `g` has.
+    grids: Vec<BoxGrid>,
+    /// The thickest slab triangles may be skipped for.
+    thick: f64,
 }
 
 /// A face's plane frame: 2D coordinates on the plane, CCW about the normal.
@@ -100,7 +112,9 @@ impl Shadows {
 }
 
 impl Opaque {
-    pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet) -> Opaque {
+    /// `thick`: the thickest slab [`Opaque::shadows`] will be asked about (thicker ones are
+    /// answered too, from every grid).
+    pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet, thick: f64) -> Opaque {
         let mut skip: HashSet<NodeId> = HashSet::new();
         skip.extend(tagging.portals.iter().map(|p| p.node));
         skip.extend(tagging.ignored.iter().map(|n| n.node));
@@ -129,8 +143,27 @@ impl Opaque {
             verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
             tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
         }
-        let grid = BoxGrid::index(tris.len(), |i| tri_box(&verts, &tris[i]));
-        Opaque { verts, tris, grid }
+        // Margin over the rounding of a slab's thickness and of a triangle's extent.
+        let wide = thick * (1.0 + 1e-9);
+        let group: Vec<u8> = tris
+            .par_iter()
+            .map(|t| skippable_by(&t.map(|v| verts[v as usize]), wide))
+            .collect();
+        let box_of = |i: u32| tri_box(&verts, &tris[i as usize]);
+        let grids: Vec<BoxGrid> = (0..8u8)
+            .into_par_iter()
+            .map(|g| {
+                let group = &group;
+                let ids = (0..group.len() as u32).filter(move |&i| group[i as usize] == g);
+                BoxGrid::index_ids(ids, box_of)
+            })
+            .collect();
+        Opaque {
+            verts,
+            tris,
+            grids,
+            thick,
+        }
     }
 
     fn triangle(&self, i: u32) -> [DVec3; 3] {
@@ -152,7 +185,7 @@ impl Opaque {
             scratch,
             ..
         } = out;
-        self.grid.visit(b, 0.0, marks, |i| {
+        let mut each = |i| {
             let t = self.triangle(i);
             if !Aabb::from_points(&t).meets(b) {
                 return;
@@ -161,7 +194,16 @@ impl Opaque {
             if slab_shadow(&t, slab, scratch) {
                 kept.push((i, start, scratch.len()));
             }
-        });
+        };
+        let skip = match exact_axis(slab.n) {
+            Some(a) if slab.hi - slab.lo <= self.thick => 1 << a,
+            _ => 0,
+        };
+        for (g, grid) in self.grids.iter().enumerate() {
+            if g & skip == 0 {
+                grid.visit(b, 0.0, marks, &mut each);
+            }
+        }
         kept.sort_unstable_by_key(|k| k.0);
         for &(_, start, end) in kept.iter() {
             out.pts.extend_from_slice(&out.scratch[start..end]);
@@ -173,6 +215,35 @@ impl Opaque {
 /// The cosine below which a triangle crossing a slab counts as standing at a right angle to
 /// it: its shadow is then at most 1e-12 of the slab's thickness wide, so it blocks nothing.
 const STANDING: f64 = 1e-12;
+
+/// The axis `n` lies on exactly (its other two components zero), if any: then `n·p` is
+/// `±p[axis]` to the bit.
+fn exact_axis(n: DVec3) -> Option<usize> {
+    let zero = n.to_array().map(|c| c == 0.0);
+    match zero {
+        [false, true, true] => Some(0),
+        [true, false, true] => Some(1),
+        [true, true, false] => Some(2),
+        _ => None,
+    }
+}
+
+/// The axes whose slabs (at most `wide` thick, their normals exactly on the axis) a triangle
+/// casts no shadow on, as bits: those its normal, computed as [`slab_shadow`] computes it,
+/// is at exactly a right angle to, and along which it is wider than `wide`. Along such an
+/// axis `n·p` is `±p[axis]` exactly, so the triangle is never wholly in the slab, and when it
+/// crosses it, it stands.
+fn skippable_by(t: &[DVec3; 3], wide: f64) -> u8 {
+    let normal = (t[1] - t[0]).cross(t[2] - t[0]);
+    if !normal.is_finite() || normal == DVec3::ZERO {
+        return 0;
+    }
+    let b = Aabb::from_points(t);
+    let size = b.max - b.min;
+    (0..3)
+        .filter(|&a| normal[a] == 0.0 && size[a] > wide)
+        .fold(0, |m, a| m | 1 << a)
+}
 
 fn tri_box(verts: &[DVec3], t: &[u32; 3]) -> Aabb {
     Aabb::from_points(t.iter().map(|&v| &verts[v as usize]))
