@@ -76,9 +76,10 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
             .hint("convert the level again to rewrite the annotation")
         })
         .collect();
-    let stale = annotated
-        .as_ref()
-        .is_some_and(|a| a.input_hash != extension::input_hash(&t.scene, &t.tagging));
+    let stale = annotated.as_ref().is_some_and(|a| {
+        extension::input_hash_like(&a.input_hash, &t.scene, &t.tagging).as_ref()
+            != Some(&a.input_hash)
+    });
     if stale {
         diagnostics.push(
             Diagnostic::new(
