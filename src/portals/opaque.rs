@@ -143,6 +143,11 @@ impl Opaque {
             verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
             tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
         }
+        Opaque::from_triangles(verts, tris, thick)
+    }
+
+    /// Indexes triangles (indices into `verts`, world space).
+    fn from_triangles(verts: Vec<DVec3>, tris: Vec<[u32; 3]>, thick: f64) -> Opaque {
         // Margin over the rounding of a slab's thickness and of a triangle's extent.
         let wide = thick * (1.0 + 1e-9);
         let group: Vec<u8> = tris
@@ -353,6 +358,95 @@ mod tests {
                 assert!(want.len() < 3 && got.len() < 3);
             }
         }
+    }
+
+    /// Skipping the grids a slab cannot be shadowed from changes nothing: every slab's shadows
+    /// are those of a plain pass over all the triangles, on a level of walls, floors, thin
+    /// jambs and sills and tilted triangles, for slabs along the axes as thick as allowed and
+    /// thicker, and off the axes.
+    #[test]
+    fn skipped_grids_hold_no_shadow() {
+        let mut s = 5u64;
+        let mut r = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut verts = Vec::new();
+        let mut tris = Vec::new();
+        let snap = |x: f64| (x * 8.0).round() / 8.0;
+        for _ in 0..600 {
+            let lo = DVec3::new(snap(r() * 10.0), snap(r() * 6.0), snap(r() * 10.0));
+            let axis = (r() * 3.0) as usize % 3;
+            // Boxes as thin as a jamb or as wide as a floor, along each axis.
+            let mut size = DVec3::new(snap(r() * 3.0), snap(r() * 3.0), snap(r() * 3.0));
+            size[axis] = [0.0, 0.125, 0.25, 0.5][(r() * 4.0) as usize % 4];
+            let corner = |k: usize| {
+                lo + size * DVec3::new((k & 1) as f64, ((k >> 1) & 1) as f64, (k >> 2) as f64)
+            };
+            let base = verts.len() as u32;
+            verts.extend((0..8).map(corner));
+            for f in [
+                [0, 1, 3, 2],
+                [4, 6, 7, 5],
+                [0, 4, 5, 1],
+                [2, 3, 7, 6],
+                [0, 2, 6, 4],
+                [1, 5, 7, 3],
+            ] {
+                tris.push([f[0], f[1], f[2]].map(|k| base + k));
+                tris.push([f[0], f[2], f[3]].map(|k| base + k));
+            }
+            if r() < 0.2 {
+                let b = verts.len() as u32;
+                verts.extend((0..3).map(|_| lo + DVec3::new(r(), r(), r()) * 2.0));
+                tris.push([b, b + 1, b + 2]);
+            }
+        }
+        let thick = 0.5;
+        let opaque = Opaque::from_triangles(verts, tris, thick);
+        let mut got = Shadows::default();
+        let mut checked = 0;
+        for q in 0..3000 {
+            let n = match q % 7 {
+                0 => DVec3::new(1.0, 0.002, -0.001).normalize(),
+                k => [DVec3::X, DVec3::Y, DVec3::Z][k % 3] * if k > 3 { -1.0 } else { 1.0 },
+            };
+            let plane = crate::geom::plane::Plane {
+                normal: n,
+                d: n.dot(DVec3::new(
+                    snap(r() * 10.0),
+                    snap(r() * 6.0),
+                    snap(r() * 10.0),
+                )),
+            };
+            let frame = Frame2::new(&plane);
+            let t = [0.0, 0.125, 0.25, 0.5, 0.75][q % 5];
+            let slab = Slab {
+                n,
+                lo: plane.d - 1e-6,
+                hi: plane.d + t + 1e-6,
+                frame: &frame,
+            };
+            let c = DVec3::new(r() * 10.0, r() * 6.0, r() * 10.0);
+            let b = Aabb {
+                min: c,
+                max: c + DVec3::new(r(), r(), r()) * 4.0,
+            };
+            opaque.shadows(&b, &slab, &mut got);
+            let mut want = Vec::new();
+            let mut ends = Vec::new();
+            for i in 0..opaque.tris.len() as u32 {
+                let t = opaque.triangle(i);
+                if Aabb::from_points(&t).meets(&b) && slab_shadow(&t, &slab, &mut want) {
+                    ends.push(want.len());
+                }
+            }
+            assert_eq!((&got.pts, &got.ends), (&want, &ends), "query {q}");
+            checked += ends.len();
+        }
+        assert!(checked > 3000, "the queries found shadows: {checked}");
     }
 
     /// Shadows of a wall's triangles on its own plane are the triangles; a triangle standing
