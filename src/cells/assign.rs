@@ -62,11 +62,15 @@ pub(crate) fn find(
     // (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
     type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
     let place_prop = |n: NodeId, prefer: &[usize], out: &mut Placed| {
-        let pts = scene.world_positions_used(n);
-        if pts.is_empty() {
+        let mut b = crate::geom::aabb::Aabb::EMPTY;
+        let mut any = false;
+        for p in scene.world_positions_used_iter(n) {
+            b.add(p);
+            any = true;
+        }
+        if !any {
             return;
         }
-        let b = crate::geom::aabb::Aabb::from_points(pts.iter());
         match containing((b.min + b.max) * 0.5, prefer) {
             Some(c) => out.0.push((c, n)),
             None => out.1.push(n),

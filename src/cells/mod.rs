@@ -146,7 +146,7 @@ fn level_frame(scene: &Scene) -> (Aabb, f64) {
         .map(|n| {
             let mut b = Aabb::EMPTY;
             let mut max_abs: f64 = 0.0;
-            for p in scene.world_positions_used(n) {
+            for p in scene.world_positions_used_iter(n) {
                 b.add(p);
             }
             if let Some(m) = scene.nodes[n].mesh {
@@ -206,8 +206,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         .into_par_iter()
         .map(|n| {
             scene
-                .world_positions_used(n)
-                .into_iter()
+                .world_positions_used_iter(n)
                 .map(|p| (p - origin).dot(frame.up))
                 .fold(f64::NEG_INFINITY, f64::max)
         })
@@ -488,15 +487,12 @@ fn detect_props(
     let boxes: Vec<Aabb> = structure
         .iter()
         .map(|&n| {
-            let pts: Vec<DVec3> = scene
-                .world_positions_used(n)
-                .iter()
-                .map(|p| {
-                    let q = *p - origin;
-                    DVec3::new(q.dot(frame.u), q.dot(frame.up), q.dot(frame.v))
-                })
-                .collect();
-            Aabb::from_points(pts.iter())
+            let mut b = Aabb::EMPTY;
+            for p in scene.world_positions_used_iter(n) {
+                let q = p - origin;
+                b.add(DVec3::new(q.dot(frame.u), q.dot(frame.up), q.dot(frame.v)));
+            }
+            b
         })
         .collect();
     let touch = 1e-4 * extent.max(1e-3);

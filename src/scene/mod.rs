@@ -372,23 +372,29 @@ impl Scene {
     /// World-space positions of the vertices a node's triangles use (bounds ignore vertices
     /// no triangle references, as renderers do).
     pub fn world_positions_used(&self, node: NodeId) -> Vec<DVec3> {
+        self.world_positions_used_iter(node).collect()
+    }
+
+    /// [`Scene::world_positions_used`] one at a time: most callers only fold them into a box
+    /// or a maximum, and on a big level the lists were a few hundred megabytes allocated and
+    /// freed again.
+    pub fn world_positions_used_iter(&self, node: NodeId) -> impl Iterator<Item = DVec3> + '_ {
         let n = &self.nodes[node];
-        let Some(m) = n.mesh else { return Vec::new() };
-        let mesh = &self.meshes[m];
-        let mut used = vec![false; mesh.positions.len()];
-        for t in &mesh.triangles {
+        let world = n.world;
+        let positions: &[DVec3] = n.mesh.map_or(&[], |m| &self.meshes[m].positions);
+        let mut used = vec![false; positions.len()];
+        for t in n.mesh.map_or(&[][..], |m| &self.meshes[m].triangles) {
             for &i in t {
                 if let Some(u) = used.get_mut(i as usize) {
                     *u = true;
                 }
             }
         }
-        mesh.positions
+        positions
             .iter()
             .zip(used)
             .filter(|(_, u)| *u)
-            .map(|(p, _)| n.world.transform_point3(*p))
-            .collect()
+            .map(move |(p, _)| world.transform_point3(*p))
     }
 
     /// Triangles drawn by the scene, counting each instance of a mesh.

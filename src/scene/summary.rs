@@ -34,7 +34,7 @@ pub fn summarize(scene: &Scene) -> SceneSummary {
     for &n in &order {
         if scene.nodes[n].mesh.is_some() {
             mesh_nodes += 1;
-            for p in scene.world_positions_used(n) {
+            for p in scene.world_positions_used_iter(n) {
                 bounds.add(p);
             }
         }
