@@ -125,6 +125,11 @@ pub(crate) fn derive(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
         || cells.pairs_in_sweep_order(reach),
     );
+    let faces: Vec<Vec<FaceInfo>> = cells
+        .cells
+        .par_iter()
+        .map(|c| c.poly.faces.iter().map(FaceInfo::new).collect())
+        .collect();
     // For each cell face, the regions other cells claim (in that face's frame).
     let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
         .cells
@@ -136,7 +141,7 @@ pub(crate) fn derive(
     let found: Vec<PairOpenings> = pairs
         .par_iter()
         .map_init(Shadows::default, |shadows, &(a, b)| {
-            pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
+            pair_openings(a, b, cells, &faces, &opaque, &near_cells, cfg, &k, shadows)
         })
         .collect();
     for ((a, b), found) in pairs.into_iter().zip(found) {
@@ -230,7 +235,7 @@ pub(crate) fn derive(
             out
         })
         .collect();
-    crate::free::drop_elsewhere((claimed, opaque));
+    crate::free::drop_elsewhere((claimed, opaque, faces));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
             set.portals
@@ -284,11 +289,27 @@ struct PairOpenings {
     portals: Vec<(Vec<DVec3>, Vec<DVec3>, DVec3, f64)>,
 }
 
+/// A cell face's bounds and centre, computed once for every pair the cell is in.
+struct FaceInfo {
+    bounds: Aabb,
+    centre: DVec3,
+}
+
+impl FaceInfo {
+    fn new(f: &crate::geom::polyhedron::Face) -> FaceInfo {
+        FaceInfo {
+            bounds: Aabb::from_points(f.points.iter()),
+            centre: f.points.iter().copied().sum::<DVec3>() / f.points.len() as f64,
+        }
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn pair_openings(
     a: usize,
     b: usize,
     cells: &CellSet,
+    faces: &[Vec<FaceInfo>],
     opaque: &Opaque,
     near_cells: &BoxGrid,
     cfg: &PortalsConfig,
@@ -301,8 +322,21 @@ fn pair_openings(
     let mut out = PairOpenings::default();
     let ca = &cells.cells[a];
     let cb = &cells.cells[b];
-    for (ia, fa) in ca.poly.faces.iter().enumerate() {
-        for (ib, fb) in cb.poly.faces.iter().enumerate() {
+    // Two faces that share a region are nearer each other than the wall reach, plus what a
+    // tilt within the angle tolerance (1e-4 rad) can add across either cell, plus snapping;
+    // a face further than that from the other cell's box is not looked at (a cell pair
+    // meets along one or two faces of each, out of six or more).
+    let pad = reach + 2.0 * eps + 1e-3 * (ca.bounds.size().length() + cb.bounds.size().length());
+    let near = |faces: &[FaceInfo], other: &Aabb| -> Vec<usize> {
+        (0..faces.len())
+            .filter(|&i| faces[i].bounds.grown(pad).meets(other))
+            .collect()
+    };
+    let near_b = near(&faces[b], &ca.bounds);
+    for ia in near(&faces[a], &cb.bounds) {
+        let fa = &ca.poly.faces[ia];
+        for &ib in &near_b {
+            let fb = &cb.poly.faces[ib];
             let na = fa.plane.normal;
             if na.dot(fb.plane.normal) > -cos_tol {
                 continue;
@@ -312,9 +346,8 @@ fn pair_openings(
             // world origin: for faces within the angle tolerance of parallel but not exactly,
             // the lever arm from the origin made a door between walls 1e-7 rad apart look like
             // an overlap of -2e-7 m and vanish (tests/stiff.rs, walls_1e7_rad_from_coplanar).
-            let centre = |pts: &[DVec3]| pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
             let gap = 0.5
-                * (fb.plane.distance(centre(&fa.points)) + fa.plane.distance(centre(&fb.points)));
+                * (fb.plane.distance(faces[a][ia].centre) + fa.plane.distance(faces[b][ib].centre));
             if gap < -eps || gap > reach {
                 continue;
             }
