@@ -472,11 +472,19 @@ fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<
     let render: RenderText<'r> = match edit {
         Edit::Copy => Box::new(|_, e, b| serde_json::to_writer(b, &Transcode(e))),
         Edit::Views(base) => Box::new(move |_, e, b| {
+            if view_unchanged(e, base) {
+                return serde_json::to_writer(b, &Transcode(e));
+            }
             let mut v: Value = serde_json::from_str(e)?;
             out::rebase_view(&mut v, base);
             serde_json::to_writer(b, &v)
         }),
         Edit::Nodes(ours) => Box::new(move |i, e, b| {
+            // A node without ours to add and no `extensions` (the key cannot hide behind an
+            // escape without a backslash) has nothing to strip.
+            if !ours.contains_key(&i) && !e.contains("extensions") && !e.contains('\\') {
+                return serde_json::to_writer(b, &Transcode(e));
+            }
             let mut v: Value = serde_json::from_str(e)?;
             out::strip_ours(&mut v);
             if let Some(o) = ours.get(&i) {
@@ -494,6 +502,31 @@ fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<
         },
         Source::bytes(b"]"),
     ])
+}
+
+/// Whether [`out::rebase_view`] leaves a buffer view's text as it parses: when the first
+/// buffer starts the BIN chunk and the view is on it (`"buffer": 0` as written) with its
+/// `byteOffset`, if any, a plain integer. Most views of a big .glb are; they are then
+/// transcoded instead of parsed into a `Value` (a map per view, most of the export's
+/// allocations).
+fn view_unchanged(e: &str, base: &[usize]) -> bool {
+    #[derive(serde::Deserialize)]
+    struct Head<'a> {
+        #[serde(borrow, default)]
+        buffer: Option<&'a RawValue>,
+        #[serde(borrow, default, rename = "byteOffset")]
+        byte_offset: Option<&'a RawValue>,
+    }
+    let plain = |r: &RawValue| {
+        let t = r.get();
+        t.bytes().all(|c| c.is_ascii_digit())
+            && (t == "0" || !t.starts_with('0'))
+            && t.parse::<u64>().is_ok()
+    };
+    base.first().copied().unwrap_or(0) == 0
+        && serde_json::from_str::<Head>(e).is_ok_and(|h| {
+            h.buffer.is_some_and(|b| b.get() == "0") && h.byte_offset.is_none_or(plain)
+        })
 }
 
 /// The root's `extensions`, our member serialized from the annotation.
@@ -749,6 +782,44 @@ mod tests {
             }
         }
         assert!(n >= 20, "{n} files");
+    }
+
+    /// A view taken as unchanged renders as the `Value` path renders it, and the common one
+    /// (on buffer 0, a plain offset, the first buffer at 0) is taken.
+    #[test]
+    fn a_view_taken_as_unchanged_is_unchanged() {
+        let views = [
+            r#"{"buffer":0,"byteOffset":48,"byteLength":12,"target":34962}"#,
+            r#"{"byteLength":12,"buffer":0}"#,
+            r#"{"buffer":0,"byteOffset":0}"#,
+            r#"{"buffer":0,"byteOffset":1.0}"#,
+            r#"{"buffer":0,"byteOffset":1e2}"#,
+            r#"{"buffer":0,"byteOffset":18446744073709551616}"#,
+            r#"{"buffer":0,"byteOffset":-4}"#,
+            r#"{"buffer":0.0,"byteOffset":4}"#,
+            r#"{"buffer":1,"byteOffset":4}"#,
+            r#"{"byteOffset":4}"#,
+            r#"{"buffer":0,"buffer":1}"#,
+            r#"{"buff\u0065r":0,"byteOffset":8}"#,
+            r#"{"buffer":null}"#,
+            r#"null"#,
+            r#"[0]"#,
+        ];
+        let mut taken = 0;
+        for base in [&[0usize, 100][..], &[0][..], &[16, 0][..], &[][..]] {
+            for e in views {
+                let mut v: Value = serde_json::from_str(e).unwrap();
+                gltf_out::rebase_view(&mut v, base);
+                let slow = serde_json::to_string(&v).unwrap();
+                if super::view_unchanged(e, base) {
+                    taken += 1;
+                    let fast = serde_json::to_string(&super::Transcode(e)).unwrap();
+                    assert_eq!(fast, slow, "{e} with {base:?}");
+                }
+            }
+        }
+        assert!(super::view_unchanged(views[0], &[0, 100]));
+        assert!(taken >= 8, "{taken}");
     }
 
     #[test]
