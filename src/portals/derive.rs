@@ -125,11 +125,6 @@ pub(crate) fn derive(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
         || cells.pairs_in_sweep_order(reach),
     );
-    let faces: Vec<Vec<FaceInfo>> = cells
-        .cells
-        .par_iter()
-        .map(|c| c.poly.faces.iter().map(FaceInfo::new).collect())
-        .collect();
     // For each cell face, the regions other cells claim (in that face's frame).
     let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
         .cells
@@ -141,7 +136,7 @@ pub(crate) fn derive(
     let found: Vec<PairOpenings> = pairs
         .par_iter()
         .map_init(Shadows::default, |shadows, &(a, b)| {
-            pair_openings(a, b, cells, &faces, &opaque, &near_cells, cfg, &k, shadows)
+            pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
         })
         .collect();
     for ((a, b), found) in pairs.into_iter().zip(found) {
@@ -235,7 +230,7 @@ pub(crate) fn derive(
             out
         })
         .collect();
-    crate::free::drop_elsewhere((claimed, opaque, faces));
+    crate::free::drop_elsewhere((claimed, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
             set.portals
@@ -289,19 +284,12 @@ struct PairOpenings {
     portals: Vec<(Vec<DVec3>, Vec<DVec3>, DVec3, f64)>,
 }
 
-/// A cell face's bounds and centre, computed once for every pair the cell is in.
-struct FaceInfo {
-    bounds: Aabb,
-    centre: DVec3,
-}
-
-impl FaceInfo {
-    fn new(f: &crate::geom::polyhedron::Face) -> FaceInfo {
-        FaceInfo {
-            bounds: Aabb::from_points(f.points.iter()),
-            centre: f.points.iter().copied().sum::<DVec3>() / f.points.len() as f64,
-        }
-    }
+/// Whether some point of box `b` is within `pad` of `plane`.
+fn plane_meets_box(plane: &Plane, b: &Aabb, pad: f64) -> bool {
+    let c = (b.min + b.max) * 0.5;
+    let r = ((b.max - b.min) * 0.5).dot(plane.normal.abs());
+    let d = plane.distance(c);
+    d - r <= pad && d + r >= -pad
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -309,7 +297,6 @@ fn pair_openings(
     a: usize,
     b: usize,
     cells: &CellSet,
-    faces: &[Vec<FaceInfo>],
     opaque: &Opaque,
     near_cells: &BoxGrid,
     cfg: &PortalsConfig,
@@ -324,16 +311,16 @@ fn pair_openings(
     let cb = &cells.cells[b];
     // Two faces that share a region are nearer each other than the wall reach, plus what a
     // tilt within the angle tolerance (1e-4 rad) can add across either cell, plus snapping;
-    // a face further than that from the other cell's box is not looked at (a cell pair
-    // meets along one or two faces of each, out of six or more).
+    // a face whose plane is further than that from the other cell's box is not looked at (a
+    // cell pair meets along one or two faces of each, out of six or more).
     let pad = reach + 2.0 * eps + 1e-3 * (ca.bounds.size().length() + cb.bounds.size().length());
-    let near = |faces: &[FaceInfo], other: &Aabb| -> Vec<usize> {
+    let near = |faces: &[crate::geom::polyhedron::Face], other: &Aabb| -> Vec<usize> {
         (0..faces.len())
-            .filter(|&i| faces[i].bounds.grown(pad).meets(other))
+            .filter(|&i| plane_meets_box(&faces[i].plane, other, pad))
             .collect()
     };
-    let near_b = near(&faces[b], &ca.bounds);
-    for ia in near(&faces[a], &cb.bounds) {
+    let near_b = near(&cb.poly.faces, &ca.bounds);
+    for ia in near(&ca.poly.faces, &cb.bounds) {
         let fa = &ca.poly.faces[ia];
         for &ib in &near_b {
             let fb = &cb.poly.faces[ib];
@@ -346,8 +333,9 @@ fn pair_openings(
             // world origin: for faces within the angle tolerance of parallel but not exactly,
             // the lever arm from the origin made a door between walls 1e-7 rad apart look like
             // an overlap of -2e-7 m and vanish (tests/stiff.rs, walls_1e7_rad_from_coplanar).
+            let centre = |pts: &[DVec3]| pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
             let gap = 0.5
-                * (fb.plane.distance(faces[a][ia].centre) + fa.plane.distance(faces[b][ib].centre));
+                * (fb.plane.distance(centre(&fa.points)) + fa.plane.distance(centre(&fb.points)));
             if gap < -eps || gap > reach {
                 continue;
             }
