@@ -167,6 +167,13 @@ fn write_annotated_to(
         let hashing = std::thread::Builder::new()
             .spawn_scoped(s, || extension::input_hash(scene, tagging))
             .ok();
+        // So are the input's root members (a pass over its JSON text), while the annotation
+        // is built.
+        let members = scene.gltf.as_ref().and_then(|src| {
+            std::thread::Builder::new()
+                .spawn_scoped(s, || src.members())
+                .ok()
+        });
         let hash = extension::InputHash::pending(Box::new(move || {
             hashing
                 .and_then(|h| h.join().ok())
@@ -185,7 +192,8 @@ fn write_annotated_to(
                 ann.root["inputHash"] = serde_json::json!(h);
             }
         }
-        gltf_out::write_to(scene, ann, out, format, sink)
+        let members = members.and_then(|m| m.join().ok()).flatten();
+        gltf_out::write_to_with(scene, members, ann, out, format, sink)
     })
 }
 

@@ -4,6 +4,7 @@
 //! schemas/PORTCULLIS_portals.schema.json.
 
 use super::parallel::Source;
+use rayon::prelude::*;
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::{json, Map, Value};
 
@@ -476,7 +477,7 @@ pub fn build<'a>(
     tagging: &'a Tagging,
     cells: &'a CellSet,
     portals: &'a PortalSet,
-    node_index: &dyn Fn(NodeId) -> Option<usize>,
+    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
     // The hash reads every position of the level byte by byte, as long as building the rest
     // takes on a big level: it runs alongside (or here, if no thread can be had).
@@ -501,7 +502,7 @@ pub(crate) fn build_deferred<'a>(
     tagging: &'a Tagging,
     cells: &'a CellSet,
     portals: &'a PortalSet,
-    node_index: &dyn Fn(NodeId) -> Option<usize>,
+    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
     let mut ann = build_with_hash(cells, tagging, portals, node_index);
     ann.lazy.hash = Some(hash);
@@ -513,7 +514,7 @@ fn build_with_hash<'a>(
     cells: &'a CellSet,
     tagging: &'a Tagging,
     portals: &'a PortalSet,
-    node_index: &dyn Fn(NodeId) -> Option<usize>,
+    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
     let mut root = Map::new();
     root.insert("version".into(), json!(VERSION));
@@ -532,18 +533,23 @@ fn build_with_hash<'a>(
             .collect();
         root.insert("rooms".into(), Value::Array(rooms));
     }
-    let mut node_cells: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    // Each cell's glTF nodes, on every thread: on a big level that is a hundred thousand
+    // node pointers to read.
     let cell_nodes: Vec<Vec<usize>> = cells
         .cells
+        .par_iter()
+        .map(|c| c.nodes.iter().filter_map(|&n| node_index(n)).collect())
+        .collect();
+    // Each node's cells, ascending, nodes in index order.
+    let mut node_cell: Vec<(usize, usize)> = cell_nodes
         .iter()
         .enumerate()
-        .map(|(ci, c)| {
-            let nodes: Vec<usize> = c.nodes.iter().filter_map(|&n| node_index(n)).collect();
-            for &n in &nodes {
-                node_cells.entry(n).or_default().push(ci);
-            }
-            nodes
-        })
+        .flat_map(|(ci, ns)| ns.iter().map(move |&n| (n, ci)))
+        .collect();
+    node_cell.sort_by_key(|&(n, _)| n);
+    let node_cells: Vec<(usize, Vec<usize>)> = node_cell
+        .chunk_by(|a, b| a.0 == b.0)
+        .map(|run| (run[0].0, run.iter().map(|&(_, c)| c).collect()))
         .collect();
     // Placeholders: serialized from the level (see `Annotation::root`).
     if !cells.cells.is_empty() {
@@ -558,7 +564,7 @@ fn build_with_hash<'a>(
         .map(|p| p.authored.and_then(node_index))
         .collect();
     let nodes = node_cells
-        .into_iter()
+        .into_par_iter()
         .map(|(n, cs)| {
             let v = if cs.len() == 1 {
                 json!({"cell": cs[0]})

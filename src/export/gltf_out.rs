@@ -143,6 +143,20 @@ pub fn write(
 /// [`write`] into `sink` (the file of an atomic write, so a big output is not held in memory).
 pub fn write_to(
     scene: &Scene,
+    ann: Annotation,
+    out: &Path,
+    format: OutFormat,
+    sink: &mut dyn Sink,
+) -> Result<(), Diagnostic> {
+    write_to_with(scene, None, ann, out, format, sink)
+}
+
+/// [`write_to`] with the input's root members (from [`crate::scene::GltfSource::members`]) found already:
+/// on a big level that is a pass over tens of megabytes, which a caller can run while it
+/// builds the annotation.
+pub fn write_to_with<'s>(
+    scene: &'s Scene,
+    members: Option<super::rewrite::Members<'s>>,
     mut ann: Annotation,
     out: &Path,
     format: OutFormat,
@@ -156,7 +170,7 @@ pub fn write_to(
     if let Some(src) = &scene.gltf {
         // The streamed rewrite gives the same bytes as the whole-document path below, which
         // stays for the documents it declines (a repeated key).
-        match super::rewrite::write(src, &mut ann, format, out_dir, sink) {
+        match super::rewrite::write(src, members, &mut ann, format, out_dir, sink) {
             Ok(()) => return Ok(()),
             Err(Failed::Io(e)) => return Err(failed(e)),
             Err(Failed::Declined) => sink.reset().map_err(failed)?,

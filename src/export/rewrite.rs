@@ -26,6 +26,9 @@ use super::transcode::{Element, Transcode};
 use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
+/// The root object's members as [`GltfSource::members`] gives them.
+pub(crate) type Members<'s> = Vec<(String, &'s RawValue)>;
+
 /// Why the streamed rewrite did not write a document: it declines it (the whole-document path
 /// then writes it), or the output failed.
 pub(crate) enum Failed {
@@ -49,8 +52,9 @@ fn written(r: serde_json::Result<()>) -> Result<(), Failed> {
 
 /// Writes the output file into `sink` (from where it stands), or says why it did not; on
 /// `Declined` the caller resets the sink and takes the whole-document path.
-pub(crate) fn write(
-    src: &GltfSource,
+pub(crate) fn write<'s>(
+    src: &'s GltfSource,
+    members: Option<Members<'s>>,
     ann: &mut Annotation,
     format: OutFormat,
     out_dir: &Path,
@@ -62,7 +66,7 @@ pub(crate) fn write(
         blob,
         lazy,
     } = ann;
-    let members = src.members().ok_or(Failed::Declined)?;
+    let members = members.or_else(|| src.members()).ok_or(Failed::Declined)?;
     let lens = src.buffer_lens();
     let mut root = Root(
         members
@@ -622,8 +626,15 @@ mod tests {
         let mut mine = ann_clone(ann);
         let src = scene.gltf.as_ref().unwrap();
         let mut bytes = std::io::Cursor::new(Vec::new());
-        let written = super::write(src, &mut mine, format, dir, &mut bytes);
-        (written.ok().map(|()| bytes.into_inner()), whole)
+        let written = super::write(src, None, &mut mine, format, dir, &mut bytes);
+        let streamed = written.ok().map(|()| bytes.into_inner());
+        // The root members found beforehand (as the pipeline finds them, on a thread of
+        // their own) give the same bytes.
+        let mut again = ann_clone(ann);
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        let written = super::write(src, src.members(), &mut again, format, dir, &mut bytes);
+        assert_eq!(written.ok().map(|()| bytes.into_inner()), streamed);
+        (streamed, whole)
     }
 
     fn with_pvs(mut ann: Annotation<'_>) -> Annotation<'_> {
