@@ -96,19 +96,24 @@ pub fn import(
         Ok(doc) if verbatim => doc?,
         _ => read_doc(&ctx, &text)?,
     };
-    let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
+    let bin_at = bin.map(|b| {
+        let start = b.as_ptr() as usize - bytes.as_ptr() as usize;
+        start..start + b.len()
+    });
     // Where buffer 0 came from in the file, if it is the BIN chunk (see `release_bin`).
-    let bin_file = bin
+    let bin_file = bin_at
+        .clone()
         .filter(|b| doc.buffers.first().is_some_and(|b0| b0.uri.is_none()) && !b.is_empty())
         .map(|b| crate::scene::BinInFile {
             path: path.to_path_buf(),
-            offset: (b.as_ptr() as usize - bytes.as_ptr() as usize) as u64,
+            offset: b.start as u64,
             len: b.len(),
             file_len: bytes.len() as u64,
             modified: None,
             released: false,
         });
-    drop(bytes);
+    let bin = bin_at.map(|at| bin_chunk(bytes, at));
+    let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
 
     let mut scene = Scene::new(path.to_path_buf(), format);
     let mut diagnostics = Diagnostics::default();
@@ -239,6 +244,22 @@ fn trimmed(bytes: &[u8]) -> &[u8] {
         .rposition(|&b| b != 0 && !b.is_ascii_whitespace())
         .map_or(0, |p| p + 1);
     bytes.get(..end).unwrap_or(bytes)
+}
+
+/// The BIN chunk at `at` of the file's `bytes`, which are let go. A file read into memory
+/// becomes the chunk where it lies: the chunk (the file's tail) is moved to the front and the
+/// rest freed, instead of copied into new memory, which on a big level was a serial stretch of
+/// page faults as long as the copy.
+fn bin_chunk(bytes: std::borrow::Cow<'_, [u8]>, at: std::ops::Range<usize>) -> Vec<u8> {
+    match bytes {
+        std::borrow::Cow::Owned(mut v) => {
+            v.truncate(at.end);
+            v.drain(..at.start);
+            v.shrink_to_fit();
+            v
+        }
+        std::borrow::Cow::Borrowed(b) => b[at].to_vec(),
+    }
 }
 
 /// What the importer reads of a checked text: the root object, the version, the required
@@ -380,4 +401,20 @@ fn check_required_extensions(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagn
             .hint(hint));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::borrow::Cow;
+
+    /// A file read into memory and a borrowed one give the same chunk, wherever it lies.
+    #[test]
+    fn bin_chunk_is_the_range_either_way() {
+        let file: Vec<u8> = (0..=255u8).cycle().take(5000).collect();
+        for at in [0..0, 0..5000, 20..5000, 1000..1004, 4999..5000, 7..7] {
+            let want = file[at.clone()].to_vec();
+            assert_eq!(super::bin_chunk(Cow::Borrowed(&file), at.clone()), want);
+            assert_eq!(super::bin_chunk(Cow::Owned(file.clone()), at.clone()), want);
+        }
+    }
 }

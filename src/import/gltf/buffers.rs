@@ -24,7 +24,7 @@ const BASE64: GeneralPurpose = GeneralPurpose::new(
 pub fn resolve(
     ctx: &Ctx,
     doc: &Doc,
-    bin: Option<&[u8]>,
+    mut bin: Option<Vec<u8>>,
     base_dir: &Path,
     format: Format,
 ) -> Result<Vec<Vec<u8>>, Diagnostic> {
@@ -41,8 +41,8 @@ pub fn resolve(
                 .hint(super::VALIDATOR_HINT));
         };
         let (data, what) = match buffer.uri.as_deref() {
-            None if i == 0 && format == Format::Glb => match bin {
-                Some(b) => (b.to_vec(), "the GLB BIN chunk".to_string()),
+            None if i == 0 && format == Format::Glb => match bin.take() {
+                Some(b) => (b, "the GLB BIN chunk".to_string()),
                 None => {
                     return Err(ctx
                         .diag(
