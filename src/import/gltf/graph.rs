@@ -152,12 +152,13 @@ fn parents(ctx: &Ctx, doc: &Doc) -> Result<Vec<Option<usize>>, Diagnostic> {
     let mut parent: Vec<Option<usize>> = vec![None; n];
     for (i, node) in doc.nodes.iter().enumerate() {
         for (k, &c) in node.children.iter().enumerate() {
-            let cp = format!("/nodes/{i}/children/{k}");
+            // Only a problem needs the pointer (a big level has tens of thousands of children).
+            let cp = || format!("/nodes/{i}/children/{k}");
             let Some(ci) = index(c, n) else {
                 return Err(ctx
                     .diag(
                         Code::GLTF_BAD_INDEX,
-                        cp,
+                        cp(),
                         format!("node {i} lists child {c}, which does not exist (the file has {n} nodes)"),
                     )
                     .hint(super::VALIDATOR_HINT));
@@ -166,7 +167,7 @@ fn parents(ctx: &Ctx, doc: &Doc) -> Result<Vec<Option<usize>>, Diagnostic> {
                 return Err(ctx
                     .diag(
                         Code::GLTF_NODE_CYCLE,
-                        cp,
+                        cp(),
                         format!("node {i} lists itself as its child"),
                     )
                     .hint(HINT));
@@ -180,7 +181,7 @@ fn parents(ctx: &Ctx, doc: &Doc) -> Result<Vec<Option<usize>>, Diagnostic> {
                 } else {
                     format!("node {ci} has two parents, nodes {p} and {i}")
                 };
-                return Err(ctx.diag(Code::GLTF_NODE_CYCLE, cp, msg).hint(HINT));
+                return Err(ctx.diag(Code::GLTF_NODE_CYCLE, cp(), msg).hint(HINT));
             }
             *slot = Some(i);
         }
@@ -323,46 +324,47 @@ fn name_suffix(node: &GNode) -> String {
 }
 
 /// The node's local transform: `matrix` if given, else translation * rotation * scale.
-fn local_transform(ctx: &Ctx, node: &GNode, np: &str) -> Result<DMat4, Diagnostic> {
+fn local_transform<'n>(ctx: &Ctx, node: &'n GNode, np: &str) -> Result<DMat4, Diagnostic> {
     let invalid = |field: &str, msg: String| {
         ctx.diag(Code::GLTF_TRANSFORM_INVALID, format!("{np}/{field}"), msg)
             .hint("fix the node's transform in the modelling tool (apply/freeze transforms) and export again")
     };
-    let array =
-        |field: &str, v: &Option<Vec<f64>>, len: usize| -> Result<Option<Vec<f64>>, Diagnostic> {
-            match v {
-                None => Ok(None),
-                Some(v) if v.len() != len => Err(ctx
-                    .diag(
-                        Code::GLTF_INVALID_JSON,
-                        format!("{np}/{field}"),
-                        format!(
-                            "`{field}` of node {np} has {} numbers; it must have {len}",
-                            v.len()
-                        ),
-                    )
-                    .hint(super::VALIDATOR_HINT)),
-                Some(v) if v.iter().any(|x| !x.is_finite()) => Err(invalid(
-                    field,
-                    format!("`{field}` of node {np}{} is not finite", name_suffix(node)),
-                )),
-                Some(v) => Ok(Some(v.clone())),
-            }
-        };
+    let array = |field: &str,
+                 v: &'n Option<Vec<f64>>,
+                 len: usize|
+     -> Result<Option<&'n [f64]>, Diagnostic> {
+        match v {
+            None => Ok(None),
+            Some(v) if v.len() != len => Err(ctx
+                .diag(
+                    Code::GLTF_INVALID_JSON,
+                    format!("{np}/{field}"),
+                    format!(
+                        "`{field}` of node {np} has {} numbers; it must have {len}",
+                        v.len()
+                    ),
+                )
+                .hint(super::VALIDATOR_HINT)),
+            Some(v) if v.iter().any(|x| !x.is_finite()) => Err(invalid(
+                field,
+                format!("`{field}` of node {np}{} is not finite", name_suffix(node)),
+            )),
+            Some(v) => Ok(Some(v.as_slice())),
+        }
+    };
     if let Some(m) = array("matrix", &node.matrix, 16)? {
         let cols: [f64; 16] = m
-            .as_slice()
             .try_into()
             .map_err(|_| invalid("matrix", "matrix must have 16 numbers".into()))?;
         return Ok(DMat4::from_cols_array(&cols));
     }
-    let v3 = |v: Option<Vec<f64>>, default: DVec3| match v.as_deref() {
+    let v3 = |v: Option<&[f64]>, default: DVec3| match v {
         Some(&[x, y, z]) => DVec3::new(x, y, z),
         _ => default,
     };
     let t = v3(array("translation", &node.translation, 3)?, DVec3::ZERO);
     let s = v3(array("scale", &node.scale, 3)?, DVec3::ONE);
-    let r = match array("rotation", &node.rotation, 4)?.as_deref() {
+    let r = match array("rotation", &node.rotation, 4)? {
         Some(&[x, y, z, w]) => {
             let q = DQuat::from_xyzw(x, y, z, w);
             let len = q.length();
