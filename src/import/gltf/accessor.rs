@@ -91,6 +91,17 @@ impl Component {
 }
 
 /// A buffer view resolved to its bytes.
+/// An accessor's elements: in a buffer view, or zeros (no view).
+enum Span<'b> {
+    Backed {
+        bytes: &'b [u8],
+        offset: usize,
+        stride: usize,
+        count: usize,
+    },
+    Zeros(usize),
+}
+
 struct View<'b> {
     bytes: &'b [u8],
     stride: Option<usize>,
@@ -173,7 +184,33 @@ impl<'a> Reader<'a> {
                 format!("POSITION accessor {i} has component type UNSIGNED_INT, which glTF does not allow for positions"),
             ));
         }
-        let mut raw = self.read(acc, &pointer, 3, ct)?;
+        let span = self.span(acc, &pointer, 3, ct)?;
+        // Plain positions in a view (nearly all) go straight to points, without a list of
+        // components in between.
+        if let (
+            Span::Backed {
+                bytes,
+                offset,
+                stride,
+                count,
+            },
+            None,
+            false,
+        ) = (&span, &acc.sparse, acc.normalized)
+        {
+            let size = ct.size();
+            return (0..*count)
+                .map(|e| {
+                    let base = offset + e * stride;
+                    let at = |c: usize| {
+                        ct.read(bytes, base + c * size)
+                            .ok_or_else(|| self.oob(&pointer, "element read past its buffer view"))
+                    };
+                    Ok(DVec3::new(at(0)?, at(1)?, at(2)?))
+                })
+                .collect();
+        }
+        let mut raw = self.decode(span, acc, &pointer, 3, ct)?;
         if acc.normalized {
             for v in &mut raw {
                 *v = ct.normalize(*v);
@@ -199,7 +236,26 @@ impl<'a> Reader<'a> {
                 ),
             ));
         }
-        let raw = self.read(acc, &pointer, 1, ct)?;
+        let span = self.span(acc, &pointer, 1, ct)?;
+        if let (
+            Span::Backed {
+                bytes,
+                offset,
+                stride,
+                count,
+            },
+            None,
+        ) = (&span, &acc.sparse)
+        {
+            return (0..*count)
+                .map(|e| {
+                    ct.read(bytes, offset + e * stride)
+                        .map(|v| v as u32)
+                        .ok_or_else(|| self.oob(&pointer, "element read past its buffer view"))
+                })
+                .collect();
+        }
+        let raw = self.decode(span, acc, &pointer, 1, ct)?;
         // The values were read from u8/u16/u32, so the conversion back is exact.
         Ok(raw.into_iter().map(|v| v as u32).collect())
     }
@@ -240,15 +296,15 @@ impl<'a> Reader<'a> {
         Ok((kind, ct))
     }
 
-    /// Reads `count * comps` components, zeros when there is no buffer view, then applies
-    /// sparse substitution.
-    fn read(
+    /// Where an accessor's `count * comps` components lie, checked against its buffer view
+    /// and charged to the budget.
+    fn span(
         &self,
         acc: &Accessor,
         pointer: &str,
         comps: usize,
         ct: Component,
-    ) -> Result<Vec<f64>, Diagnostic> {
+    ) -> Result<Span<'a>, Diagnostic> {
         let Some(count) = acc.count else {
             return Err(self.missing(
                 &format!("{pointer}/count"),
@@ -256,7 +312,7 @@ impl<'a> Reader<'a> {
             ));
         };
         let elem = comps * ct.size();
-        let mut out = match acc.buffer_view {
+        Ok(match acc.buffer_view {
             Some(bv) => {
                 let view = self.view(bv, &format!("{pointer}/bufferView"))?;
                 let stride = match view.stride {
@@ -294,17 +350,12 @@ impl<'a> Reader<'a> {
                 let count = count as usize;
                 let offset = acc.byte_offset as usize;
                 self.charge(count as u64, pointer)?;
-                let mut out = Vec::with_capacity(count * comps);
-                for e in 0..count {
-                    let base = offset + e * stride;
-                    for c in 0..comps {
-                        let v = ct.read(view.bytes, base + c * ct.size()).ok_or_else(|| {
-                            self.oob(pointer, "element read past its buffer view")
-                        })?;
-                        out.push(v);
-                    }
+                Span::Backed {
+                    bytes: view.bytes,
+                    offset,
+                    stride,
+                    count,
                 }
-                out
             }
             None => {
                 if count > MAX_UNBACKED_ELEMENTS {
@@ -316,10 +367,44 @@ impl<'a> Reader<'a> {
                     ));
                 }
                 self.charge(count, pointer)?;
-                vec![0.0; count as usize * comps]
+                Span::Zeros(count as usize)
             }
+        })
+    }
+
+    /// The components of a checked span (zeros when there is no buffer view), with sparse
+    /// substitution applied.
+    fn decode(
+        &self,
+        span: Span,
+        acc: &Accessor,
+        pointer: &str,
+        comps: usize,
+        ct: Component,
+    ) -> Result<Vec<f64>, Diagnostic> {
+        let mut out = match span {
+            Span::Backed {
+                bytes,
+                offset,
+                stride,
+                count,
+            } => {
+                let mut out = Vec::with_capacity(count * comps);
+                for e in 0..count {
+                    let base = offset + e * stride;
+                    for c in 0..comps {
+                        let v = ct.read(bytes, base + c * ct.size()).ok_or_else(|| {
+                            self.oob(pointer, "element read past its buffer view")
+                        })?;
+                        out.push(v);
+                    }
+                }
+                out
+            }
+            Span::Zeros(n) => vec![0.0; n * comps],
         };
         if let Some(sparse) = &acc.sparse {
+            let count = acc.count.unwrap_or(0);
             self.apply_sparse(sparse, pointer, count, comps, ct, &mut out)?;
         }
         Ok(out)
