@@ -323,17 +323,22 @@ mod tests {
     use crate::geom::plane::Plane;
     use crate::geom::polyhedron::clip_polygon;
 
+    /// Deterministic numbers in [0, 1) from `seed` (a 64-bit LCG's top 53 bits).
+    fn numbers(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The fixed-buffer clip gives the points the allocating one gives, for triangles in, across
     /// and touching a slab.
     #[test]
     fn clip_into_matches_clip_polygon() {
-        let mut s = 11u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
-        };
+        let mut unit = numbers(11);
+        let mut r = || unit() * 4.0 - 2.0;
         let n = DVec3::new(0.3, 0.9, -0.1).normalize();
         for _ in 0..2000 {
             let t = [0, 1, 2].map(|_| DVec3::new(r(), r(), r()));
@@ -366,13 +371,7 @@ mod tests {
     /// thicker, and off the axes.
     #[test]
     fn skipped_grids_hold_no_shadow() {
-        let mut s = 5u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut r = numbers(5);
         let mut verts = Vec::new();
         let mut tris = Vec::new();
         let snap = |x: f64| (x * 8.0).round() / 8.0;

@@ -93,13 +93,16 @@ impl Component {
 /// A buffer view resolved to its bytes.
 /// An accessor's elements: in a buffer view, or zeros (no view).
 enum Span<'b> {
-    Backed {
-        bytes: &'b [u8],
-        offset: usize,
-        stride: usize,
-        count: usize,
-    },
+    Backed(Run<'b>),
     Zeros(usize),
+}
+
+/// `count` elements of a buffer view's bytes, `stride` apart from `offset`.
+struct Run<'b> {
+    bytes: &'b [u8],
+    offset: usize,
+    stride: usize,
+    count: usize,
 }
 
 struct View<'b> {
@@ -187,27 +190,10 @@ impl<'a> Reader<'a> {
         let span = self.span(acc, &pointer, 3, ct)?;
         // Plain positions in a view (nearly all) go straight to points, without a list of
         // components in between.
-        if let (
-            Span::Backed {
-                bytes,
-                offset,
-                stride,
-                count,
-            },
-            None,
-            false,
-        ) = (&span, &acc.sparse, acc.normalized)
-        {
-            let size = ct.size();
-            return (0..*count)
-                .map(|e| {
-                    let base = offset + e * stride;
-                    let at = |c: usize| {
-                        ct.read(bytes, base + c * size)
-                            .ok_or_else(|| self.oob(&pointer, "element read past its buffer view"))
-                    };
-                    Ok(DVec3::new(at(0)?, at(1)?, at(2)?))
-                })
+        if let (Span::Backed(run), None, false) = (&span, &acc.sparse, acc.normalized) {
+            let at = |e, c| self.component(run, e, c, ct, &pointer);
+            return (0..run.count)
+                .map(|e| Ok(DVec3::new(at(e, 0)?, at(e, 1)?, at(e, 2)?)))
                 .collect();
         }
         let mut raw = self.decode(span, acc, &pointer, 3, ct)?;
@@ -237,22 +223,9 @@ impl<'a> Reader<'a> {
             ));
         }
         let span = self.span(acc, &pointer, 1, ct)?;
-        if let (
-            Span::Backed {
-                bytes,
-                offset,
-                stride,
-                count,
-            },
-            None,
-        ) = (&span, &acc.sparse)
-        {
-            return (0..*count)
-                .map(|e| {
-                    ct.read(bytes, offset + e * stride)
-                        .map(|v| v as u32)
-                        .ok_or_else(|| self.oob(&pointer, "element read past its buffer view"))
-                })
+        if let (Span::Backed(run), None) = (&span, &acc.sparse) {
+            return (0..run.count)
+                .map(|e| self.component(run, e, 0, ct, &pointer).map(|v| v as u32))
                 .collect();
         }
         let raw = self.decode(span, acc, &pointer, 1, ct)?;
@@ -350,12 +323,12 @@ impl<'a> Reader<'a> {
                 let count = count as usize;
                 let offset = acc.byte_offset as usize;
                 self.charge(count as u64, pointer)?;
-                Span::Backed {
+                Span::Backed(Run {
                     bytes: view.bytes,
                     offset,
                     stride,
                     count,
-                }
+                })
             }
             None => {
                 if count > MAX_UNBACKED_ELEMENTS {
@@ -383,20 +356,11 @@ impl<'a> Reader<'a> {
         ct: Component,
     ) -> Result<Vec<f64>, Diagnostic> {
         let mut out = match span {
-            Span::Backed {
-                bytes,
-                offset,
-                stride,
-                count,
-            } => {
-                let mut out = Vec::with_capacity(count * comps);
-                for e in 0..count {
-                    let base = offset + e * stride;
+            Span::Backed(run) => {
+                let mut out = Vec::with_capacity(run.count * comps);
+                for e in 0..run.count {
                     for c in 0..comps {
-                        let v = ct.read(bytes, base + c * ct.size()).ok_or_else(|| {
-                            self.oob(pointer, "element read past its buffer view")
-                        })?;
-                        out.push(v);
+                        out.push(self.component(&run, e, c, ct, pointer)?);
                     }
                 }
                 out
@@ -408,6 +372,20 @@ impl<'a> Reader<'a> {
             self.apply_sparse(sparse, pointer, count, comps, ct, &mut out)?;
         }
         Ok(out)
+    }
+
+    /// Component `c` of element `e` of a run (checked against the view when the run was made;
+    /// a read past it is still a diagnostic, not a panic).
+    fn component(
+        &self,
+        run: &Run,
+        e: usize,
+        c: usize,
+        ct: Component,
+        pointer: &str,
+    ) -> Result<f64, Diagnostic> {
+        ct.read(run.bytes, run.offset + e * run.stride + c * ct.size())
+            .ok_or_else(|| self.oob(pointer, "element read past its buffer view"))
     }
 
     fn apply_sparse(
