@@ -22,7 +22,7 @@ use super::extension::{Annotation, Json, NAME};
 use super::gltf_out::{self as out, OutFormat};
 use super::parallel::{self, Failure, Render, RenderText, Source};
 use super::sink::{Counted, Sink};
-use super::transcode::{Element, Transcode};
+use super::transcode::{self, Element, Transcode};
 use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
@@ -474,10 +474,10 @@ impl<'r> Document<'r, '_> {
 fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<Vec<Source<'r>>> {
     let elements = Elements::of(text)?;
     let render: RenderText<'r> = match edit {
-        Edit::Copy => Box::new(|_, e, b| serde_json::to_writer(b, &Transcode(e))),
+        Edit::Copy => Box::new(|_, e, b| transcode::write_compact(e, b)),
         Edit::Views(base) => Box::new(move |_, e, b| {
             if view_unchanged(e, base) {
-                return serde_json::to_writer(b, &Transcode(e));
+                return transcode::write_compact(e, b);
             }
             let mut v: Value = serde_json::from_str(e)?;
             out::rebase_view(&mut v, base);
@@ -487,7 +487,7 @@ fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<
             // A node without ours to add and no `extensions` (the key cannot hide behind an
             // escape without a backslash) has nothing to strip.
             if !ours.contains_key(&i) && !e.contains("extensions") && !e.contains('\\') {
-                return serde_json::to_writer(b, &Transcode(e));
+                return transcode::write_compact(e, b);
             }
             let mut v: Value = serde_json::from_str(e)?;
             out::strip_ours(&mut v);

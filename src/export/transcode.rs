@@ -23,6 +23,153 @@ const REPEATED: &str = "portcullis: repeated JSON key";
 /// JSON text that serializes as the `Value` it parses to (see the module's note on keys).
 pub struct Transcode<'a>(pub &'a str);
 
+/// Appends what [`Transcode`] writes of `text` in compact form: `text` itself when it is
+/// already that ([`is_compact_form`]), which is a byte scan instead of a parse and a write
+/// of every value. A level written by a tool that writes compact JSON (ours, most
+/// exporters' .glb) is copied nearly whole.
+pub fn write_compact(text: &str, out: &mut Vec<u8>) -> serde_json::Result<()> {
+    if is_compact_form(text) {
+        out.extend_from_slice(text.as_bytes());
+        Ok(())
+    } else {
+        serde_json::to_writer(out, &Transcode(text))
+    }
+}
+
+/// Whether `text` is one JSON value exactly as its `Value` serializes, compact: no space
+/// between tokens, strings without escapes, integers as a `Value` keeps them (within u64 or
+/// i64, not `-0`), numbers with a fraction or exponent as the serializer writes the `f64`
+/// the parser reads, no repeated key (nor the marker key) in an object. `false` when unsure:
+/// the caller then transcodes, which decides.
+pub fn is_compact_form(text: &str) -> bool {
+    let b = text.as_bytes();
+    matches!(Compact { b }.value(0, 0), Some(end) if end == b.len())
+}
+
+/// Keys of one object compared for repeats; objects with more are left to the parser.
+const KEYS: usize = 16;
+
+/// The scanner of [`is_compact_form`]: each step takes a position and returns the position
+/// after what it read, `None` when the text is not in compact form there.
+struct Compact<'a> {
+    b: &'a [u8],
+}
+
+impl Compact<'_> {
+    /// Under serde_json's nesting limit (128): deeper text is left to the parser.
+    const DEPTH: usize = 100;
+
+    fn value(&self, i: usize, depth: usize) -> Option<usize> {
+        match *self.b.get(i)? {
+            b'{' => self.object(i + 1, depth + 1),
+            b'[' => self.array(i + 1, depth + 1),
+            b'"' => self.string(i + 1),
+            b't' => self.word(i, b"true"),
+            b'f' => self.word(i, b"false"),
+            b'n' => self.word(i, b"null"),
+            b'-' | b'0'..=b'9' => self.number(i),
+            _ => None,
+        }
+    }
+
+    fn word(&self, i: usize, w: &[u8]) -> Option<usize> {
+        (self.b.get(i..i + w.len())? == w).then_some(i + w.len())
+    }
+
+    /// A string from after its opening quote: no escape and no control character (those
+    /// the serializer may write another way).
+    fn string(&self, i: usize) -> Option<usize> {
+        let rest = self.b.get(i..)?;
+        let n = rest
+            .iter()
+            .position(|&c| c == b'"' || c == b'\\' || c < 0x20)?;
+        (rest[n] == b'"').then_some(i + n + 1)
+    }
+
+    fn array(&self, mut i: usize, depth: usize) -> Option<usize> {
+        if depth > Self::DEPTH {
+            return None;
+        }
+        if self.b.get(i) == Some(&b']') {
+            return Some(i + 1);
+        }
+        loop {
+            i = self.value(i, depth)?;
+            match *self.b.get(i)? {
+                b',' => i += 1,
+                b']' => return Some(i + 1),
+                _ => return None,
+            }
+        }
+    }
+
+    fn object(&self, mut i: usize, depth: usize) -> Option<usize> {
+        if depth > Self::DEPTH {
+            return None;
+        }
+        if self.b.get(i) == Some(&b'}') {
+            return Some(i + 1);
+        }
+        let mut keys: [&[u8]; KEYS] = [&[]; KEYS];
+        let mut n = 0;
+        loop {
+            if self.b.get(i) != Some(&b'"') || n == KEYS {
+                return None;
+            }
+            let end = self.string(i + 1)?;
+            let key = &self.b[i + 1..end - 1];
+            if key == json_text::RAW_VALUE_KEY.as_bytes() || keys[..n].contains(&key) {
+                return None;
+            }
+            keys[n] = key;
+            n += 1;
+            if self.b.get(end) != Some(&b':') {
+                return None;
+            }
+            i = self.value(end + 1, depth)?;
+            match *self.b.get(i)? {
+                b',' => i += 1,
+                b'}' => return Some(i + 1),
+                _ => return None,
+            }
+        }
+    }
+
+    fn number(&self, i: usize) -> Option<usize> {
+        let len = self.b[i..]
+            .iter()
+            .position(|c| !matches!(c, b'-' | b'+' | b'.' | b'e' | b'E' | b'0'..=b'9'))
+            .unwrap_or(self.b.len() - i);
+        let t = std::str::from_utf8(&self.b[i..i + len]).ok()?;
+        let digits = t.strip_prefix('-').unwrap_or(t);
+        // JSON's grammar: no leading zero, a digit after the sign.
+        let lead = digits.as_bytes();
+        if lead.first().is_none_or(|c| !c.is_ascii_digit())
+            || (lead[0] == b'0' && lead.get(1).is_some_and(u8::is_ascii_digit))
+        {
+            return None;
+        }
+        let kept = if digits.bytes().all(|c| c.is_ascii_digit()) {
+            // An integer: a `Value` keeps it as u64 (positive) or i64 (negative, and not -0,
+            // which becomes the float -0.0); beyond those it is a float.
+            if t.starts_with('-') {
+                t.parse::<i64>().is_ok_and(|v| v != 0)
+            } else {
+                t.parse::<u64>().is_ok()
+            }
+        } else {
+            // A float: written back the same only if the serializer writes this very text
+            // for the number the parser reads from it.
+            let Ok(v) = serde_json::from_str::<f64>(t) else {
+                return None;
+            };
+            let mut buf = Vec::with_capacity(32);
+            serde_json::to_writer(&mut buf, &v).is_ok() && buf == t.as_bytes()
+        };
+        kept.then_some(i + len)
+    }
+}
+
 impl Serialize for Transcode<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut de = serde_json::Deserializer::from_str(self.0);
@@ -210,5 +357,147 @@ mod tests {
         let text = format!("{{{}}}", many.join(","));
         let (a, b) = both(&text);
         assert_eq!(a, b);
+    }
+
+    /// Deterministic numbers in [0, n) from a 64-bit LCG.
+    fn picks(mut seed: u64) -> impl FnMut(usize) -> usize {
+        move |n| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 33) as usize) % n
+        }
+    }
+
+    /// A random JSON text from tokens that are and are not in compact form.
+    fn random_text(pick: &mut impl FnMut(usize) -> usize, depth: usize) -> String {
+        const ATOMS: &[&str] = &[
+            "0",
+            "7",
+            "-3",
+            "-0",
+            "1.0",
+            "1.50",
+            "-0.0",
+            "0.1",
+            "3.375",
+            "1e5",
+            "1E5",
+            "1e+5",
+            "2.5e-7",
+            "1e300",
+            "5e-324",
+            "1.7976931348623157e308",
+            "18446744073709551615",
+            "18446744073709551616",
+            "-9223372036854775808",
+            "-9223372036854775809",
+            "123456789012345678901",
+            "true",
+            "false",
+            "null",
+            "\"\"",
+            "\"abc\"",
+            "\"a\\nb\"",
+            "\"\u{e9}/\"",
+            "\"\\u00e9\"",
+            "\"\\/\"",
+        ];
+        const KEYS: &[&str] = &["a", "b", "c", "é", "$serde_json::private::RawValue", "a\\n"];
+        let space = |pick: &mut dyn FnMut(usize) -> usize| if pick(8) == 0 { " " } else { "" };
+        match if depth > 3 { 0 } else { pick(4) } {
+            0 | 1 => ATOMS[pick(ATOMS.len())].to_string(),
+            2 => {
+                let n = pick(4);
+                let items: Vec<String> = (0..n).map(|_| random_text(pick, depth + 1)).collect();
+                format!(
+                    "[{}{}]",
+                    items.join(if pick(6) == 0 { ", " } else { "," }),
+                    space(pick)
+                )
+            }
+            _ => {
+                let n = if pick(10) == 0 { 17 + pick(3) } else { pick(4) };
+                let items: Vec<String> = (0..n)
+                    .map(|k| {
+                        let key = if n > 16 {
+                            format!("k{k}")
+                        } else {
+                            KEYS[pick(KEYS.len())].to_string()
+                        };
+                        let sep = if pick(8) == 0 { ": " } else { ":" };
+                        format!("\"{key}\"{sep}{}", random_text(pick, depth + 1))
+                    })
+                    .collect();
+                format!("{}{{{}}}", space(pick), items.join(","))
+            }
+        }
+    }
+
+    /// Text taken as already in compact form is what its `Value` writes, to the byte; what
+    /// is not is transcoded, and `write_compact` writes what the transcoder writes. Compact
+    /// text without escapes is taken as it is (so the fast path is not dead).
+    #[test]
+    fn compact_form_is_what_a_value_writes() {
+        let mut pick = picks(5);
+        let (mut taken, mut written) = (0, 0);
+        for _ in 0..20_000 {
+            let text = random_text(&mut pick, 0);
+            let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
+                continue;
+            };
+            let want = serde_json::to_string(&v).unwrap();
+            let mut got = Vec::new();
+            match write_compact(&text, &mut got) {
+                Ok(()) => assert_eq!(String::from_utf8(got).unwrap(), want, "{text}"),
+                Err(e) => {
+                    assert!(is_repeated(&e), "{text}: {e}");
+                    assert!(!is_compact_form(&text), "{text}");
+                    continue;
+                }
+            }
+            if is_compact_form(&text) {
+                taken += 1;
+                assert_eq!(text, want);
+            }
+            if is_compact_form(&want) {
+                written += 1;
+            } else {
+                // Only an escape, a long object or the marker key sends written text back.
+                assert!(
+                    want.contains('\\') || want.contains("\"k16\"") || want.contains('$'),
+                    "{want}"
+                );
+            }
+        }
+        assert!(
+            taken > 1000 && written > 5000,
+            "{taken} taken, {written} written"
+        );
+    }
+
+    #[test]
+    fn numbers_in_compact_form() {
+        for (t, compact) in [
+            ("0", true),
+            ("-0", false),
+            ("-1", true),
+            ("1.0", true),
+            ("1.00", false),
+            ("1e5", false),
+            ("100000.0", true),
+            ("0.1", true),
+            ("3.375", true),
+            ("18446744073709551615", true),
+            ("18446744073709551616", false),
+            ("-9223372036854775808", true),
+            ("-9223372036854775809", false),
+            ("[1,2]", true),
+            ("[1, 2]", false),
+            (r#"{"a":1,"a":2}"#, false),
+            (r#"{"a":"x\ny"}"#, false),
+        ] {
+            assert_eq!(is_compact_form(t), compact, "{t}");
+        }
     }
 }

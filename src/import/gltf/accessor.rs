@@ -6,6 +6,7 @@
 //! allocated, so the largest allocation is bounded by the bytes actually present in the file
 //! (times a small factor), whatever count the JSON claims.
 
+use std::fmt::{self, Display};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::DVec3;
@@ -90,7 +91,16 @@ impl Component {
     }
 }
 
-/// A buffer view resolved to its bytes.
+/// A JSON pointer to an element of a root array (`/accessors/3`), written out only when a
+/// diagnostic needs it: a big level reads a hundred thousand accessors without a problem.
+struct Pointer(&'static str, usize);
+
+impl Display for Pointer {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "{}/{}", self.0, self.1)
+    }
+}
+
 /// An accessor's elements: in a buffer view, or zeros (no view).
 enum Span<'b> {
     Backed(Run<'b>),
@@ -151,7 +161,7 @@ impl<'a> Reader<'a> {
         self.exhausted.store(false, Ordering::Relaxed);
     }
 
-    fn charge(&self, count: u64, pointer: &str) -> Result<(), Diagnostic> {
+    fn charge(&self, count: u64, pointer: &dyn Display) -> Result<(), Diagnostic> {
         let charged = self
             .budget
             .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |b| {
@@ -171,9 +181,9 @@ impl<'a> Reader<'a> {
 
     /// Positions of a POSITION accessor, dequantized when normalized. `from` is the pointer of
     /// the reference to the accessor, blamed if the index is out of range.
-    pub fn positions(&self, accessor: u64, from: &str) -> Result<Vec<DVec3>, Diagnostic> {
+    pub fn positions(&self, accessor: u64, from: &dyn Display) -> Result<Vec<DVec3>, Diagnostic> {
         let (i, acc) = self.accessor(accessor, from)?;
-        let pointer = format!("/accessors/{i}");
+        let pointer = &Pointer("/accessors", i);
         let (kind, ct) = self.kind(acc, &pointer)?;
         if kind != "VEC3" {
             return Err(self.invalid(
@@ -192,9 +202,13 @@ impl<'a> Reader<'a> {
         // components in between.
         if let (Span::Backed(run), None, false) = (&span, &acc.sparse, acc.normalized) {
             let at = |e, c| self.component(run, e, c, ct, &pointer);
-            return (0..run.count)
-                .map(|e| Ok(DVec3::new(at(e, 0)?, at(e, 1)?, at(e, 2)?)))
-                .collect();
+            // Exact room: the list becomes the mesh's (a collect into a `Result` grows it by
+            // doubling, up to twice the room).
+            let mut out = Vec::with_capacity(run.count);
+            for e in 0..run.count {
+                out.push(DVec3::new(at(e, 0)?, at(e, 1)?, at(e, 2)?));
+            }
+            return Ok(out);
         }
         let mut raw = self.decode(span, acc, &pointer, 3, ct)?;
         if acc.normalized {
@@ -209,9 +223,9 @@ impl<'a> Reader<'a> {
     }
 
     /// Vertex indices of an `indices` accessor.
-    pub fn indices(&self, accessor: u64, from: &str) -> Result<Vec<u32>, Diagnostic> {
+    pub fn indices(&self, accessor: u64, from: &dyn Display) -> Result<Vec<u32>, Diagnostic> {
         let (i, acc) = self.accessor(accessor, from)?;
-        let pointer = format!("/accessors/{i}");
+        let pointer = &Pointer("/accessors", i);
         let (kind, ct) = self.kind(acc, &pointer)?;
         if kind != "SCALAR" || !matches!(ct, Component::U8 | Component::U16 | Component::U32) {
             return Err(self.invalid(
@@ -224,23 +238,29 @@ impl<'a> Reader<'a> {
         }
         let span = self.span(acc, &pointer, 1, ct)?;
         if let (Span::Backed(run), None) = (&span, &acc.sparse) {
-            return (0..run.count)
-                .map(|e| self.component(run, e, 0, ct, &pointer).map(|v| v as u32))
-                .collect();
+            let mut out = Vec::with_capacity(run.count);
+            for e in 0..run.count {
+                out.push(self.component(run, e, 0, ct, &pointer)? as u32);
+            }
+            return Ok(out);
         }
         let raw = self.decode(span, acc, &pointer, 1, ct)?;
         // The values were read from u8/u16/u32, so the conversion back is exact.
         Ok(raw.into_iter().map(|v| v as u32).collect())
     }
 
-    fn accessor(&self, accessor: u64, from: &str) -> Result<(usize, &'a Accessor), Diagnostic> {
+    fn accessor(
+        &self,
+        accessor: u64,
+        from: &dyn Display,
+    ) -> Result<(usize, &'a Accessor), Diagnostic> {
         index(accessor, self.doc.accessors.len())
             .and_then(|i| Some((i, self.doc.accessors.get(i)?)))
             .ok_or_else(|| {
                 self.ctx
                     .diag(
                         Code::GLTF_BAD_INDEX,
-                        from,
+                        from.to_string(),
                         format!(
                             "accessor {accessor} does not exist (the file has {})",
                             self.doc.accessors.len()
@@ -250,7 +270,11 @@ impl<'a> Reader<'a> {
             })
     }
 
-    fn kind(&self, acc: &'a Accessor, pointer: &str) -> Result<(&'a str, Component), Diagnostic> {
+    fn kind(
+        &self,
+        acc: &'a Accessor,
+        pointer: &dyn Display,
+    ) -> Result<(&'a str, Component), Diagnostic> {
         let kind = acc.kind.as_deref().ok_or_else(|| {
             self.missing(&format!("{pointer}/type"), "the required `type` is missing")
         })?;
@@ -274,7 +298,7 @@ impl<'a> Reader<'a> {
     fn span(
         &self,
         acc: &Accessor,
-        pointer: &str,
+        pointer: &dyn Display,
         comps: usize,
         ct: Component,
     ) -> Result<Span<'a>, Diagnostic> {
@@ -287,7 +311,7 @@ impl<'a> Reader<'a> {
         let elem = comps * ct.size();
         Ok(match acc.buffer_view {
             Some(bv) => {
-                let view = self.view(bv, &format!("{pointer}/bufferView"))?;
+                let view = self.view(bv, &format_args!("{pointer}/bufferView"))?;
                 let stride = match view.stride {
                     None | Some(0) => elem,
                     Some(s) if s < elem => {
@@ -351,7 +375,7 @@ impl<'a> Reader<'a> {
         &self,
         span: Span,
         acc: &Accessor,
-        pointer: &str,
+        pointer: &dyn Display,
         comps: usize,
         ct: Component,
     ) -> Result<Vec<f64>, Diagnostic> {
@@ -382,7 +406,7 @@ impl<'a> Reader<'a> {
         e: usize,
         c: usize,
         ct: Component,
-        pointer: &str,
+        pointer: &dyn Display,
     ) -> Result<f64, Diagnostic> {
         ct.read(run.bytes, run.offset + e * run.stride + c * ct.size())
             .ok_or_else(|| self.oob(pointer, "element read past its buffer view"))
@@ -391,7 +415,7 @@ impl<'a> Reader<'a> {
     fn apply_sparse(
         &self,
         sparse: &super::schema::Sparse,
-        pointer: &str,
+        pointer: &dyn Display,
         count: u64,
         comps: usize,
         ct: Component,
@@ -489,13 +513,13 @@ impl<'a> Reader<'a> {
         Ok(())
     }
 
-    fn view(&self, bv: u64, from: &str) -> Result<View<'a>, Diagnostic> {
+    fn view(&self, bv: u64, from: &dyn Display) -> Result<View<'a>, Diagnostic> {
         let Some(vi) = index(bv, self.doc.buffer_views.len()) else {
             return Err(self
                 .ctx
                 .diag(
                     Code::GLTF_BAD_INDEX,
-                    from,
+                    from.to_string(),
                     format!(
                         "buffer view {bv} does not exist (the file has {})",
                         self.doc.buffer_views.len()
@@ -503,7 +527,7 @@ impl<'a> Reader<'a> {
                 )
                 .hint(super::VALIDATOR_HINT));
         };
-        let vp = format!("/bufferViews/{vi}");
+        let vp = &Pointer("/bufferViews", vi);
         let Some(view) = self.doc.buffer_views.get(vi) else {
             return Err(self.missing(&vp, "buffer view missing"));
         };
@@ -562,23 +586,23 @@ impl<'a> Reader<'a> {
         })
     }
 
-    fn oob(&self, pointer: &str, msg: impl AsRef<str>) -> Diagnostic {
+    fn oob(&self, pointer: &dyn Display, msg: impl AsRef<str>) -> Diagnostic {
         self.ctx
-            .diag(Code::GLTF_ACCESSOR_OUT_OF_BOUNDS, pointer, format!("{pointer}: {}", msg.as_ref()))
+            .diag(Code::GLTF_ACCESSOR_OUT_OF_BOUNDS, pointer.to_string(), format!("{pointer}: {}", msg.as_ref()))
             .hint("the file claims more data than it holds; it is damaged or the exporter is buggy, export it again")
     }
 
-    fn invalid(&self, pointer: &str, msg: impl AsRef<str>) -> Diagnostic {
+    fn invalid(&self, pointer: &dyn Display, msg: impl AsRef<str>) -> Diagnostic {
         self.ctx
-            .diag(Code::GLTF_ACCESSOR_INVALID, pointer, msg)
+            .diag(Code::GLTF_ACCESSOR_INVALID, pointer.to_string(), msg)
             .hint(super::VALIDATOR_HINT)
     }
 
-    fn missing(&self, pointer: &str, msg: impl AsRef<str>) -> Diagnostic {
+    fn missing(&self, pointer: &dyn Display, msg: impl AsRef<str>) -> Diagnostic {
         self.ctx
             .diag(
                 Code::GLTF_INVALID_JSON,
-                pointer,
+                pointer.to_string(),
                 format!("{pointer}: {}", msg.as_ref()),
             )
             .hint(super::VALIDATOR_HINT)

@@ -15,9 +15,45 @@ use crate::scene::{Mesh, Primitive, SourceRef};
 /// One POSITION accessor's vertices as stored in the mesh: glTF vertex index to mesh index,
 /// `None` for a dropped non-finite vertex.
 struct Vertices {
-    remap: Vec<Option<u32>>,
+    remap: Remap,
     bad: usize,
     first_bad: Option<(usize, glam::DVec3)>,
+}
+
+/// glTF vertex index to mesh index.
+enum Remap {
+    /// The accessor's vertices are the mesh's, all finite (nearly every mesh): no table.
+    Same(usize),
+    /// `None` for a dropped vertex.
+    Table(Vec<Option<u32>>),
+}
+
+impl Remap {
+    fn len(&self) -> usize {
+        match self {
+            Remap::Same(n) => *n,
+            Remap::Table(t) => t.len(),
+        }
+    }
+
+    fn get(&self, i: u32) -> Option<u32> {
+        match self {
+            Remap::Same(n) => ((i as usize) < *n).then_some(i),
+            Remap::Table(t) => t.get(i as usize).copied().flatten(),
+        }
+    }
+}
+
+/// How a diagnostic names a mesh (written out only for one).
+struct Label<'a>(Option<&'a str>, &'a str);
+
+impl std::fmt::Display for Label<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self.0 {
+            Some(n) => write!(f, "mesh `{n}` ({})", self.1),
+            None => write!(f, "mesh {}", self.1),
+        }
+    }
 }
 
 /// Builds scene meshes; shared by the threads that build them (see [`Builder::build_all`]).
@@ -111,10 +147,7 @@ impl<'a> Builder<'a> {
                 format!("mesh {m} does not exist"),
             ));
         };
-        let label = match &mesh.name {
-            Some(n) => format!("mesh `{n}` ({mp})"),
-            None => format!("mesh {mp}"),
-        };
+        let label = Label(mesh.name.as_deref(), &mp);
         let Some(prims) = &mesh.primitives else {
             return Err(self
                 .ctx
@@ -190,27 +223,44 @@ impl<'a> Builder<'a> {
             if !shared.iter().any(|(a, _)| *a == pos_acc) {
                 let positions = self
                     .reader
-                    .positions(pos_acc, &format!("{pp}/attributes/POSITION"))?;
-                // Non-finite vertices are left out of the mesh so every stored position is finite.
-                // Exact room (not doubling growth): on a big level these are most of the scene.
-                out.positions.reserve_exact(positions.len());
-                let mut vertices = Vertices {
-                    remap: Vec::with_capacity(positions.len()),
-                    bad: 0,
-                    first_bad: None,
-                };
-                for (i, v) in positions.iter().enumerate() {
-                    if v.is_finite() {
-                        let id =
-                            u32::try_from(out.positions.len()).map_err(|_| self.too_many(&pp))?;
-                        vertices.remap.push(Some(id));
-                        out.positions.push(*v);
-                    } else {
-                        vertices.remap.push(None);
-                        vertices.bad += 1;
-                        vertices.first_bad.get_or_insert((i, *v));
+                    .positions(pos_acc, &format_args!("{pp}/attributes/POSITION"))?;
+                let whole = out.positions.is_empty()
+                    && u32::try_from(positions.len()).is_ok()
+                    && positions.iter().all(|v| v.is_finite());
+                let vertices = if whole {
+                    // The mesh's first accessor, all finite: its list becomes the mesh's.
+                    let n = positions.len();
+                    out.positions = positions;
+                    Vertices {
+                        remap: Remap::Same(n),
+                        bad: 0,
+                        first_bad: None,
                     }
-                }
+                } else {
+                    // Non-finite vertices are left out of the mesh so every stored position
+                    // is finite. Exact room (not doubling growth): on a big level these are
+                    // most of the scene.
+                    out.positions.reserve_exact(positions.len());
+                    let mut remap = Vec::with_capacity(positions.len());
+                    let (mut bad, mut first_bad) = (0, None);
+                    for (i, v) in positions.iter().enumerate() {
+                        if v.is_finite() {
+                            let id = u32::try_from(out.positions.len())
+                                .map_err(|_| self.too_many(&pp))?;
+                            remap.push(Some(id));
+                            out.positions.push(*v);
+                        } else {
+                            remap.push(None);
+                            bad += 1;
+                            first_bad.get_or_insert((i, *v));
+                        }
+                    }
+                    Vertices {
+                        remap: Remap::Table(remap),
+                        bad,
+                        first_bad,
+                    }
+                };
                 shared.push((pos_acc, vertices));
             }
             let Some((_, vertices)) = shared.iter().find(|(a, _)| *a == pos_acc) else {
@@ -219,7 +269,7 @@ impl<'a> Builder<'a> {
             let n = vertices.remap.len();
             let indices = match prim.indices {
                 Some(a) => {
-                    let idx = self.reader.indices(a, &format!("{pp}/indices"))?;
+                    let idx = self.reader.indices(a, &format_args!("{pp}/indices"))?;
                     if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
                         return Err(self
                             .ctx
@@ -249,7 +299,7 @@ impl<'a> Builder<'a> {
                     degenerate += 1;
                     continue;
                 }
-                let r = |i: u32| vertices.remap.get(i as usize).copied().flatten();
+                let r = |i: u32| vertices.remap.get(i);
                 match (r(a), r(b), r(c)) {
                     (Some(a), Some(b), Some(c)) => out.triangles.push([a, b, c]),
                     _ => dropped += 1,
@@ -328,35 +378,32 @@ impl<'a> Builder<'a> {
 
 /// Triangles of an index list in `mode` 4 (list), 5 (strip) or 6 (fan), following the vertex
 /// order the glTF 2.0 specification gives (§3.7.2.1), so every triangle keeps its facing.
-pub fn assemble(mode: u64, idx: &[u32]) -> Vec<[u32; 3]> {
-    match mode {
-        5 => idx
-            .windows(3)
-            .enumerate()
-            .filter_map(|(i, w)| match *w {
-                [a, b, c] if i % 2 == 0 => Some([a, b, c]),
-                [a, b, c] => Some([a, c, b]),
-                _ => None,
-            })
-            .collect(),
-        6 => match idx.split_first() {
-            Some((&v0, rest)) => rest
-                .windows(2)
-                .filter_map(|w| match *w {
-                    [b, c] => Some([b, c, v0]),
-                    _ => None,
-                })
-                .collect(),
-            None => Vec::new(),
-        },
-        _ => idx
-            .chunks_exact(3)
-            .filter_map(|c| match *c {
-                [a, b, c] => Some([a, b, c]),
-                _ => None,
-            })
-            .collect(),
-    }
+pub fn assemble(mode: u64, idx: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
+    let (list, strip, fan) = match mode {
+        5 => (None, Some(idx), None),
+        6 => (None, None, idx.split_first()),
+        _ => (Some(idx), None, None),
+    };
+    let list = list.into_iter().flat_map(|idx| {
+        idx.chunks_exact(3).filter_map(|c| match *c {
+            [a, b, c] => Some([a, b, c]),
+            _ => None,
+        })
+    });
+    let strip = strip.into_iter().flat_map(|idx| {
+        idx.windows(3).enumerate().filter_map(|(i, w)| match *w {
+            [a, b, c] if i % 2 == 0 => Some([a, b, c]),
+            [a, b, c] => Some([a, c, b]),
+            _ => None,
+        })
+    });
+    let fan = fan.into_iter().flat_map(|(&v0, rest)| {
+        rest.windows(2).filter_map(move |w| match *w {
+            [b, c] => Some([b, c, v0]),
+            _ => None,
+        })
+    });
+    list.chain(strip).chain(fan)
 }
 
 #[cfg(test)]
@@ -366,19 +413,25 @@ mod tests {
     #[test]
     fn strip_alternates_winding() {
         assert_eq!(
-            assemble(5, &[0, 1, 2, 3, 4]),
+            assemble(5, &[0, 1, 2, 3, 4]).collect::<Vec<_>>(),
             vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]
         );
     }
 
     #[test]
     fn fan_keeps_first_vertex() {
-        assert_eq!(assemble(6, &[0, 1, 2, 3]), vec![[1, 2, 0], [2, 3, 0]]);
-        assert!(assemble(6, &[]).is_empty());
+        assert_eq!(
+            assemble(6, &[0, 1, 2, 3]).collect::<Vec<_>>(),
+            vec![[1, 2, 0], [2, 3, 0]]
+        );
+        assert_eq!(assemble(6, &[]).count(), 0);
     }
 
     #[test]
     fn list_ignores_trailing_indices() {
-        assert_eq!(assemble(4, &[0, 1, 2, 3]), vec![[0, 1, 2]]);
+        assert_eq!(
+            assemble(4, &[0, 1, 2, 3]).collect::<Vec<_>>(),
+            vec![[0, 1, 2]]
+        );
     }
 }
