@@ -21,13 +21,60 @@ pub fn build(
     tally: &mut Tally,
     diagnostics: &mut Diagnostics,
 ) -> Result<(), Diagnostic> {
-    // The walk numbers each mesh where a node first uses it; the meshes are built afterwards,
-    // all at once. A mesh that fails is reported before whatever stopped the walk after its
-    // first use, as building it there would have.
-    let mut order: Vec<usize> = Vec::new();
-    let walked = walk(ctx, doc, scene, &mut order, diagnostics);
-    scene.meshes = meshes.build_all(&order, tally)?;
-    walked
+    let parents = parents(ctx, doc)?;
+    let roots = scene_roots(ctx, doc, &parents, diagnostics)?;
+    // Meshes are numbered where a node first uses them, and built on every thread while this
+    // one walks the nodes (a big level has tens of thousands of each). A mesh that fails is
+    // reported before whatever stops the walk after its first use, as building meshes one by
+    // one during the walk would: the walk says how far it got (`walked` meshes), and a failed
+    // mesh counts only if it is among those.
+    let order = mesh_order(doc, &roots);
+    let (walked, built) = rayon::join(
+        || {
+            let mut walked = Vec::new();
+            let r = walk(ctx, doc, scene, &roots, &mut walked, diagnostics);
+            debug_assert_eq!(walked[..], order[..walked.len()]);
+            (walked.len(), r)
+        },
+        || meshes.build_all(&order, tally),
+    );
+    let (walked, result) = walked;
+    match built {
+        Ok(built) => scene.meshes = built,
+        Err((k, e)) if k < walked => return Err(e),
+        Err(_) => {}
+    }
+    result
+}
+
+/// The glTF meshes in the order the walk first meets them (the nodes depth first from the
+/// roots, children in order), each once; a node's mesh that does not exist is passed over
+/// (the walk stops there).
+fn mesh_order(doc: &Doc, roots: &[usize]) -> Vec<usize> {
+    let mut seen = vec![false; doc.meshes.len()];
+    let mut visited = vec![false; doc.nodes.len()];
+    let mut order = Vec::new();
+    let mut stack: Vec<usize> = roots.iter().rev().copied().collect();
+    while let Some(n) = stack.pop() {
+        let (Some(node), Some(v)) = (doc.nodes.get(n), visited.get_mut(n)) else {
+            continue;
+        };
+        if std::mem::replace(v, true) {
+            continue;
+        }
+        if let Some(mi) = node.mesh.and_then(|m| index(m, doc.meshes.len())) {
+            if !std::mem::replace(&mut seen[mi], true) {
+                order.push(mi);
+            }
+        }
+        stack.extend(
+            node.children
+                .iter()
+                .rev()
+                .filter_map(|&c| index(c, doc.nodes.len())),
+        );
+    }
+    order
 }
 
 /// The nodes, with mesh ids given in order of first use (`order` gets the glTF mesh of each).
@@ -35,12 +82,10 @@ fn walk(
     ctx: &Ctx,
     doc: &Doc,
     scene: &mut Scene,
+    roots: &[usize],
     order: &mut Vec<usize>,
     diagnostics: &mut Diagnostics,
 ) -> Result<(), Diagnostic> {
-    let parents = parents(ctx, doc)?;
-    let roots = scene_roots(ctx, doc, &parents, diagnostics)?;
-
     let mut mesh_ids: Vec<Option<MeshId>> = vec![None; doc.meshes.len()];
     let mut gpu_instanced = 0usize;
     let mut first_gpu_instanced = None;

@@ -95,8 +95,13 @@ impl<'a> Builder<'a> {
 
     /// The scene meshes of glTF meshes `order` (which the caller has checked exist), built on
     /// every thread, with what they dropped added to `tally` in that order; or the error the
-    /// first of them to fail gives, as building them one by one in that order would.
-    pub fn build_all(&self, order: &[usize], tally: &mut Tally) -> Result<Vec<Mesh>, Diagnostic> {
+    /// first of them to fail gives, and its place in `order`, as building them one by one in
+    /// that order would.
+    pub fn build_all(
+        &self,
+        order: &[usize],
+        tally: &mut Tally,
+    ) -> Result<Vec<Mesh>, (usize, Diagnostic)> {
         use rayon::prelude::*;
         // Each mesh is built into its slot, in runs on every thread, each run stopping at its
         // first failure (so the first run that failed holds the first failure in order). The
@@ -104,15 +109,16 @@ impl<'a> Builder<'a> {
         const RUN: usize = 512;
         let mut slots: Vec<Option<Mesh>> = Vec::with_capacity(order.len());
         slots.resize_with(order.len(), || None);
-        let runs: Vec<(Option<Diagnostic>, Tally)> = slots
+        let runs: Vec<(Option<(usize, Diagnostic)>, Tally)> = slots
             .par_chunks_mut(RUN)
             .zip(order.par_chunks(RUN))
-            .map(|(slots, run)| {
+            .enumerate()
+            .map(|(r, (slots, run))| {
                 let mut t = Tally::default();
-                for (slot, &m) in slots.iter_mut().zip(run) {
+                for (k, (slot, &m)) in slots.iter_mut().zip(run).enumerate() {
                     match self.build(m, &mut t) {
                         Ok(mesh) => *slot = Some(mesh),
-                        Err(e) => return (Some(e), t),
+                        Err(e) => return (Some((r * RUN + k, e)), t),
                     }
                 }
                 (None, t)
@@ -123,7 +129,11 @@ impl<'a> Builder<'a> {
             // read again one by one, in order, so the same mesh is blamed every time.
             drop(slots);
             self.reader.reset();
-            return order.iter().map(|&m| self.build(m, tally)).collect();
+            return order
+                .iter()
+                .enumerate()
+                .map(|(k, &m)| self.build(m, tally).map_err(|e| (k, e)))
+                .collect();
         }
         for (failed, t) in runs {
             tally.add(t);

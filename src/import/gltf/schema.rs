@@ -211,9 +211,7 @@ pub fn array<T: DeserializeOwned + Send>(
     // Splitting the array into items first is a second pass over it, a tenth of a big level's
     // import, needed only to name the item that does not read.
     if json_text::is_array(v) {
-        if let Ok(mut all) = serde_json::from_str::<Vec<T>>(v.get()) {
-            // Grown by doubling; a big level's nodes would keep up to twice their room.
-            all.shrink_to_fit();
+        if let Some(all) = read_whole::<T>(v.get()) {
             return Ok(all);
         }
     }
@@ -254,6 +252,79 @@ pub fn array<T: DeserializeOwned + Send>(
         .collect()
 }
 
+/// An array's items, if every one reads. A big array (a big level's accessors are ten
+/// megabytes of text) is cut into runs of items that are read on every thread: it is cut
+/// after an object item (a `}`, then a comma, then a `{`), and each run is read as an array
+/// of its own. A cut that is not between two items (the bytes were inside a string, or inside
+/// an item) leaves the run before it unreadable: the text up to the cut ends inside a string
+/// or with brackets open, which the one `]` added cannot all close. The whole array is then
+/// read in one piece, which decides.
+fn read_whole<T: DeserializeOwned + Send>(text: &str) -> Option<Vec<T>> {
+    read_in_runs(text, 1 << 20)
+}
+
+/// [`read_whole`] with runs of about `run` bytes.
+fn read_in_runs<T: DeserializeOwned + Send>(text: &str, run: usize) -> Option<Vec<T>> {
+    use rayon::prelude::*;
+    let one = || {
+        let mut all = serde_json::from_str::<Vec<T>>(text).ok()?;
+        // Grown by doubling; a big level's nodes would keep up to twice their room.
+        all.shrink_to_fit();
+        Some(all)
+    };
+    let text = text.trim();
+    let cuts = item_cuts(text.as_bytes(), run);
+    if cuts.is_empty() {
+        return one();
+    }
+    let bounds: Vec<(usize, usize)> = std::iter::once(1)
+        .chain(cuts.iter().map(|&c| c + 1))
+        .zip(cuts.iter().copied().chain(std::iter::once(text.len() - 1)))
+        .collect();
+    let runs: Option<Vec<Vec<T>>> = bounds
+        .par_iter()
+        .map(|&(a, b)| {
+            let run = format!("[{}]", &text[a..b]);
+            serde_json::from_str::<Vec<T>>(&run).ok()
+        })
+        .collect();
+    let Some(runs) = runs else {
+        return one();
+    };
+    let mut all = Vec::with_capacity(runs.iter().map(Vec::len).sum());
+    for r in runs {
+        all.extend(r);
+    }
+    Some(all)
+}
+
+/// Commas of an array's text about every `run` bytes that may stand between two object items:
+/// the last byte before is `}` and the next is `{`, spaces aside (see [`read_whole`] for why
+/// a wrong guess is harmless).
+fn item_cuts(b: &[u8], run: usize) -> Vec<usize> {
+    let space = |c: u8| matches!(c, b' ' | b'\t' | b'\n' | b'\r');
+    let mut cuts = Vec::new();
+    let mut i = run;
+    while i < b.len() {
+        let Some(k) = b[i..].iter().position(|&c| c == b',') else {
+            break;
+        };
+        let c = i + k;
+        let before = b[..c].iter().rposition(|&x| !space(x)).map(|j| b[j]);
+        let after = b[c + 1..]
+            .iter()
+            .position(|&x| !space(x))
+            .map(|j| b[c + 1 + j]);
+        if before == Some(b'}') && after == Some(b'{') {
+            cuts.push(c);
+            i = c + run;
+        } else {
+            i = c + 1;
+        }
+    }
+    cuts
+}
+
 /// `i` as an index into a list of `len` items, if it is one.
 pub fn index(i: u64, len: usize) -> Option<usize> {
     usize::try_from(i).ok().filter(|&i| i < len)
@@ -289,5 +360,58 @@ impl<'de> Deserialize<'de> for Attributes {
             }
         }
         d.deserialize_map(V)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Read in runs, an array reads as it does whole, wherever the runs are cut: also when a
+    /// cut guessed from the bytes falls inside a string or inside an item, and when an item
+    /// does not read.
+    #[test]
+    fn runs_read_as_the_whole_array() {
+        let items = [
+            r#"{"name":"a},{b","children":[1,2]}"#,
+            r#"{"name":"x","extras":{"list":[{"k":1},{"k":2}]}}"#,
+            r#"{ "name" : "},\n{" }"#,
+            r#"{"mesh":3}"#,
+            r#"{"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,0,1]}"#,
+        ];
+        let mut text = String::from("[");
+        for k in 0..60 {
+            if k > 0 {
+                text.push_str(if k % 7 == 0 { " ,\n " } else { "," });
+            }
+            text.push_str(items[k % items.len()]);
+        }
+        text.push(']');
+        let want: Vec<Node> = serde_json::from_str(&text).unwrap();
+        let names =
+            |v: &[Node]| -> Vec<Option<String>> { v.iter().map(|n| n.name.clone()).collect() };
+        for run in 1..text.len() + 2 {
+            let got: Vec<Node> = read_in_runs(&text, run).unwrap();
+            assert_eq!(names(&got), names(&want), "run {run}");
+            let extras: Vec<_> = got.iter().map(|n| n.extras.clone()).collect();
+            let want_extras: Vec<_> = want.iter().map(|n| n.extras.clone()).collect();
+            assert_eq!(extras, want_extras, "run {run}");
+        }
+        // An item that does not read fails the array, however it is cut.
+        let bad = text.replacen(r#"{"mesh":3}"#, r#"{"mesh":"three"}"#, 1);
+        for run in 1..bad.len() + 2 {
+            assert!(read_in_runs::<Node>(&bad, run).is_none(), "run {run}");
+        }
+    }
+
+    /// Cuts are taken only between a `}` and a `{`, about `run` bytes apart.
+    #[test]
+    fn cuts_fall_between_objects() {
+        let text = br#"[{"a":1},{"b":[2,3]} , {"c":"},{"},{}]"#;
+        let cuts = item_cuts(text, 1);
+        for &c in &cuts {
+            assert_eq!(text[c], b',');
+        }
+        assert_eq!(cuts, vec![8, 21, 30, 34]);
     }
 }
