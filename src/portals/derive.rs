@@ -319,13 +319,22 @@ fn pair_openings(
             .filter(|&i| plane_meets_box(&faces[i].plane, other, pad))
             .collect()
     };
-    let near_b = near(&cb.poly.faces, &ca.bounds);
+    let near_b: Vec<(usize, Aabb)> = near(&cb.poly.faces, &ca.bounds)
+        .into_iter()
+        .map(|i| (i, Aabb::from_points(&cb.poly.faces[i].points)))
+        .collect();
     for ia in near(&ca.poly.faces, &cb.bounds) {
         let fa = &ca.poly.faces[ia];
-        for &ib in &near_b {
-            let fb = &cb.poly.faces[ib];
+        // Faces whose boxes are more than `pad` apart share nothing: their points are
+        // further apart than that, and at most `reach` plus the tilt of it along A's normal,
+        // so their shadows on A's plane stay more than 2·eps (four snapping cells) apart and
+        // the snapped intersection is empty. Most face pairs of neighbouring cells that face
+        // each other are a wall further along the same plane (a diagonal neighbour's).
+        let box_a = Aabb::from_points(&fa.points).grown(pad);
+        for (ib, box_b) in &near_b {
+            let (ib, fb) = (*ib, &cb.poly.faces[*ib]);
             let na = fa.plane.normal;
-            if na.dot(fb.plane.normal) > -cos_tol {
+            if na.dot(fb.plane.normal) > -cos_tol || !box_a.meets(box_b) {
                 continue;
             }
             // How far fb is in front of fa, measured at the two faces themselves (each face's
