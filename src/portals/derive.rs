@@ -125,26 +125,22 @@ pub(crate) fn derive(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
         || cells.pairs_in_sweep_order(reach),
     );
-    // For each cell face, the regions other cells claim (in that face's frame).
-    let mut claimed: Vec<Vec<Vec<Vec<DVec2>>>> = cells
-        .cells
-        .iter()
-        .map(|c| vec![Vec::new(); c.poly.faces.len()])
-        .collect();
     // Each pair's openings are computed in parallel; they are applied in pair order, so the
-    // portals are numbered the same whatever the thread count.
-    let found: Vec<PairOpenings> = pairs
+    // portals are numbered the same whatever the thread count. Pairs differ a lot in cost
+    // (most share nothing): in jobs of at most `JOB` pairs no thread is left waiting long
+    // for another's last job.
+    let mut found: Vec<PairOpenings> = pairs
         .par_iter()
-        .map_init(Shadows::default, |shadows, &(a, b)| {
-            pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
+        .with_max_len(JOB)
+        .map(|&(a, b)| {
+            Shadows::with(|shadows| {
+                pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
+            })
         })
         .collect();
-    for ((a, b), found) in pairs.into_iter().zip(found) {
-        for (cell, face, ring) in found.claims {
-            claimed[cell][face].push(ring);
-        }
+    for ((a, b), found) in pairs.into_iter().zip(found.iter_mut()) {
         let internal = cells.cells[a].room == cells.cells[b].room;
-        for (on_a, on_b, na, area) in found.portals {
+        for (on_a, on_b, na, area) in std::mem::take(&mut found.portals) {
             let i = set.portals.len();
             let back = Portal::plain(b, Some(a), on_b, -na, area, internal, Some(i));
             let polygon = reversed(&on_a);
@@ -163,74 +159,100 @@ pub(crate) fn derive(
     if !cfg.exterior {
         return;
     }
+    // For each cell face, the regions other cells claim (in that face's frame), in pair
+    // order: the claims stay where the pairs put them, and are found through a list sorted
+    // by cell and face (a stable sort keeps the pair order within a face).
+    let mut claims: Vec<(u32, u32, u32, u32)> = found
+        .iter()
+        .enumerate()
+        .flat_map(|(p, f)| {
+            f.claims
+                .iter()
+                .enumerate()
+                .map(move |(k, &(cell, face, _))| (cell as u32, face as u32, p as u32, k as u32))
+        })
+        .collect();
+    claims.par_sort_by_key(|&(cell, face, _, _)| (cell, face));
+    let claimed = |c: usize, i: usize| {
+        let key = (c as u32, i as u32);
+        let from = claims.partition_point(|&(cell, face, _, _)| (cell, face) < key);
+        claims[from..]
+            .iter()
+            .take_while(move |&&(cell, face, _, _)| (cell, face) == key)
+            .map(|&(_, _, p, k)| found[p as usize].claims[k as usize].2.as_slice())
+    };
+
     let exterior: Vec<Vec<(Vec<DVec3>, DVec3, f64)>> = cells
         .cells
         .par_iter()
         .enumerate()
-        .map_init(Shadows::default, |shadows, (c, cell)| {
-            let mut out = Vec::new();
-            for (i, face) in cell.poly.faces.iter().enumerate() {
-                let f = Frame2::new(&face.plane);
-                let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
-                // Claims first: a face between two rooms is claimed whole by its neighbour,
-                // and then no shadow is needed to know it has no opening to the exterior.
-                let mut left = Remainder::new(&ring, k.grow, k.sliver);
-                for claim in &claimed[c][i] {
-                    left.cut(claim);
-                }
-                if left.at_most(k.closed) {
-                    continue;
-                }
-                let bb = Aabb::from_points(face.points.iter()).grown(eps);
-                let d = face.plane.d;
-                let slab = Slab {
-                    n: face.plane.normal,
-                    lo: d - eps,
-                    hi: d + eps,
-                    frame: &f,
-                };
-                opaque.shadows(&bb, &slab, shadows);
-                let mut covered: Vec<&[DVec2]> = claimed[c][i].iter().map(Vec::as_slice).collect();
-                let claims = covered.len();
-                covered.extend(shadows.rings());
-                for shadow in &covered[claims..] {
-                    left.cut(shadow);
-                }
-                if left.at_most(k.closed) {
-                    continue;
-                }
-                let whole = intersection(
-                    std::slice::from_ref(&ring),
-                    std::slice::from_ref(&ring),
-                    grid,
-                );
-                let exact = ExactVertices::new(
-                    face.points
+        .with_max_len(JOB)
+        .map(|(c, cell)| {
+            Shadows::with(|shadows| {
+                let mut out = Vec::new();
+                for (i, face) in cell.poly.faces.iter().enumerate() {
+                    let f = Frame2::new(&face.plane);
+                    let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
+                    // Claims first: a face between two rooms is claimed whole by its neighbour,
+                    // and then no shadow is needed to know it has no opening to the exterior.
+                    let mut left = Remainder::new(&ring, k.grow, k.sliver);
+                    for claim in claimed(c, i) {
+                        left.cut(claim);
+                    }
+                    if left.at_most(k.closed) {
+                        continue;
+                    }
+                    let bb = Aabb::from_points(face.points.iter()).grown(eps);
+                    let d = face.plane.d;
+                    let slab = Slab {
+                        n: face.plane.normal,
+                        lo: d - eps,
+                        hi: d + eps,
+                        frame: &f,
+                    };
+                    opaque.shadows(&bb, &slab, shadows);
+                    let mut covered: Vec<&[DVec2]> = claimed(c, i).collect();
+                    let claimed_len = covered.len();
+                    covered.extend(shadows.rings());
+                    for shadow in &covered[claimed_len..] {
+                        left.cut(shadow);
+                    }
+                    if left.at_most(k.closed) {
+                        continue;
+                    }
+                    let whole = intersection(
+                        std::slice::from_ref(&ring),
+                        std::slice::from_ref(&ring),
+                        grid,
+                    );
+                    let exact = ExactVertices::new(
+                        face.points
+                            .iter()
+                            .map(|p| f.to2(*p))
+                            .chain(covered.iter().flat_map(|r| r.iter()).copied()),
+                        grid,
+                    );
+                    for o in difference(&whole, &covered, grid)
                         .iter()
-                        .map(|p| f.to2(*p))
-                        .chain(covered.iter().flat_map(|r| r.iter()).copied()),
-                    grid,
-                );
-                for o in difference(&whole, &covered, grid)
-                    .iter()
-                    .filter(|o| mean_width(o) >= min_width)
-                {
-                    for piece in pieces(o, cfg.conservative, eps) {
-                        let piece = exact.restore(piece);
-                        let pts: Vec<DVec3> =
-                            piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                        let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
-                            continue;
-                        };
-                        let area = polygon_area(&pts, face.plane.normal);
-                        out.push((reversed(&pts), face.plane.normal, area));
+                        .filter(|o| mean_width(o) >= min_width)
+                    {
+                        for piece in pieces(o, cfg.conservative, eps) {
+                            let piece = exact.restore(piece);
+                            let pts: Vec<DVec3> =
+                                piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                            let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
+                                continue;
+                            };
+                            let area = polygon_area(&pts, face.plane.normal);
+                            out.push((reversed(&pts), face.plane.normal, area));
+                        }
                     }
                 }
-            }
-            out
+                out
+            })
         })
         .collect();
-    crate::free::drop_elsewhere((claimed, opaque));
+    crate::free::drop_elsewhere((found, claims, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
             set.portals
@@ -238,6 +260,9 @@ pub(crate) fn derive(
         }
     }
 }
+
+/// The most cell pairs (or cells) one job of a parallel loop takes.
+const JOB: usize = 64;
 
 /// The distances derivation works with, all from the one tolerance.
 struct Limits {

@@ -85,6 +85,21 @@ pub(crate) struct Shadows {
 }
 
 impl Shadows {
+    /// Runs `f` with this thread's buffers, kept from one face pair to the next: a parallel
+    /// loop over face pairs is cut into many small jobs (so no thread waits long for the
+    /// last), and buffers made per job would be zeroed as often (the marks alone are a bit
+    /// per triangle of the level). A call made while the thread's buffers are in use (a job
+    /// stolen inside another) gets buffers of its own.
+    pub fn with<R>(f: impl FnOnce(&mut Shadows) -> R) -> R {
+        thread_local! {
+            static MINE: std::cell::RefCell<Shadows> = std::cell::RefCell::new(Shadows::default());
+        }
+        MINE.with(|mine| match mine.try_borrow_mut() {
+            Ok(mut s) => f(&mut s),
+            Err(_) => f(&mut Shadows::default()),
+        })
+    }
+
     /// The rings, in the order of the triangles that cast them, each once: a ring with the
     /// same corners as an earlier one (to the bit, in any order) is left out. A wall between
     /// two rooms is usually modelled from both sides, the same triangles twice; a boolean or a
