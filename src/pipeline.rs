@@ -167,8 +167,8 @@ fn write_annotated_to(
         let hashing = std::thread::Builder::new()
             .spawn_scoped(s, || extension::input_hash(scene, tagging))
             .ok();
-        // So are the input's root members (a pass over its JSON text), while the annotation
-        // is built.
+        // So are the input's root members while the annotation is built, when the importer
+        // did not keep where they lie (then they are a pass over the JSON text).
         let members = scene.gltf.as_ref().and_then(|src| {
             std::thread::Builder::new()
                 .spawn_scoped(s, || src.members())

@@ -27,7 +27,7 @@ use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
 /// The root object's members as [`GltfSource::members`] gives them.
-pub(crate) type Members<'s> = Vec<(String, &'s RawValue)>;
+pub(crate) type Members<'s> = Vec<(String, &'s str)>;
 
 /// Why the streamed rewrite did not write a document: it declines it (the whole-document path
 /// then writes it), or the output failed.
@@ -286,10 +286,10 @@ const ZEROS: [u8; 4096] = [0; 4096];
 
 /// A root member: its text, parsed, or an array streamed through an edit.
 enum Slot<'a> {
-    Text(&'a RawValue),
+    Text(&'a str),
     Parsed(Value),
     Stream {
-        text: &'a RawValue,
+        text: &'a str,
         edit: Edit<'a>,
         /// Appended after the streamed elements.
         extra: Option<Value>,
@@ -323,7 +323,7 @@ impl<'a> Root<'a> {
         };
         let slot = &mut self.0[i].1;
         if let Slot::Text(t) = slot {
-            *slot = Slot::Parsed(serde_json::from_str(t.get())?);
+            *slot = Slot::Parsed(serde_json::from_str(t)?);
         }
         Ok(match slot {
             Slot::Parsed(v) => Some(v),
@@ -409,7 +409,7 @@ impl Serialize for Document<'_, '_> {
                 ("extensions", Slot::Parsed(Value::Object(e)), Some(ours)) => {
                     map.serialize_entry(k, &WithOurs(e, ours))?
                 }
-                (_, Slot::Text(t), _) => map.serialize_entry(k, &Transcode(t.get()))?,
+                (_, Slot::Text(t), _) => map.serialize_entry(k, &Transcode(t))?,
                 (_, Slot::Parsed(v), _) => map.serialize_entry(k, v)?,
                 (_, Slot::Stream { text, edit, extra }, _) => {
                     let stream = Stream {
@@ -446,7 +446,7 @@ impl<'r> Document<'r, '_> {
                     v.push(Source::bytes(b"}"));
                 }
                 (_, Slot::Text(t), _) => {
-                    let text = t.get();
+                    let text = *t;
                     v.extend(array(text, Edit::Copy, None).unwrap_or_else(|| {
                         vec![Source::Job(Box::new(move |b| {
                             serde_json::to_writer(b, &Transcode(text))
@@ -456,7 +456,7 @@ impl<'r> Document<'r, '_> {
                 (_, Slot::Parsed(x), _) => v.push(Source::value(x)),
                 (_, Slot::Stream { text, edit, extra }, _) => {
                     let (text, edit, extra) = (*text, *edit, extra.as_ref());
-                    v.extend(array(text.get(), edit, extra).unwrap_or_else(|| {
+                    v.extend(array(text, edit, extra).unwrap_or_else(|| {
                         vec![Source::Job(Box::new(move |b| {
                             serde_json::to_writer(b, &Stream { text, edit, extra })
                         }))]
@@ -551,14 +551,14 @@ impl Serialize for WithOurs<'_> {
 }
 
 struct Stream<'r> {
-    text: &'r RawValue,
+    text: &'r str,
     edit: Edit<'r>,
     extra: Option<&'r Value>,
 }
 
 impl Serialize for Stream<'_> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        let mut de = serde_json::Deserializer::from_str(self.text.get());
+        let mut de = serde_json::Deserializer::from_str(self.text);
         de.deserialize_seq(StreamVisitor { s, stream: self })
             .map_err(ser::Error::custom)
     }
@@ -705,6 +705,7 @@ mod tests {
             buffers,
             base_dir: PathBuf::from("/nonexistent/in"),
             bin_file: None,
+            members_at: None,
         });
         scene
     }

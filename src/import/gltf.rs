@@ -92,7 +92,8 @@ pub fn import(
         || std::str::from_utf8(trimmed(json_bytes)).map(|s| read_doc(&ctx, s)),
     );
     let (text, verbatim) = checked?;
-    let doc = match early {
+    // Ranges of the early read are of the same text when it is kept verbatim.
+    let (doc, members_at) = match early {
         Ok(doc) if verbatim => doc?,
         _ => read_doc(&ctx, &text)?,
     };
@@ -146,6 +147,7 @@ pub fn import(
         buffers,
         base_dir: base_dir.to_path_buf(),
         bin_file,
+        members_at: Some(members_at),
     });
     Ok(Imported { scene, diagnostics })
 }
@@ -264,7 +266,8 @@ fn bin_chunk(bytes: std::borrow::Cow<'_, [u8]>, at: std::ops::Range<usize>) -> V
 
 /// What the importer reads of a checked text: the root object, the version, the required
 /// extensions and the arrays the scene is built from, with the first problem in that order.
-fn read_doc(ctx: &Ctx, text: &str) -> Result<schema::Doc, Diagnostic> {
+/// Also returns where the root members lie in `text`.
+fn read_doc(ctx: &Ctx, text: &str) -> Result<(schema::Doc, MemberRanges), Diagnostic> {
     let Some(root) = schema::Root::new(text) else {
         return Err(ctx
             .diag(
@@ -276,8 +279,10 @@ fn read_doc(ctx: &Ctx, text: &str) -> Result<schema::Doc, Diagnostic> {
     };
     check_version(ctx, &root)?;
     check_required_extensions(ctx, &root)?;
-    schema::Doc::from_root(ctx, &root)
+    schema::Doc::from_root(ctx, &root).map(|doc| (doc, root.ranges(text)))
 }
+
+type MemberRanges = Vec<(String, std::ops::Range<usize>)>;
 
 /// The document's text, checked to parse as JSON. It is not parsed into a `Value`: that takes
 /// ten times the text's room, and the importer reads only parts (see [`schema::Root`]).
@@ -415,6 +420,47 @@ mod tests {
             let want = file[at.clone()].to_vec();
             assert_eq!(super::bin_chunk(Cow::Borrowed(&file), at.clone()), want);
             assert_eq!(super::bin_chunk(Cow::Owned(file.clone()), at.clone()), want);
+        }
+    }
+
+    /// The root members the importer keeps as ranges are the members a scan of the kept text
+    /// finds, on a .glb and a .gltf, on a text kept as read and one written back from a
+    /// `Value` (a repeated key, or the marker key, leaves the text to the `Value` parser).
+    #[test]
+    fn member_ranges_are_the_members_of_the_kept_text() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("samples");
+        let mut texts: Vec<(String, Vec<u8>)> = std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x == "glb" || x == "gltf"))
+            .map(|p| (p.display().to_string(), std::fs::read(&p).unwrap()))
+            .collect();
+        assert!(texts.len() >= 2);
+        let doc = r#" {"asset": {"version": "2.0"}, "nodes": [{"name": "a"}], "scenes": [{"nodes": [0]}],
+            "asset": {"version": "2.0", "generator": "again"}, "extras": {"x": 1} } "#;
+        texts.push(("repeated key".into(), doc.as_bytes().to_vec()));
+        let marker =
+            r#"{"asset": {"version": "2.0"}, "extras": {"$serde_json::private::RawValue": "1"}}"#;
+        texts.push(("marker key".into(), marker.as_bytes().to_vec()));
+        for (name, bytes) in texts {
+            let path = dir.join("level.gltf");
+            let got = super::import(Cow::Owned(bytes), &path, &dir)
+                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+            let src = got.scene.gltf.unwrap();
+            assert!(src.members_at.is_some(), "{name}");
+            let scanned: Vec<(String, String)> = crate::scene::json_text::members(&src.json)
+                .unwrap()
+                .into_iter()
+                .map(|(k, v)| (k, v.get().to_string()))
+                .collect();
+            let kept: Vec<(String, String)> = src
+                .members()
+                .unwrap()
+                .into_iter()
+                .map(|(k, v)| (k, v.to_string()))
+                .collect();
+            assert_eq!(kept, scanned, "{name}");
         }
     }
 }

@@ -121,13 +121,13 @@ impl<'de> Visitor<'de> for IsRawValueKey {
     }
 }
 
-/// Whether `raw` is a JSON array (a member's text has no surrounding whitespace).
-pub fn is_array(raw: &RawValue) -> bool {
-    raw.get().trim_start().starts_with('[')
+/// Whether `text` is a JSON array (a member's text has no surrounding whitespace).
+pub fn is_array(text: &str) -> bool {
+    text.trim_start().starts_with('[')
 }
 
-/// The number of elements of the array `raw`; `None` if it is not an array.
-pub fn array_len(raw: &RawValue) -> Option<usize> {
+/// The number of elements of the array `text`; `None` if it is not an array.
+pub fn array_len(text: &str) -> Option<usize> {
     struct Count;
     impl<'de> Visitor<'de> for Count {
         type Value = usize;
@@ -142,7 +142,7 @@ pub fn array_len(raw: &RawValue) -> Option<usize> {
             Ok(n)
         }
     }
-    serde_json::Deserializer::from_str(raw.get())
+    serde_json::Deserializer::from_str(text)
         .deserialize_seq(Count)
         .ok()
 }
@@ -286,7 +286,7 @@ pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
     let Some((_, nodes)) = members.iter().find(|(k, _)| k == "nodes") else {
         return Vec::new();
     };
-    let nodes: Vec<&RawValue> = serde_json::from_str(nodes.get()).unwrap_or_default();
+    let nodes: Vec<&RawValue> = serde_json::from_str(nodes).unwrap_or_default();
     nodes
         .iter()
         .map(|n| {
@@ -372,9 +372,9 @@ mod tests {
     #[test]
     fn arrays_are_counted() {
         let m = members(r#"{"a": [ {"b": [1,2]}, 3, "x" ], "o": {}}"#).unwrap();
-        assert!(is_array(m[0].1));
-        assert_eq!(array_len(m[0].1), Some(3));
-        assert!(!is_array(m[1].1));
-        assert_eq!(array_len(m[1].1), None);
+        assert!(is_array(m[0].1.get()));
+        assert_eq!(array_len(m[0].1.get()), Some(3));
+        assert!(!is_array(m[1].1.get()));
+        assert_eq!(array_len(m[1].1.get()), None);
     }
 }

@@ -133,6 +133,9 @@ pub struct GltfSource {
     pub base_dir: PathBuf,
     /// Where buffer 0 lies in the input file, when it is a GLB's BIN chunk.
     pub bin_file: Option<BinInFile>,
+    /// The root members as [`GltfSource::members`] gives them, as byte ranges of `json`,
+    /// when the importer found them (so the export does not scan the text again).
+    pub members_at: Option<Vec<(String, std::ops::Range<usize>)>>,
 }
 
 /// A GLB's BIN chunk in the input file, to read back at export instead of holding it through
@@ -164,15 +167,23 @@ impl GltfSource {
         let picked = members
             .into_iter()
             .filter(|(k, _)| keys.contains(&k.as_str()))
-            .filter_map(|(k, v)| Some((k, serde_json::from_str(v.get()).ok()?)));
+            .filter_map(|(k, v)| Some((k, serde_json::from_str(v).ok()?)));
         serde_json::Value::Object(picked.collect())
     }
 
     /// The root object's members in document order, each as its text; a repeated key keeps its
     /// first place and its last value, as a parsed `Value` does. `None` if the root is not an
     /// object.
-    pub fn members(&self) -> Option<Vec<(String, &serde_json::value::RawValue)>> {
-        json_text::members(&self.json)
+    pub fn members(&self) -> Option<Vec<(String, &str)>> {
+        if let Some(at) = &self.members_at {
+            let text = |r: &std::ops::Range<usize>| self.json.get(r.clone());
+            return at
+                .iter()
+                .map(|(k, r)| Some((k.clone(), text(r)?)))
+                .collect();
+        }
+        let members = json_text::members(&self.json)?;
+        Some(members.into_iter().map(|(k, v)| (k, v.get())).collect())
     }
 
     /// Lets buffer 0 go when it is the BIN chunk of the file at `path`, as it still is on disk

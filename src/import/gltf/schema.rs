@@ -143,6 +143,17 @@ impl<'a> Root<'a> {
         json_text::members(text).map(|members| Root { members })
     }
 
+    /// The members as byte ranges of `text`, the text they were read from.
+    pub fn ranges(&self, text: &str) -> Vec<(String, std::ops::Range<usize>)> {
+        self.members
+            .iter()
+            .map(|(k, v)| {
+                let start = v.get().as_ptr() as usize - text.as_ptr() as usize;
+                (k.clone(), start..start + v.get().len())
+            })
+            .collect()
+    }
+
     fn get(&self, key: &str) -> Option<&'a RawValue> {
         self.members.iter().find(|(k, _)| k == key).map(|(_, v)| *v)
     }
@@ -210,12 +221,12 @@ pub fn array<T: DeserializeOwned + Send>(
     // Read whole when every item reads: then each reads from its own text as it would alone.
     // Splitting the array into items first is a second pass over it, a tenth of a big level's
     // import, needed only to name the item that does not read.
-    if json_text::is_array(v) {
+    if json_text::is_array(v.get()) {
         if let Some(all) = read_whole::<T>(v.get()) {
             return Ok(all);
         }
     }
-    let items: Option<Vec<&RawValue>> = json_text::is_array(v)
+    let items: Option<Vec<&RawValue>> = json_text::is_array(v.get())
         .then(|| serde_json::from_str(v.get()).ok())
         .flatten();
     let Some(items) = items else {
