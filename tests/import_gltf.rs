@@ -708,6 +708,45 @@ fn no_scene_uses_root_nodes_with_warning() {
     assert_eq!(s.node_path(node_by_name(s, "child")), "root/child");
 }
 
+/// Meshes are built while the nodes are walked; a broken mesh is still blamed exactly when a
+/// node-by-node walk would have reached it before the node that stops the walk.
+#[test]
+fn a_broken_mesh_is_blamed_only_if_the_walk_reached_it() {
+    let mut d = Doc::default();
+    let good = d.positions(&QUAD);
+    // 100 vertices claimed over the 48 bytes of a quad.
+    let v = d.view(&[0u8; 48]);
+    let broken =
+        d.accessor(json!({"bufferView": v, "componentType": 5126, "count": 100, "type": "VEC3"}));
+    let meshes = json!([
+        {"primitives": [{"attributes": {"POSITION": good}}]},
+        {"primitives": [{"attributes": {"POSITION": broken}}]},
+    ]);
+    let zero_rotation = json!({"rotation": [0.0, 0.0, 0.0, 0.0]});
+    let level = |nodes: Value| {
+        let n = nodes.as_array().unwrap().len();
+        d.finish(json!({
+            "scenes": [{"nodes": (0..n).collect::<Vec<_>>()}],
+            "nodes": nodes,
+            "meshes": meshes,
+        }))
+    };
+    // The broken mesh comes first: it is the error.
+    let e = err(&level(json!([{"mesh": 0}, {"mesh": 1}, zero_rotation])));
+    assert_eq!(e.code, Code::GLTF_ACCESSOR_OUT_OF_BOUNDS, "{e:?}");
+    assert_eq!(
+        e.location.source.pointer.as_deref(),
+        Some(format!("/accessors/{broken}").as_str())
+    );
+    // The walk stops first: the broken mesh after it is never read.
+    let e = err(&level(json!([{"mesh": 0}, zero_rotation, {"mesh": 1}])));
+    assert_eq!(e.code, Code::GLTF_TRANSFORM_INVALID, "{e:?}");
+    assert_eq!(
+        e.location.source.pointer.as_deref(),
+        Some("/nodes/1/rotation")
+    );
+}
+
 #[test]
 fn node_mesh_out_of_range_names_pointer() {
     let mut d = Doc::default();

@@ -319,6 +319,7 @@ impl<'de> Seen<'de> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::SplitMix64;
 
     fn is_repeated(e: &serde_json::Error) -> bool {
         e.to_string().contains(REPEATED)
@@ -359,18 +360,8 @@ mod tests {
         assert_eq!(a, b);
     }
 
-    /// Deterministic numbers in [0, n) from a 64-bit LCG.
-    fn picks(mut seed: u64) -> impl FnMut(usize) -> usize {
-        move |n| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 33) as usize) % n
-        }
-    }
-
     /// A random JSON text from tokens that are and are not in compact form.
-    fn random_text(pick: &mut impl FnMut(usize) -> usize, depth: usize) -> String {
+    fn random_text(rng: &mut SplitMix64, depth: usize) -> String {
         const ATOMS: &[&str] = &[
             "0",
             "7",
@@ -404,32 +395,36 @@ mod tests {
             "\"\\/\"",
         ];
         const KEYS: &[&str] = &["a", "b", "c", "é", "$serde_json::private::RawValue", "a\\n"];
-        let space = |pick: &mut dyn FnMut(usize) -> usize| if pick(8) == 0 { " " } else { "" };
-        match if depth > 3 { 0 } else { pick(4) } {
-            0 | 1 => ATOMS[pick(ATOMS.len())].to_string(),
+        let space = |rng: &mut SplitMix64| if rng.below(8) == 0 { " " } else { "" };
+        match if depth > 3 { 0 } else { rng.below(4) } {
+            0 | 1 => ATOMS[rng.below(ATOMS.len())].to_string(),
             2 => {
-                let n = pick(4);
-                let items: Vec<String> = (0..n).map(|_| random_text(pick, depth + 1)).collect();
+                let n = rng.below(4);
+                let items: Vec<String> = (0..n).map(|_| random_text(rng, depth + 1)).collect();
                 format!(
                     "[{}{}]",
-                    items.join(if pick(6) == 0 { ", " } else { "," }),
-                    space(pick)
+                    items.join(if rng.below(6) == 0 { ", " } else { "," }),
+                    space(rng)
                 )
             }
             _ => {
-                let n = if pick(10) == 0 { 17 + pick(3) } else { pick(4) };
+                let n = if rng.below(10) == 0 {
+                    17 + rng.below(3)
+                } else {
+                    rng.below(4)
+                };
                 let items: Vec<String> = (0..n)
                     .map(|k| {
                         let key = if n > 16 {
                             format!("k{k}")
                         } else {
-                            KEYS[pick(KEYS.len())].to_string()
+                            KEYS[rng.below(KEYS.len())].to_string()
                         };
-                        let sep = if pick(8) == 0 { ": " } else { ":" };
-                        format!("\"{key}\"{sep}{}", random_text(pick, depth + 1))
+                        let sep = if rng.below(8) == 0 { ": " } else { ":" };
+                        format!("\"{key}\"{sep}{}", random_text(rng, depth + 1))
                     })
                     .collect();
-                format!("{}{{{}}}", space(pick), items.join(","))
+                format!("{}{{{}}}", space(rng), items.join(","))
             }
         }
     }
@@ -439,10 +434,10 @@ mod tests {
     /// text without escapes is taken as it is (so the fast path is not dead).
     #[test]
     fn compact_form_is_what_a_value_writes() {
-        let mut pick = picks(5);
+        let mut rng = SplitMix64::new(5);
         let (mut taken, mut written) = (0, 0);
         for _ in 0..20_000 {
-            let text = random_text(&mut pick, 0);
+            let text = random_text(&mut rng, 0);
             let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
                 continue;
             };

@@ -338,14 +338,10 @@ mod tests {
     use crate::geom::plane::Plane;
     use crate::geom::polyhedron::clip_polygon;
 
-    /// Deterministic numbers in [0, 1) from `seed` (a 64-bit LCG's top 53 bits).
-    fn numbers(mut seed: u64) -> impl FnMut() -> f64 {
-        move || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        }
+    /// Deterministic numbers in [0, 1) from `seed`.
+    fn numbers(seed: u64) -> impl FnMut() -> f64 {
+        let mut rng = crate::rng::SplitMix64::new(seed);
+        move || rng.unit()
     }
 
     /// The fixed-buffer clip gives the points the allocating one gives, for triangles in, across
