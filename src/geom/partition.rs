@@ -168,6 +168,14 @@ fn is_sliver(c: &[IntPoint<i64>]) -> bool {
 /// resulting polygon are returned together.
 pub fn convex_partition(p: &Polygon2) -> Result<Vec<Vec<DVec2>>, PartitionError> {
     let rings = clean_rings(p)?;
+    // Most polygons asked about are convex already (a door, a window, a rectangular room's
+    // plan): they are their own partition, and need no triangulation.
+    if let [ring] = rings.as_slice() {
+        let ids: Vec<u32> = (0..ring.len() as u32).collect();
+        if is_convex(&ids, ring) {
+            return Ok(vec![ring.clone()]);
+        }
+    }
     let run = |rings: &[Vec<DVec2>]| {
         catch_unwind(AssertUnwindSafe(|| partition_rings(rings))).unwrap_or_else(|payload| {
             let msg = payload
@@ -1002,6 +1010,27 @@ mod tests {
         let pieces = convex_partition(&p).unwrap();
         assert_eq!(pieces.len(), 1);
         assert_eq!(pieces[0].len(), 4, "collinear vertex removed");
+    }
+
+    /// A convex ring comes back as it is (cleaned, counter-clockwise, same first corner); a
+    /// ring that turns left at every corner but winds twice (a pentagram) is no convex piece.
+    #[test]
+    fn convex_ring_is_its_own_partition_but_a_pentagram_is_not() {
+        let p = poly(&[(4., 4.), (0., 4.), (0., 0.), (2., 0.), (4., 0.)], &[]);
+        let pieces = convex_partition(&p).unwrap();
+        let want: Vec<DVec2> = [(4., 4.), (0., 4.), (0., 0.), (4., 0.)]
+            .iter()
+            .map(|&(x, y)| DVec2::new(x, y))
+            .collect();
+        assert_eq!(pieces, vec![want]);
+        let star: Vec<(f64, f64)> = (0..5)
+            .map(|k| {
+                let t = k as f64 * 4.0 * std::f64::consts::PI / 5.0;
+                (t.cos(), t.sin())
+            })
+            .collect();
+        let pieces = convex_partition(&poly(&star, &[])).unwrap();
+        assert!(pieces.len() >= 5, "the five tips, got {pieces:?}");
     }
 
     #[test]
