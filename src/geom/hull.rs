@@ -6,6 +6,8 @@
 //! into one face, and a failure inside parry (it panics on some degenerate inputs) becomes an
 //! error instead of a crash.
 
+use std::collections::HashSet;
+
 use glam::DVec3;
 
 use super::aabb::Aabb;
@@ -61,11 +63,30 @@ fn check_volume(points: &[DVec3], eps: f64) -> Result<(), HullError> {
     Ok(())
 }
 
+/// Each point once (the same to the bit), at its last occurrence: a room's points are its
+/// triangles' corners, each corner three to six times, and the hull work grows with the count.
+/// Every use of the points below is a maximum or a minimum over them (`max_by` keeps the last
+/// of equal candidates, so the last occurrence is the one it would have picked).
+fn distinct(points: &[DVec3]) -> Vec<DVec3> {
+    let mut seen: HashSet<[u64; 3], foldhash::fast::FixedState> =
+        HashSet::with_capacity_and_hasher(points.len(), Default::default());
+    let mut out: Vec<DVec3> = points
+        .iter()
+        .rev()
+        .filter(|p| seen.insert(p.to_array().map(f64::to_bits)))
+        .copied()
+        .collect();
+    out.reverse();
+    out
+}
+
 /// The convex hull of `points`.
 pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
     if points.len() < 4 || points.iter().any(|p| !p.is_finite()) {
         return Err(HullError::TooFewPoints);
     }
+    let pts = distinct(points);
+    let points = pts.as_slice();
     check_volume(points, eps)?;
     let pts = points.to_vec();
     let result =
