@@ -149,6 +149,26 @@ mod tests {
         }
     }
 
+    /// A room's points come as triangle corners, each several times: the hull is the one of
+    /// the distinct points, face for face, whatever the repeats.
+    #[test]
+    fn repeated_points_change_nothing() {
+        let mut rng = crate::rng::SplitMix64::new(3);
+        let pts: Vec<DVec3> = (0..60)
+            .map(|_| DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 4.0)
+            .collect();
+        let once = hull(&pts, 1e-9).unwrap();
+        let mut repeated: Vec<DVec3> = pts.iter().flat_map(|p| [*p, *p]).collect();
+        repeated.extend_from_slice(&pts);
+        assert_eq!(hull(&repeated, 1e-9).unwrap(), once);
+        // Each point at its last occurrence; -0.0 and 0.0 differ to the bit, and stay apart.
+        let (a, b, c) = (DVec3::X, DVec3::Y, DVec3::new(-0.0, 0.0, 0.0));
+        assert_eq!(
+            distinct(&[a, b, a, DVec3::ZERO, c, b]),
+            vec![a, DVec3::ZERO, c, b]
+        );
+    }
+
     #[test]
     fn degenerate_inputs_are_errors() {
         let flat: Vec<DVec3> = (0..10)
