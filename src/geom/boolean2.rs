@@ -12,18 +12,80 @@ use super::partition::Polygon2;
 
 const LIMIT: f64 = (1u64 << 52) as f64;
 
+/// i_overlay's i32 engine takes coordinates within ±2^30; ours stay a bit inside that.
+const LIMIT_I32: i64 = 1 << 29;
+
 fn snap(p: DVec2, grid: f64) -> Option<IntPoint<i64>> {
     let (x, y) = ((p.x / grid).round(), (p.y / grid).round());
     (x.is_finite() && y.is_finite() && x.abs() < LIMIT && y.abs() < LIMIT)
         .then(|| IntPoint::new(x as i64, y as i64))
 }
 
-fn add(overlay: &mut Overlay<i64>, ring: &[DVec2], grid: f64, shape: ShapeType) {
-    let pts: Option<Vec<IntPoint<i64>>> = ring.iter().map(|p| snap(*p, grid)).collect();
-    if let Some(mut pts) = pts {
-        pts.dedup();
-        if pts.len() >= 3 {
-            overlay.add_contour(&pts, shape);
+/// Rings snapped to the grid (repeated points dropped, rings left with fewer than three
+/// dropped; a ring with a point out of range is dropped whole), with their shape type.
+#[derive(Default)]
+struct Snapped {
+    pts: Vec<IntPoint<i64>>,
+    rings: Vec<(usize, usize, ShapeType)>,
+}
+
+impl Snapped {
+    fn add(&mut self, ring: &[DVec2], grid: f64, shape: ShapeType, reverse: bool) {
+        let start = self.pts.len();
+        let mut ok = true;
+        let mut push = |p: &DVec2| match snap(*p, grid) {
+            Some(q) if self.pts.len() > start && self.pts.last() == Some(&q) => {}
+            Some(q) => self.pts.push(q),
+            None => ok = false,
+        };
+        if reverse {
+            ring.iter().rev().for_each(&mut push);
+        } else {
+            ring.iter().for_each(&mut push);
+        }
+        if ok && self.pts.len() - start >= 3 {
+            self.rings.push((start, self.pts.len(), shape));
+        } else {
+            self.pts.truncate(start);
+        }
+    }
+
+    /// The overlay of the rings, on i_overlay's i32 engine when every point is in its range
+    /// (the arithmetic is exact either way, so the answer is the same; the narrow engine
+    /// sorts and multiplies half-width numbers), on the i64 one otherwise.
+    fn overlay(&self, rule: OverlayRule, fill: FillRule) -> Vec<Vec<Vec<IntPoint<i64>>>> {
+        let small = self
+            .pts
+            .iter()
+            .all(|p| p.x.abs() < LIMIT_I32 && p.y.abs() < LIMIT_I32);
+        if small {
+            let mut overlay = Overlay::<i32>::new(self.pts.len());
+            for &(a, b, shape) in &self.rings {
+                let ring: Vec<IntPoint<i32>> = self.pts[a..b]
+                    .iter()
+                    .map(|p| IntPoint::new(p.x as i32, p.y as i32))
+                    .collect();
+                overlay.add_contour(&ring, shape);
+            }
+            let shapes = overlay.overlay(rule, fill);
+            shapes
+                .into_iter()
+                .map(|s| {
+                    s.into_iter()
+                        .map(|c| {
+                            c.into_iter()
+                                .map(|p| IntPoint::new(p.x as i64, p.y as i64))
+                                .collect()
+                        })
+                        .collect()
+                })
+                .collect()
+        } else {
+            let mut overlay = Overlay::<i64>::new(self.pts.len());
+            for &(a, b, shape) in &self.rings {
+                overlay.add_contour(&self.pts[a..b], shape);
+            }
+            overlay.overlay(rule, fill)
         }
     }
 }
@@ -37,15 +99,14 @@ fn run<R: AsRef<[DVec2]>>(
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();
     }
-    let n = subject.iter().chain(clip).map(|r| r.as_ref().len()).sum();
-    let mut overlay = Overlay::<i64>::new(n);
+    let mut rings = Snapped::default();
     for r in subject {
-        add(&mut overlay, r.as_ref(), grid, ShapeType::Subject);
+        rings.add(r.as_ref(), grid, ShapeType::Subject, false);
     }
     for r in clip {
-        add(&mut overlay, r.as_ref(), grid, ShapeType::Clip);
+        rings.add(r.as_ref(), grid, ShapeType::Clip, false);
     }
-    let shapes = overlay.overlay(rule, FillRule::EvenOdd);
+    let shapes = rings.overlay(rule, FillRule::EvenOdd);
     polygons(&shapes, grid)
         .into_iter()
         .filter(|p| p.area() > grid * grid)
@@ -96,20 +157,9 @@ pub fn difference<R: AsRef<[DVec2]>>(a: &[Polygon2], b: &[R], grid: f64) -> Vec<
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();
     }
-    let n = a
-        .iter()
-        .map(|p| p.outer.len() + p.holes.iter().map(Vec::len).sum::<usize>())
-        .sum::<usize>()
-        + b.iter().map(|r| r.as_ref().len()).sum::<usize>();
-    let mut overlay = Overlay::<i64>::new(n);
+    let mut rings = Snapped::default();
     let mut add_turned = |r: &[DVec2], ccw: bool, shape: ShapeType| {
-        if (signed_area(r) >= 0.0) == ccw {
-            add(&mut overlay, r, grid, shape);
-        } else {
-            let mut r = r.to_vec();
-            r.reverse();
-            add(&mut overlay, &r, grid, shape);
-        }
+        rings.add(r, grid, shape, (signed_area(r) >= 0.0) != ccw);
     };
     for p in a {
         add_turned(&p.outer, true, ShapeType::Subject);
@@ -120,7 +170,7 @@ pub fn difference<R: AsRef<[DVec2]>>(a: &[Polygon2], b: &[R], grid: f64) -> Vec<
     for r in b {
         add_turned(r.as_ref(), true, ShapeType::Clip);
     }
-    let shapes = overlay.overlay(OverlayRule::Difference, FillRule::NonZero);
+    let shapes = rings.overlay(OverlayRule::Difference, FillRule::NonZero);
     polygons(&shapes, grid)
         .into_iter()
         .filter(|p| p.area() > grid * grid)
@@ -133,15 +183,12 @@ pub fn union<R: AsRef<[DVec2]>>(a: &[R], grid: f64) -> Vec<Polygon2> {
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();
     }
-    let mut overlay = Overlay::<i64>::new(a.iter().map(|r| r.as_ref().len()).sum());
+    let mut rings = Snapped::default();
     for r in a {
-        let mut r = r.as_ref().to_vec();
-        if signed_area(&r) < 0.0 {
-            r.reverse();
-        }
-        add(&mut overlay, &r, grid, ShapeType::Subject);
+        let r = r.as_ref();
+        rings.add(r, grid, ShapeType::Subject, signed_area(r) < 0.0);
     }
-    let shapes = overlay.overlay(OverlayRule::Subject, FillRule::NonZero);
+    let shapes = rings.overlay(OverlayRule::Subject, FillRule::NonZero);
     polygons(&shapes, grid)
 }
 
@@ -199,5 +246,45 @@ mod tests {
         let u = union(&[rect(0., 0., 2., 2.), rect(1., 0., 3., 2.)], 1e-6);
         assert_eq!(u.len(), 1);
         assert!((u[0].area() - 6.0).abs() < 1e-9);
+    }
+
+    /// Near the origin the overlay runs on i_overlay's i32 engine, far from it (2^30 grid
+    /// steps and more) on the i64 one: the same shapes, moved by an exact number of grid steps, give
+    /// the same polygons moved back.
+    #[test]
+    fn narrow_and_wide_engines_agree() {
+        let grid = 1.0 / (1u64 << 20) as f64;
+        let far = DVec2::splat(4096.0);
+        let shift = |r: &[DVec2], by: DVec2| r.iter().map(|p| *p + by).collect::<Vec<_>>();
+        let wall = rect(0., 0., 6., 2.);
+        let covers = [
+            rect(0., 0., 2.5, 2.),
+            rect(4., 0., 6., 2.),
+            vec![
+                DVec2::new(2., 1.6),
+                DVec2::new(4.5, 1.9),
+                DVec2::new(3., 2.1),
+            ],
+        ];
+        let shared = intersection(
+            std::slice::from_ref(&wall),
+            std::slice::from_ref(&wall),
+            grid,
+        );
+        let near = difference(&shared, &covers, grid);
+        let moved: Vec<Polygon2> = shared
+            .iter()
+            .map(|p| Polygon2 {
+                outer: shift(&p.outer, far),
+                holes: p.holes.iter().map(|h| shift(h, far)).collect(),
+            })
+            .collect();
+        let moved_covers: Vec<Vec<DVec2>> = covers.iter().map(|c| shift(c, far)).collect();
+        let away = difference(&moved, &moved_covers, grid);
+        let back: Vec<Vec<DVec2>> = away.iter().map(|p| shift(&p.outer, -far)).collect();
+        let want: Vec<Vec<DVec2>> = near.iter().map(|p| p.outer.clone()).collect();
+        assert_eq!(back, want);
+        let corners: usize = want.iter().map(Vec::len).sum();
+        assert!(corners > 4, "the tilted cover cuts the opening: {want:?}");
     }
 }
