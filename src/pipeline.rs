@@ -171,7 +171,7 @@ fn write_annotated_to(
         // did not keep where they lie (then they are a pass over the JSON text).
         let members = scene.gltf.as_ref().and_then(|src| {
             std::thread::Builder::new()
-                .spawn_scoped(s, || src.members())
+                .spawn_scoped(s, || src.members().ok().flatten())
                 .ok()
         });
         let hash = extension::InputHash::pending(Box::new(move || {

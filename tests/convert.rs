@@ -765,6 +765,68 @@ fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
         .all(|e| !e.file_name().to_string_lossy().ends_with(".tmp")));
 }
 
+/// A level's JSON text is let go once parsed and read back from the file for the export: the
+/// output is the same as from the text held in memory, and a text changed in the meantime,
+/// even to one of the same length, is an error with nothing written.
+#[test]
+fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
+    use portcullis::export::gltf_out::OutFormat;
+    use portcullis::pipeline;
+    let dir = tempfile::tempdir().unwrap();
+    let run = |t: &mut pipeline::Tagged, out: &Path| {
+        let cells = pipeline::build_cells(t);
+        let portals = pipeline::build_portals(t, &cells);
+        pipeline::write_annotated_file(t, &cells, &portals, None, out, OutFormat::Glb)
+    };
+    for (from, name) in [
+        (sample("door_window.gltf"), "level.gltf"),
+        (fixture("lportal_boxrooms.glb"), "level.glb"),
+    ] {
+        let input = dir.path().join(name);
+        std::fs::copy(&from, &input).unwrap();
+        let bytes = std::fs::read(&input).unwrap();
+        let out = dir.path().join("out.glb");
+        let mut from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        run(&mut from_file, &out).unwrap();
+        let released = std::fs::read(&out).unwrap();
+        let imported = portcullis::import::import_bytes(
+            &bytes,
+            &input,
+            portcullis::import::sniff_format(&bytes).unwrap(),
+            dir.path(),
+            &Default::default(),
+        )
+        .unwrap();
+        let held = {
+            let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+            t.scene.gltf = imported.scene.gltf.clone();
+            let cells = pipeline::build_cells(&mut t);
+            let portals = pipeline::build_portals(&mut t, &cells);
+            pipeline::write_annotated(&t, &cells, &portals, &out, OutFormat::Glb).unwrap()
+        };
+        assert!(released == held, "{name}: bytes differ");
+
+        // One letter of the text changed after import, the length kept.
+        let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        let at = bytes.windows(7).position(|w| w == b"\"asset\"").unwrap() + 1;
+        let mut changed = bytes.clone();
+        changed[at] = b'A';
+        std::fs::write(&input, &changed).unwrap();
+        let out = dir.path().join("changed.glb");
+        let err = run(&mut t, &out).unwrap_err();
+        assert!(
+            err.message.contains("changed while it was being converted"),
+            "{name}: {}",
+            err.message
+        );
+        assert!(!out.exists(), "{name}");
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert!(left
+            .iter()
+            .all(|e| !e.file_name().to_string_lossy().ends_with(".tmp")));
+    }
+}
+
 /// The binary's allocator can be switched to the system's (`bench` runs its floor that way):
 /// both give the same output and report, on a level with a PVS and every stage on two threads.
 #[test]

@@ -147,7 +147,7 @@ fn third_party_triangle_counts() {
         assert!(!im.diagnostics.has_errors(), "{file}: {:?}", im.diagnostics);
         let src = im.scene.gltf.as_ref().expect("glTF source kept");
         assert_eq!(src.buffers.len(), 1, "{file}");
-        assert!(src.document().get("asset").is_some());
+        assert!(src.document().unwrap().get("asset").is_some());
         for m in &im.scene.meshes {
             let n = m.positions.len() as u32;
             assert!(m.triangles.iter().flatten().all(|&i| i < n), "{file}");
@@ -881,7 +881,7 @@ fn external_bin_next_to_gltf() {
     assert_eq!(im.scene.format, Format::Gltf);
     let src = im.scene.gltf.as_ref().unwrap();
     assert_eq!(src.buffers[0], d.buf);
-    assert_eq!(src.document(), doc);
+    assert_eq!(src.document().unwrap(), doc);
     assert_eq!(src.base_dir, dir.path());
 
     // A stale (short) .bin.
@@ -935,7 +935,7 @@ fn glb_built_in_test() {
     assert_eq!(im.scene.format, Format::Glb);
     assert_eq!(im.scene.triangle_count(), 2);
     let src = im.scene.gltf.as_ref().unwrap();
-    assert_eq!(src.document(), doc);
+    assert_eq!(src.document().unwrap(), doc);
     assert!(src.buffers[0].starts_with(&d.buf));
 
     // Every truncation and a damaged header fail cleanly, never panic.

@@ -28,6 +28,23 @@ pub struct Stored {
     pub sound: bool,
 }
 
+impl Stored {
+    /// What is known when the level's text cannot be read again to look for an annotation.
+    fn unreadable(path: &std::path::Path, e: std::io::Error) -> Stored {
+        Stored {
+            annotated: None,
+            diagnostics: vec![Diagnostic::new(
+                Code::IO_READ_FAILED,
+                format!("cannot read the stored annotation: {e}"),
+                Location::file(path),
+            )
+            .hint("check the file again once nothing else is writing it")],
+            stale: false,
+            sound: false,
+        }
+    }
+}
+
 fn pointer(rest: &str) -> String {
     format!("/extensions/{NAME}{rest}")
 }
@@ -37,7 +54,10 @@ fn pointer(rest: &str) -> String {
 pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
     let src = t.scene.gltf.as_ref()?;
     // Only the root's extensions are parsed: the rest of a big level's document is not needed.
-    let doc = &src.subset(&["extensions"]);
+    let doc = &match src.subset(&["extensions"]) {
+        Ok(doc) => doc,
+        Err(e) => return Some(Stored::unreadable(&t.scene.path, e)),
+    };
     let raw = doc.get("extensions")?.get(NAME)?;
     let at = || Location::file(&t.scene.path).with_pointer(pointer(""));
     let parsed = read::annotation(doc);
@@ -50,6 +70,8 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
             if validate {
                 let nodes = src
                     .members()
+                    .ok()
+                    .flatten()
                     .and_then(|m| m.into_iter().find(|(k, _)| k == "nodes"))
                     .and_then(|(_, v)| crate::scene::json_text::array_len(v))
                     .unwrap_or(0);

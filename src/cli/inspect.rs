@@ -97,7 +97,7 @@ fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
     let a = stored.annotated?;
     let src = t.scene.gltf.as_ref()?;
     let buffers = src.buffer_data().ok()?;
-    let stored_pvs = read::visibility(&a, &src.subset(&["bufferViews"]), &buffers);
+    let stored_pvs = read::visibility(&a, &src.subset(&["bufferViews"]).ok()?, &buffers);
     let visibility = match stored_pvs {
         Some(Ok(pvs)) => a.visibility.as_ref().map(|v| VisibilityView {
             method: v["method"].as_str().unwrap_or_default().to_string(),

@@ -193,7 +193,7 @@ pub(super) fn write_whole(
             let buffers = src
                 .buffer_data()
                 .map_err(|e| super::atomic::failed(out, e))?;
-            from_gltf(src, &buffers, format, out_dir)
+            from_gltf(src, &buffers, format, out_dir).map_err(|e| super::atomic::failed(out, e))?
         }
         None => from_scene(&super::bake::world_space(scene), format),
     };
@@ -409,8 +409,8 @@ fn from_gltf(
     held: &[Vec<u8>],
     format: OutFormat,
     out_dir: &Path,
-) -> (Value, Option<Vec<u8>>) {
-    let mut doc = src.document();
+) -> std::io::Result<(Value, Option<Vec<u8>>)> {
+    let mut doc = src.document()?;
     if let Some(images) = doc.get_mut("images").and_then(Value::as_array_mut) {
         for v in images {
             rebase_item(v, &src.base_dir, out_dir);
@@ -424,7 +424,7 @@ fn from_gltf(
                     gltf_buffer(b, data, &src.base_dir, out_dir);
                 }
             }
-            (doc, None)
+            Ok((doc, None))
         }
         OutFormat::Glb => {
             let lens: Vec<usize> = held.iter().map(Vec::len).collect();
@@ -443,14 +443,14 @@ fn from_gltf(
                 if let Some(o) = doc.as_object_mut() {
                     o.remove("buffers");
                 }
-                return (doc, None);
+                return Ok((doc, None));
             }
             let first = doc
                 .get("buffers")
                 .and_then(Value::as_array)
                 .and_then(|a| a.first());
             doc["buffers"] = glb_buffer(first, bin.len());
-            (doc, Some(bin))
+            Ok((doc, Some(bin)))
         }
     }
 }

@@ -66,7 +66,10 @@ pub(crate) fn write<'s>(
         blob,
         lazy,
     } = ann;
-    let members = members.or_else(|| src.members()).ok_or(Failed::Declined)?;
+    let members = match members {
+        Some(m) => m,
+        None => src.members().map_err(Failed::Io)?.ok_or(Failed::Declined)?,
+    };
     let lens = src.buffer_lens();
     let mut root = Root(
         members
@@ -632,7 +635,14 @@ mod tests {
         // their own) give the same bytes.
         let mut again = ann_clone(ann);
         let mut bytes = std::io::Cursor::new(Vec::new());
-        let written = super::write(src, src.members(), &mut again, format, dir, &mut bytes);
+        let written = super::write(
+            src,
+            src.members().unwrap(),
+            &mut again,
+            format,
+            dir,
+            &mut bytes,
+        );
         assert_eq!(written.ok().map(|()| bytes.into_inner()), streamed);
         (streamed, whole)
     }
@@ -702,6 +712,8 @@ mod tests {
         let mut scene = Scene::new(PathBuf::from("/nonexistent/in/level.gltf"), Format::Gltf);
         scene.gltf = Some(GltfSource {
             json: doc.to_string(),
+            json_file: None,
+            reloaded: Default::default(),
             buffers,
             base_dir: PathBuf::from("/nonexistent/in"),
             bin_file: None,

@@ -13,7 +13,7 @@ use serde_json::Value;
 
 use super::Imported;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
-use crate::scene::{json_text, Format, GltfSource, Material, Scene, SourceRef};
+use crate::scene::{json_text, Format, GltfSource, Material, Scene, SourceRef, TextInFile};
 
 mod accessor;
 mod buffers;
@@ -67,10 +67,13 @@ const VALIDATOR_HINT: &str =
     "the exporter wrote an invalid glTF; check it with the Khronos glTF validator and re-export";
 
 /// Reads a glTF; owned `bytes` are dropped as soon as the JSON text and buffers are copied out.
+/// `reread`: the bytes are the whole of the regular file at `path`, which can be read again
+/// (see [`TextInFile`]).
 pub fn import(
     bytes: std::borrow::Cow<'_, [u8]>,
     path: &Path,
     base_dir: &Path,
+    reread: bool,
 ) -> Result<Imported, Diagnostic> {
     let ctx = Ctx::new(path);
     if bytes.is_empty() {
@@ -91,7 +94,7 @@ pub fn import(
         || parse_json(&ctx, json_bytes),
         || std::str::from_utf8(trimmed(json_bytes)).map(|s| read_doc(&ctx, s)),
     );
-    let (text, verbatim) = checked?;
+    let (mut text, verbatim) = checked?;
     // Ranges of the early read are of the same text when it is kept verbatim.
     let (doc, members_at) = match early {
         Ok(doc) if verbatim => doc?,
@@ -113,6 +116,12 @@ pub fn import(
             modified: None,
             released: false,
         });
+    // Not held from here on: it is read back when asked for (see `TextInFile`).
+    let text_in_file = (reread && verbatim).then(|| {
+        let json = trimmed(json_bytes);
+        let start = (json.as_ptr() as usize - bytes.as_ptr() as usize) as u64;
+        TextInFile::release(&mut text, path, start..start + json.len() as u64)
+    });
     let bin = bin_at.map(|at| bin_chunk(bytes, at));
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
 
@@ -144,6 +153,8 @@ pub fn import(
     }
     scene.gltf = Some(GltfSource {
         json: text,
+        json_file: text_in_file,
+        reloaded: Default::default(),
         buffers,
         base_dir: base_dir.to_path_buf(),
         bin_file,
@@ -412,6 +423,46 @@ fn check_required_extensions(ctx: &Ctx, root: &schema::Root) -> Result<(), Diagn
 mod tests {
     use std::borrow::Cow;
 
+    /// The text a file import reads back (after letting it go) is the text a borrowed import
+    /// keeps, on every sample and on texts with a byte-order mark and padding around them.
+    #[test]
+    fn text_read_back_is_the_text_kept() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("samples");
+        let tmp = tempfile::tempdir().unwrap();
+        let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x == "glb" || x == "gltf"))
+            .collect();
+        let padded = tmp.path().join("padded.gltf");
+        let text = r#"{"asset": {"version": "2.0"}, "nodes": [{"name": "a"}], "scenes": [{"nodes": [0]}]}"#;
+        std::fs::write(&padded, format!("\u{feff}  {text} \n\n")).unwrap();
+        files.push(padded);
+        assert!(files.len() >= 3);
+        let opts = crate::import::ImportOptions::default();
+        for f in files {
+            let bytes = std::fs::read(&f).unwrap();
+            let format = match f.extension().is_some_and(|x| x == "glb") {
+                true => crate::scene::Format::Glb,
+                false => crate::scene::Format::Gltf,
+            };
+            let kept = crate::import::import_bytes(&bytes, &f, format, &dir, &opts).unwrap();
+            let read = crate::import::import_path(&f, &opts).unwrap();
+            let text = |i: &crate::import::Imported| {
+                let src = i.scene.gltf.as_ref().unwrap();
+                src.text().unwrap().to_string()
+            };
+            let released = |i: &crate::import::Imported| {
+                let src = i.scene.gltf.as_ref().unwrap();
+                src.json.is_empty() && src.json_file.is_some()
+            };
+            assert!(!released(&kept) && released(&read), "{}", f.display());
+            assert!(!text(&kept).is_empty(), "{}", f.display());
+            assert_eq!(text(&read), text(&kept), "{}", f.display());
+        }
+    }
+
     /// A file read into memory and a borrowed one give the same chunk, wherever it lies.
     #[test]
     fn bin_chunk_is_the_range_either_way() {
@@ -445,17 +496,19 @@ mod tests {
         texts.push(("marker key".into(), marker.as_bytes().to_vec()));
         for (name, bytes) in texts {
             let path = dir.join("level.gltf");
-            let got = super::import(Cow::Owned(bytes), &path, &dir)
+            let got = super::import(Cow::Owned(bytes), &path, &dir, false)
                 .unwrap_or_else(|e| panic!("{name}: {e:?}"));
             let src = got.scene.gltf.unwrap();
             assert!(src.members_at.is_some(), "{name}");
-            let scanned: Vec<(String, String)> = crate::scene::json_text::members(&src.json)
-                .unwrap()
-                .into_iter()
-                .map(|(k, v)| (k, v.get().to_string()))
-                .collect();
+            let scanned: Vec<(String, String)> =
+                crate::scene::json_text::members(src.text().unwrap())
+                    .unwrap()
+                    .into_iter()
+                    .map(|(k, v)| (k, v.get().to_string()))
+                    .collect();
             let kept: Vec<(String, String)> = src
                 .members()
+                .unwrap()
                 .unwrap()
                 .into_iter()
                 .map(|(k, v)| (k, v.to_string()))

@@ -136,7 +136,9 @@ pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagno
         .unwrap_or_else(|| PathBuf::from("."));
     // Owned: the importer lets the file go once it has the parts it keeps, before the level's
     // geometry is built (on a big level, the file is a fifth of the peak memory).
-    let mut imported = import_cow(Cow::Owned(bytes), path, format, &base_dir, opts)?;
+    let reread =
+        std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() == bytes.len() as u64);
+    let mut imported = import_cow(Cow::Owned(bytes), path, format, &base_dir, opts, reread)?;
     if let (Some(src), Ok(meta)) = (imported.scene.gltf.as_mut(), std::fs::metadata(path)) {
         src.release_bin(&meta);
     }
@@ -152,15 +154,18 @@ pub fn import_bytes(
     base_dir: &Path,
     opts: &ImportOptions,
 ) -> Result<Imported, Diagnostic> {
-    import_cow(Cow::Borrowed(bytes), path, format, base_dir, opts)
+    import_cow(Cow::Borrowed(bytes), path, format, base_dir, opts, false)
 }
 
+/// `reread`: `bytes` are the whole of the regular file at `path` (the importer may let parts go
+/// and read them again).
 fn import_cow(
     bytes: Cow<'_, [u8]>,
     path: &Path,
     format: Format,
     base_dir: &Path,
     opts: &ImportOptions,
+    reread: bool,
 ) -> Result<Imported, Diagnostic> {
     if bytes.is_empty() {
         return Err(Diagnostic::new(
@@ -171,7 +176,7 @@ fn import_cow(
         .hint("the export may have failed; export the level again"));
     }
     let imported = match format {
-        Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir)?,
+        Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir, reread)?,
         Format::Obj => obj::import(&bytes, path, base_dir, opts)?,
         Format::Usd => usd::import(path, opts)?,
     };

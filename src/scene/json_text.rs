@@ -280,7 +280,7 @@ fn skip_value(b: &[u8], i: usize) -> usize {
 
 /// Each glTF node's name (`None` where a node has no string name, or is not an object).
 pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
-    let Some(members) = src.members() else {
+    let Ok(Some(members)) = src.members() else {
         return Vec::new();
     };
     let Some((_, nodes)) = members.iter().find(|(k, _)| k == "nodes") else {
