@@ -18,12 +18,12 @@ static GLOBAL: alloc::Chosen = alloc::Chosen;
 /// peak), and none are kept in the lazily-freed state in between.
 ///
 /// Its memory is asked to be backed by transparent huge pages where the system gives them on
-/// request (Linux's `madvise` setting, the usual default): a big conversion's memory is new
-/// pages faulted in a few KB at a time, and the kernel's zeroing and fault handling of them
-/// were a ninth of its CPU. With huge pages a 10 000-room building converts 8% faster (fastest
-/// of 9: 1.10 s against 1.20 s, 1.94 against 2.11 CPU s) for 12 MB more peak, which the
-/// importer's letting the JSON text go while it builds the geometry pays for (README,
-/// "Measured"). `_RJEM_MALLOC_CONF=thp:default` in the environment turns it off.
+/// request (Linux's `madvise` setting, the usual default), and the process lets them be used
+/// only while a big level is read (`cli/huge_pages.rs`): the importer's memory is new pages
+/// faulted in a few KB at a time, and the kernel's zeroing and fault handling of them were a
+/// ninth of a big conversion's CPU. With huge pages a 10 000-room building converts 8% faster
+/// (fastest of 9: 1.10 s against 1.20 s, 1.94 against 2.11 CPU s). `_RJEM_MALLOC_CONF=
+/// thp:default` in the environment turns them off.
 #[cfg(unix)]
 #[allow(non_upper_case_globals)]
 #[export_name = "_rjem_malloc_conf"]
@@ -117,6 +117,7 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    cli::huge_pages::off();
     let cli = match cli::Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -203,6 +203,8 @@ fn one(
         ..Default::default()
     };
     let mut cpu = Vec::new();
+    // As `convert` reads a level (huge pages while it is read and tagged).
+    let reading = super::huge_pages::reading(&input);
     let (imported, t) = timed_cpu(&mut cpu, || {
         portcullis::import::import_path(&input, &portcullis::import::ImportOptions::default())
     });
@@ -219,6 +221,7 @@ fn one(
     let (mut tagged, t) = timed_cpu(&mut cpu, || {
         portcullis::pipeline::tag(imported, config, rules)
     });
+    drop(reading);
     row.tags = t;
     let (cells, t) = timed_cpu(&mut cpu, || portcullis::pipeline::build_cells(&mut tagged));
     row.cells_s = t;

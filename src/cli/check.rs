@@ -95,7 +95,10 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
         portals: None,
         diagnostics: Vec::new(),
     };
-    let mut t = match pipeline::load_tagged(input, &a.level.load_options()) {
+    let reading = super::huge_pages::reading(input);
+    let loaded = pipeline::load_tagged(input, &a.level.load_options());
+    drop(reading);
+    let mut t = match loaded {
         Ok(t) => t,
         Err(d) => {
             report.failed = true;

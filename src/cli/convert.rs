@@ -146,7 +146,9 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("write somewhere else, or pass --in-place to replace the input on purpose"));
     }
+    let reading = super::huge_pages::reading(input);
     let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    drop(reading);
     if a.in_place && (t.scene.gltf.is_none() || input == Path::new("-")) {
         return Err(Diagnostic::new(
             Code::OUTPUT_FORMAT_UNKNOWN,
@@ -271,7 +273,9 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
 
 /// `-o OUT.prt`: only the portal file.
 fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, Diagnostic> {
+    let reading = super::huge_pages::reading(input);
     let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    drop(reading);
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
     write_prt(&mut t.diagnostics, cells.cells.len(), &portals, out)?;

@@ -380,7 +380,10 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     let mut reports = Vec::new();
     for path in &a.files {
         totals.files += 1;
-        let report = match pipeline::load_tagged(path, &opts) {
+        let reading = super::huge_pages::reading(path);
+        let loaded = pipeline::load_tagged(path, &opts);
+        drop(reading);
+        let report = match loaded {
             Ok(mut t) => {
                 let annotation = annotation_view(&mut t, a.validate);
                 let cells = pipeline::build_cells(&mut t);

@@ -9,6 +9,7 @@ pub mod bench;
 pub mod check;
 pub mod convert;
 pub mod gen;
+pub mod huge_pages;
 pub mod inspect;
 pub mod schema;
 pub mod vis;

@@ -104,7 +104,10 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
 }
 
 fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Diagnostic> {
-    let mut loaded = load::load(f, &a.level.load_options())?;
+    let reading = super::huge_pages::reading(f);
+    let loaded = load::load(f, &a.level.load_options());
+    drop(reading);
+    let mut loaded = loaded?;
     if loaded.graph.has_transforms() {
         let depth = options(a, &loaded, Method::Full).transform_depth;
         loaded.diagnostics.push(vis::transform_depth_note(f, depth));
