@@ -11,6 +11,10 @@
 //! level is read and tagged. Elsewhere than Linux this does nothing.
 
 use std::path::Path;
+use std::sync::Mutex;
+
+/// Reads under way (a batch converts several files at once): huge pages are on while any is.
+static READING: Mutex<usize> = Mutex::new(0);
 
 /// Files smaller than this are read without huge pages (the size from which the importer also
 /// reads a file on every thread).
@@ -21,11 +25,15 @@ pub const BIG: u64 = 16 << 20;
 pub struct Reading(bool);
 
 /// Turns huge pages on while the level at `path` is read, if it is a file of at least [`BIG`]
-/// bytes.
+/// bytes (and leaves them on until the last such read under way ends).
 pub fn reading(path: &Path) -> Reading {
     let big = std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= BIG);
     if big {
-        set(true);
+        let mut n = READING.lock().unwrap_or_else(|e| e.into_inner());
+        *n += 1;
+        if *n == 1 {
+            set(true);
+        }
     }
     Reading(big)
 }
@@ -33,7 +41,11 @@ pub fn reading(path: &Path) -> Reading {
 impl Drop for Reading {
     fn drop(&mut self) {
         if self.0 {
-            set(false);
+            let mut n = READING.lock().unwrap_or_else(|e| e.into_inner());
+            *n -= 1;
+            if *n == 0 {
+                set(false);
+            }
         }
     }
 }
@@ -78,6 +90,10 @@ mod tests {
         }
         {
             let _g = super::reading(&big);
+            assert_eq!(disabled(), 0);
+            // A second read, ending first, leaves them on for the one still under way.
+            let second = super::reading(&big);
+            drop(second);
             assert_eq!(disabled(), 0);
         }
         assert_eq!(disabled(), 1);
