@@ -9,6 +9,7 @@ pub mod check;
 pub mod config;
 pub mod diag;
 pub mod export;
+pub mod floor;
 pub mod free;
 pub mod gen;
 pub mod geom;

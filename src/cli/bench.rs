@@ -119,22 +119,7 @@ fn timed_cpu<T>(cpu: &mut Vec<f64>, f: impl FnOnce() -> T) -> (T, f64) {
 /// into the crate's document, serialise it back, write it.
 fn floor(input: &Path, out: &Path) -> Result<f64, String> {
     let t = Instant::now();
-    let bytes = std::fs::read(input).map_err(|e| e.to_string())?;
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| e.to_string())?;
-    // The document is consumed, not cloned: a program that only reads and writes needs no copy.
-    let json = gltf::json::serialize::to_vec(&document.into_json()).map_err(|e| e.to_string())?;
-    let glb = gltf::binary::Glb {
-        header: gltf::binary::Header {
-            magic: *b"glTF",
-            version: 2,
-            length: 0,
-        },
-        json: std::borrow::Cow::Owned(json),
-        bin: blob.as_deref().map(std::borrow::Cow::Borrowed),
-    };
-    let written = glb.to_vec().map_err(|e| e.to_string())?;
-    std::fs::write(out, written).map_err(|e| e.to_string())?;
+    portcullis::floor::read_write(input, out)?;
     Ok(t.elapsed().as_secs_f64())
 }
 

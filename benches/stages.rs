@@ -1,0 +1,150 @@
+//! Every stage of a conversion, each PVS method and the read+write floor, on generated buildings,
+//! with divan's statistics: `cargo bench --bench stages`. Sizes 10, 100 and 1 000 rooms by
+//! default; `PORTCULLIS_BENCH_ROOMS=10000` (comma-separated) for others. The targets of the
+//! performance issue are checked with `portcullis bench`, which prints the same stages as one
+//! table with the peak memory and the whole-process time (README, "Measured"); this is for
+//! comparing two builds stage by stage. It runs on the system allocator (the binary's jemalloc
+//! and huge pages are the binary's, not the library's), so its times are the library's as a
+//! caller that links it would see them.
+
+use std::path::PathBuf;
+
+use divan::Bencher;
+use portcullis::cells::CellSet;
+use portcullis::export::gltf_out::{self, OutFormat};
+use portcullis::gen::{self, GenOptions};
+use portcullis::pipeline::{self, Tagged};
+use portcullis::portals::PortalSet;
+use portcullis::vis::{Method, VisGraph, VisOptions};
+
+fn main() {
+    divan::main();
+}
+
+/// The building sizes benchmarked.
+fn sizes() -> Vec<usize> {
+    match std::env::var("PORTCULLIS_BENCH_ROOMS") {
+        Ok(v) => v.split(',').filter_map(|s| s.trim().parse().ok()).collect(),
+        Err(_) => vec![10, 100, 1000],
+    }
+}
+
+/// The generated building of `rooms` rooms (seed 1, with props), written once into the target
+/// folder and kept for later runs.
+fn level(rooms: usize) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench_levels");
+    let path = dir.join(format!("building_{rooms}_1.glb"));
+    if !path.is_file() {
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = gen::generate(&GenOptions {
+            rooms,
+            seed: 1,
+            props: true,
+        });
+        let tmp = dir.join(format!(".building_{rooms}_1.{}.tmp", std::process::id()));
+        std::fs::write(&tmp, gltf_out::write_plain(&scene, OutFormat::Glb)).unwrap();
+        std::fs::rename(&tmp, &path).unwrap();
+    }
+    path
+}
+
+/// Where a benchmark writes its output.
+fn output(name: &str, rooms: usize) -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("bench_{name}_{rooms}.glb"))
+}
+
+fn tagged(rooms: usize) -> Tagged {
+    pipeline::load_tagged(&level(rooms), &Default::default()).unwrap()
+}
+
+fn with_cells(rooms: usize) -> (Tagged, CellSet) {
+    let mut t = tagged(rooms);
+    let cells = pipeline::build_cells(&mut t);
+    (t, cells)
+}
+
+fn with_portals(rooms: usize) -> (Tagged, CellSet, PortalSet) {
+    let (mut t, cells) = with_cells(rooms);
+    let portals = pipeline::build_portals(&mut t, &cells);
+    (t, cells, portals)
+}
+
+/// Reading and writing the same file with the gltf crate alone.
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn floor(b: Bencher, rooms: usize) {
+    let (input, out) = (level(rooms), output("floor", rooms));
+    b.bench(|| portcullis::floor::read_write(&input, &out).unwrap());
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn import(b: Bencher, rooms: usize) {
+    let input = level(rooms);
+    b.bench(|| portcullis::import::import_path(&input, &Default::default()).unwrap());
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn tags(b: Bencher, rooms: usize) {
+    let input = level(rooms);
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, None).unwrap();
+    b.with_inputs(|| portcullis::import::import_path(&input, &Default::default()).unwrap())
+        .bench_values(|imported| pipeline::tag(imported, config.clone(), rules.clone()));
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn cells(b: Bencher, rooms: usize) {
+    b.with_inputs(|| tagged(rooms))
+        .bench_refs(pipeline::build_cells);
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn portals(b: Bencher, rooms: usize) {
+    b.with_inputs(|| with_cells(rooms))
+        .bench_refs(|(t, cells)| pipeline::build_portals(t, cells));
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn check(b: Bencher, rooms: usize) {
+    b.with_inputs(|| with_portals(rooms))
+        .bench_refs(|(t, cells, portals)| pipeline::check_level(t, cells, portals, false));
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn export(b: Bencher, rooms: usize) {
+    let (t, cells, portals) = with_portals(rooms);
+    let out = output("export", rooms);
+    b.bench(|| {
+        pipeline::write_annotated_file(&t, &cells, &portals, None, &out, OutFormat::Glb).unwrap()
+    });
+}
+
+/// A PVS method on the level's portal graph.
+fn pvs(b: Bencher, rooms: usize, method: Method) {
+    let (_, cells, portals) = with_portals(rooms);
+    let graph = VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance);
+    let opts = VisOptions {
+        method,
+        ..Default::default()
+    };
+    b.bench(|| portcullis::vis::compute(&graph, &opts));
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn pvs_flood(b: Bencher, rooms: usize) {
+    pvs(b, rooms, Method::Flood);
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn pvs_fast(b: Bencher, rooms: usize) {
+    pvs(b, rooms, Method::Fast);
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn pvs_full(b: Bencher, rooms: usize) {
+    pvs(b, rooms, Method::Full);
+}
+
+#[divan::bench(args = sizes(), sample_count = 10)]
+fn pvs_sampled(b: Bencher, rooms: usize) {
+    pvs(b, rooms, Method::Sampled);
+}
