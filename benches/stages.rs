@@ -118,33 +118,37 @@ fn export(b: Bencher, rooms: usize) {
     });
 }
 
-/// A PVS method on the level's portal graph.
-fn pvs(b: Bencher, rooms: usize, method: Method) {
+/// A PVS method, as a type: divan names each benchmark of a generic function by its type.
+trait PvsMethod {
+    const METHOD: Method;
+}
+
+struct Flood;
+struct Fast;
+struct Full;
+struct Sampled;
+
+impl PvsMethod for Flood {
+    const METHOD: Method = Method::Flood;
+}
+impl PvsMethod for Fast {
+    const METHOD: Method = Method::Fast;
+}
+impl PvsMethod for Full {
+    const METHOD: Method = Method::Full;
+}
+impl PvsMethod for Sampled {
+    const METHOD: Method = Method::Sampled;
+}
+
+/// Each PVS method on the level's portal graph.
+#[divan::bench(types = [Flood, Fast, Full, Sampled], args = sizes(), sample_count = 10)]
+fn pvs<M: PvsMethod>(b: Bencher, rooms: usize) {
     let (_, cells, portals) = with_portals(rooms);
     let graph = VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance);
     let opts = VisOptions {
-        method,
+        method: M::METHOD,
         ..Default::default()
     };
     b.bench(|| portcullis::vis::compute(&graph, &opts));
-}
-
-#[divan::bench(args = sizes(), sample_count = 10)]
-fn pvs_flood(b: Bencher, rooms: usize) {
-    pvs(b, rooms, Method::Flood);
-}
-
-#[divan::bench(args = sizes(), sample_count = 10)]
-fn pvs_fast(b: Bencher, rooms: usize) {
-    pvs(b, rooms, Method::Fast);
-}
-
-#[divan::bench(args = sizes(), sample_count = 10)]
-fn pvs_full(b: Bencher, rooms: usize) {
-    pvs(b, rooms, Method::Full);
-}
-
-#[divan::bench(args = sizes(), sample_count = 10)]
-fn pvs_sampled(b: Bencher, rooms: usize) {
-    pvs(b, rooms, Method::Sampled);
 }
