@@ -208,6 +208,51 @@ fn clean_samples_have_no_warning_or_error() {
     assert_eq!(report["summary"]["warnings"], 0);
 }
 
+/// The stored annotation is read from the JSON text the importer let go: an annotated level
+/// changed on disk after it was read is reported as unreadable (IO_READ_FAILED, at the file),
+/// not taken as a level without an annotation; unchanged, the annotation is found.
+#[test]
+fn a_stored_annotation_changed_on_disk_after_import_is_an_io_error() {
+    use portcullis::pipeline;
+    let dir = tempfile::tempdir().unwrap();
+    let level = dir.path().join("annotated.glb");
+    exe()
+        .args([
+            "convert",
+            common::sample("two_rooms.gltf").to_str().unwrap(),
+            "-o",
+        ])
+        .arg(&level)
+        .assert()
+        .success();
+    let t = pipeline::load_tagged(&level, &Default::default()).unwrap();
+    let stored = portcullis::check::stored::read(&t, true).unwrap();
+    assert!(stored.annotated.is_some() && stored.diagnostics.is_empty());
+
+    let t = pipeline::load_tagged(&level, &Default::default()).unwrap();
+    let original = std::fs::read(&level).unwrap();
+    let mut bytes = original.clone();
+    let at = bytes.windows(7).position(|w| w == b"\"asset\"").unwrap() + 1;
+    bytes[at] = b'A';
+    std::fs::write(&level, &bytes).unwrap();
+    let stored = portcullis::check::stored::read(&t, true).unwrap();
+    assert!(stored.annotated.is_none());
+    assert_eq!(stored.diagnostics.len(), 1, "{:?}", stored.diagnostics);
+    let d = &stored.diagnostics[0];
+    assert_eq!(d.code, Code::IO_READ_FAILED);
+    assert!(d.message.contains("changed while"), "{}", d.message);
+    assert_eq!(d.location.file.as_deref(), Some(level.as_path()));
+
+    // Gone altogether: the message says which file cannot be read again.
+    std::fs::write(&level, &original).unwrap();
+    let t = pipeline::load_tagged(&level, &Default::default()).unwrap();
+    std::fs::remove_file(&level).unwrap();
+    let stored = portcullis::check::stored::read(&t, true).unwrap();
+    let d = &stored.diagnostics[0];
+    assert_eq!(d.code, Code::IO_READ_FAILED);
+    assert!(d.message.contains("cannot read the input"), "{}", d.message);
+}
+
 #[test]
 fn annotated_samples_check_clean_through_their_stored_annotation() {
     let dir = tempfile::tempdir().unwrap();

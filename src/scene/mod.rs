@@ -176,11 +176,21 @@ impl TextInFile {
                 self.path.display()
             ))
         };
-        let mut f = std::fs::File::open(&self.path)?;
-        f.seek(SeekFrom::Start(self.at.start))?;
-        let len = usize::try_from(self.at.end - self.at.start).map_err(std::io::Error::other)?;
+        // Errors name the input: the exporter reports them against the file it was writing.
+        let unreadable = |e: std::io::Error| {
+            std::io::Error::new(
+                e.kind(),
+                format!("cannot read the input `{}` again: {e}", self.path.display()),
+            )
+        };
+        let mut f = std::fs::File::open(&self.path).map_err(unreadable)?;
+        f.seek(SeekFrom::Start(self.at.start)).map_err(unreadable)?;
+        let len = usize::try_from(self.at.end - self.at.start).map_err(|_| changed())?;
         let mut buf = vec![0u8; len];
-        f.read_exact(&mut buf).map_err(|_| changed())?;
+        f.read_exact(&mut buf).map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => changed(),
+            _ => unreadable(e),
+        })?;
         if xxhash_rust::xxh3::xxh3_64(&buf) != self.hash {
             return Err(changed());
         }
