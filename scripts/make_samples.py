@@ -370,6 +370,182 @@ def teleporter():
         rooms.append(node)
     return level(*rooms)
 
+# --- 3D room samples: rooms whose section changes with height (soffit, platform, stairs,
+# mezzanine), door reveals and a crawl tunnel, a vaulted ceiling and an arched passage. Each room
+# is one closed inward-facing `Shell` (less its openings); the known answers are in
+# samples/README.md and ROOMS_3D below, checked here and by tests/cells_3d.rs.
+
+def flip(tris):
+    return [(a, c, b) for a, b, c in tris]
+
+
+def voxel_room(xs, ys, zs, air, open_faces=()):
+    """Inward-facing surface of the union of the grid cells with air(i, j, k), less the faces
+    whose every corner passes one of `open_faces` (predicates on a point): the openings."""
+    tris = flip(voxel_solid(xs, ys, zs, air))
+    return [t for t in tris if not any(all(f(p) for p in t) for f in open_faces)]
+
+
+def shell_room(name, tris):
+    return {"name": name, "children": [{"name": "Shell", "tris": tris, "material": "wall"}]}
+
+
+def in_rect_x(x, z0, y0, z1, y1):
+    """A predicate: the point lies on the plane x inside the (z, y) rectangle."""
+    return lambda p: p[0] == x and z0 <= p[2] <= z1 and y0 <= p[1] <= y1
+
+
+def soffit_hall():
+    # 9 x 3 x 6 hall; the ceiling drops to 2.5 over x in [6, 9].
+    return level(shell_room("hall-room", voxel_room(
+        [0.0, 6.0, 9.0], [0.0, 2.5, H], [0.0, 6.0], lambda i, j, k: not (i == 1 and j == 1))))
+
+
+def platform_hall():
+    # 9 x 3 x 6 hall; the floor is 0.5 higher over x in [0, 4.5].
+    return level(shell_room("hall-room", voxel_room(
+        [0.0, 4.5, 9.0], [0.0, 0.5, H], [0.0, 6.0], lambda i, j, k: not (i == 0 and j == 0))))
+
+
+STAIR = (4, 2.0, 0.5)  # steps, tread (x), rise (y); floor and ceiling (3 m above) rise together
+
+
+def stair_hall():
+    n, tread, rise = STAIR
+    xs = [tread * i for i in range(n + 1)]
+    ys = sorted({rise * i for i in range(n)} | {H + rise * i for i in range(n)})
+
+    def air(i, j, k):
+        return ys[j] >= rise * i and ys[j + 1] <= H + rise * i
+
+    return level(shell_room("stair-room", voxel_room(xs, ys, [0.0, 4.0], air)))
+
+
+def mezzanine_hall():
+    # 9 x 6 x 6 hall with a 0.3 m slab over x in [0, 4.5] at y in [3, 3.3], wall to wall in z.
+    return level(shell_room("hall-room", voxel_room(
+        [0.0, 4.5, 9.0], [0.0, 3.0, 3.3, 6.0], [0.0, 6.0], lambda i, j, k: not (i == 0 and j == 1))))
+
+
+REVEAL = (4.0, 4.5, 1.5, 2.5, 2.2)  # wall x from, to; door z from, to, height
+
+
+def door_reveal():
+    xa, xb, dz0, dz1, dh = REVEAL
+    zs = [0.0, dz0, dz1, 4.0]
+    # west-room owns the tunnel through the wall; it opens onto east-room at x = xb.
+    west = voxel_room([0.0, xa, xb], [0.0, dh, H], zs,
+                      lambda i, j, k: i == 0 or (j == 0 and k == 1),
+                      [in_rect_x(xb, dz0, 0.0, dz1, dh)])
+    east = voxel_room([xb, xb + 4.0], [0.0, dh, H], zs, lambda i, j, k: True,
+                      [in_rect_x(xb, dz0, 0.0, dz1, dh)])
+    return level(shell_room("west-room", west), shell_room("east-room", east))
+
+
+CRAWL = (4.0, 6.0, 1.5, 2.5, 1.0)  # tunnel x from, to; z from, to; height
+
+
+def crawl_tunnel():
+    xa, xb, dz0, dz1, dh = CRAWL
+    zs = [0.0, dz0, dz1, 4.0]
+    ys = [0.0, dh, H]
+    a = voxel_room([0.0, xa], ys, zs, lambda i, j, k: True, [in_rect_x(xa, dz0, 0.0, dz1, dh)])
+    t = voxel_room([xa, xb], [0.0, dh], [dz0, dz1], lambda i, j, k: True,
+                   [in_rect_x(xa, dz0, 0.0, dz1, dh), in_rect_x(xb, dz0, 0.0, dz1, dh)])
+    b = voxel_room([xb, xb + 4.0], ys, zs, lambda i, j, k: True, [in_rect_x(xb, dz0, 0.0, dz1, dh)])
+    return level(shell_room("west-room", a), shell_room("tunnel-room", t), shell_room("east-room", b))
+
+
+def half_polygon(cz, cy, r, n):
+    """The upper half of a regular 2n-gon about (cz, cy), corners from (cz + r, cy) over the top
+    to (cz - r, cy), ends and apex snapped exactly."""
+    import math
+    pts = [(cz + r * math.cos(math.pi * k / n), cy + r * math.sin(math.pi * k / n)) for k in range(n + 1)]
+    pts[0], pts[-1] = (cz + r, cy), (cz - r, cy)
+    if n % 2 == 0:
+        pts[n // 2] = (cz, cy + r)
+    return pts
+
+
+def prism_x(ring, x0, x1, caps=(True, True)):
+    """Inward-facing surface of the prism over the convex (z, y) ring (counter-clockwise in the
+    (z, y) plane) from x0 to x1, with its end caps where asked."""
+    tris = []
+    for (za, ya), (zb, yb) in zip(ring, ring[1:] + ring[:1]):
+        tris += flip(quad((x0, ya, za), (x1, ya, za), (x1, yb, zb), (x0, yb, zb)))
+    if caps[0]:
+        tris += wall_x(x0, [ring], 1)
+    if caps[1]:
+        tris += wall_x(x1, [ring], -1)
+    return tris
+
+
+VAULT = (8.0, 6.0, 4.0, 8)  # length (x), width (z), wall height, vault segments
+
+
+def vaulted_hall():
+    length, width, wall, n = VAULT
+    ring = [(width, 0.0), (width, wall)] + half_polygon(width / 2, wall, width / 2, n)[1:-1] + \
+        [(0.0, wall), (0.0, 0.0)]
+    return level(shell_room("nave-room", prism_x(ring, 0.0, length)))
+
+
+ARCH_PASSAGE = (4.0, 4.5, 1.5, 2.5, 2.0, 8)  # wall x from, to; z from, to; spring height; segments
+
+
+def arch_passage_ring():
+    xa, xb, z0, z1, spring, n = ARCH_PASSAGE
+    return [(z0, 0.0), (z1, 0.0)] + half_polygon((z0 + z1) / 2, spring, (z1 - z0) / 2, n)
+
+
+def arch_passage():
+    """Two rooms through a 0.5 m wall; the round-arched passage belongs to west-room."""
+    xa, xb, z0, z1, spring, n = ARCH_PASSAGE
+    ring = arch_passage_ring()
+    arc = ring[2:]
+    pieces = [rect_zy(0.0, 0.0, z0, H), rect_zy(z1, 0.0, 4.0, H)]
+    for (za, ya), (zb, yb) in zip(arc, arc[1:]):
+        pieces.append([(za, ya), (zb, yb), (zb, H), (za, H)])
+    wf, wc, ww = box_room(0.0, xa, skip=(xa,))
+    ef, ec, ew = box_room(xb, xb + 4.0, skip=(xb,))
+    # The passage's sides, floor and vault; open at both ends (onto west-room and east-room).
+    passage = prism_x(ring, xa, xb, caps=(False, False))
+    west = wf + wc + ww + wall_x(xa, pieces, -1) + passage
+    east = ef + ec + ew + wall_x(xb, pieces, 1)
+    return level(shell_room("west-room", west), shell_room("east-room", east))
+
+
+def arch_passage_area():
+    xa, xb, z0, z1, spring, n = ARCH_PASSAGE
+    import math
+    r = (z1 - z0) / 2
+    return (z1 - z0) * spring + n * r * r * math.sin(math.pi / n) / 2.0
+
+
+# Known answers: cells per room and the room's volume (m³).
+ROOMS_3D = {
+    "soffit_hall": {"hall": (2, 9 * 2.5 * 6 + 6 * 0.5 * 6)},
+    "platform_hall": {"hall": (2, 9 * 3 * 6 - 4.5 * 0.5 * 6)},
+    "stair_hall": {"stair": (4, 4 * 2.0 * 3.0 * 4.0)},
+    "mezzanine_hall": {"hall": (3, 9 * 6 * 6 - 4.5 * 0.3 * 6)},
+    "door_reveal": {"west": (2, 4 * 3 * 4 + 0.5 * 1.0 * 2.2), "east": (1, 4 * 3 * 4)},
+    "crawl_tunnel": {"west": (1, 48.0), "tunnel": (1, 2.0 * 1.0 * 1.0), "east": (1, 48.0)},
+}
+
+
+def self_check_3d(samples):
+    for name, rooms in ROOMS_3D.items():
+        for room, (_, volume) in rooms.items():
+            tris = node_at(samples[name], f"{room}-room/Shell")["tris"]
+            if name in ("door_reveal", "crawl_tunnel"):
+                continue  # open rooms: checked by the tests' ray oracle
+            check_shell(tris, -volume, f"{name}/{room}")
+    import math
+    length, width, wall, n = VAULT
+    vault = length * (width * wall + n * (width / 2) ** 2 * math.sin(math.pi / n) / 2)
+    check_shell(node_at(samples["vaulted_hall"], "nave-room/Shell")["tris"], -vault, "vaulted_hall")
+
+
 def check_shell(tris, volume, what):
     """Closed and consistently oriented (every directed edge once, its reverse once) with the
     given signed volume (divergence theorem: outward shells positive, inward negative)."""
@@ -670,6 +846,16 @@ if __name__ == "__main__":
     for name, tree in portal_samples.items():
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
+    samples_3d = {"soffit_hall": soffit_hall(), "platform_hall": platform_hall(),
+                  "stair_hall": stair_hall(), "mezzanine_hall": mezzanine_hall(),
+                  "door_reveal": door_reveal(), "crawl_tunnel": crawl_tunnel(),
+                  "vaulted_hall": vaulted_hall(), "arch_passage": arch_passage()}
+    self_check_3d(samples_3d)
+    for name, tree in samples_3d.items():
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
+    print(f"self-check passed: the 3D rooms' closed shells face in with their known volumes; "
+          f"arched passage opening {arch_passage_area():.6f} m2")
     print("self-check passed: the portal samples' shells are closed (open walls closed by their "
           "rectangle), their open walls tile the rectangle minus the openings, every surface faces "
           f"the right way; arch opening area {arch_area():.6f}")

@@ -1,17 +1,11 @@
 //! Cells: tagged rooms become convex polyhedra.
 //!
 //! A room's volume comes from, in order: its bound meshes (each one cell, their convex hull);
-//! its footprints (floor polygons extruded upward); the convex hull of its structural geometry,
-//! split into convex pieces when the room's plan is not convex.
-//!
-//! The split works on the room's plan: every non-vertical structural triangle (floors,
-//! ceilings, wall tops) projected onto the ground plane and unioned. A convex plan means the
-//! hull is the room. Otherwise the plan is partitioned into convex polygons (CDT + merge, in
-//! [`crate::geom::partition`]), and each piece's vertical prism clips the hull: an L-shaped
-//! room gives 2 cells, a U 3, a ring around a pillar 4, and the notch of the L is never part of
-//! any cell. This treats rooms as prisms over their plan, which is what walls standing on a
-//! floor are; a room whose shape changes with height (a gallery over a hall) keeps its plan's
-//! cells over its full height.
+//! its footprints (floor polygons extruded along up); the air its structural surface encloses,
+//! decomposed in 3D into convex cells ([`interior`]: a BSP over the room's own planes, leaves
+//! classified by the surface, air leaves merged into maximal convex unions). A convex room is
+//! its hull, one cell; an L is 2, a U 3, a ring around a pillar 4, a soffit hall 2, a four-step
+//! stair hall 4, and no cell reaches into the solid under a platform or inside a slab.
 //!
 //! All geometry is computed about the level's centre (recentred) and moved back at the end, so
 //! a level 100 km from the origin gets the same cells as one at the origin.
@@ -38,6 +32,7 @@ use crate::tags::{RoomId, Tagging};
 
 mod assign;
 mod footprint;
+mod interior;
 mod overlap;
 pub mod split;
 
@@ -133,6 +128,50 @@ pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> 
                 out.push([*a, *b, *c]);
             }
         }
+    }
+    out
+}
+
+/// A room's triangles in an order that does not depend on how the file lists them: nodes by
+/// path (then mesh), each triangle started at its lowest vertex index, triangles by their
+/// indices. Shuffling nodes or triangles, or rotating a triangle's corners, changes nothing
+/// here, so the 3D decomposition breaks its ties the same way (tests/metamorphic.rs).
+pub(crate) fn canonical_triangles(
+    scene: &Scene,
+    nodes: &[NodeId],
+    origin: DVec3,
+) -> Vec<[DVec3; 3]> {
+    let mut order: Vec<(String, usize, NodeId)> = nodes
+        .iter()
+        .map(|&n| {
+            (
+                scene.node_path(n),
+                scene.nodes[n].mesh.unwrap_or(usize::MAX),
+                n,
+            )
+        })
+        .collect();
+    order.sort();
+    let mut out = Vec::new();
+    for (_, _, n) in order {
+        let node = &scene.nodes[n];
+        let Some(m) = node.mesh else { continue };
+        let mesh = &scene.meshes[m];
+        let mut tris: Vec<[u32; 3]> = mesh
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&i| (i as usize) < mesh.positions.len()))
+            .map(|t| {
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+            })
+            .collect();
+        tris.sort_unstable();
+        out.extend(
+            tris.into_iter().map(|t| {
+                t.map(|i| node.world.transform_point3(mesh.positions[i as usize]) - origin)
+            }),
+        );
     }
     out
 }
@@ -307,7 +346,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                     .hint("put the room's floor, walls and ceiling under the room node, or add a bound mesh"),
                 );
             } else {
-                let tris = node_triangles(scene, &structure, origin);
+                let tris = canonical_triangles(scene, &structure, origin);
                 if floor_only(&tris, frame.up) {
                     // Only floor (no wall, no ceiling): the room is its footprint, as Panda3D's
                     // `cellN` meshes are even without the panda3d preset.
@@ -346,7 +385,15 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                 } else {
                     let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
                     match hull(&pts, eps) {
-                        Ok(h) => polys.extend(split_by_plan(&h, &tris, eps, extent, &frame)),
+                        Ok(h) => {
+                            let cells = interior::decompose(&tris, &h, eps);
+                            let source = if cells.len() == 1 && cells[0] == h {
+                                CellSource::Hull
+                            } else {
+                                CellSource::Split
+                            };
+                            polys.extend(cells.into_iter().map(|c| (c, source)));
+                        }
                         Err(e) => {
                             let mut d = degenerate(scene, room.name.as_str(), room.node, &e, &loc);
                             if !pts.is_empty() {
@@ -768,55 +815,4 @@ fn simplify_ring(ring: &[DVec2], eps: f64) -> Vec<DVec2> {
         }
     }
     r
-}
-
-/// Splits a room's hull by its plan (see the module docs).
-fn split_by_plan(
-    h: &ConvexPolyhedron,
-    tris: &[[DVec3; 3]],
-    eps: f64,
-    extent: f64,
-    frame: &Frame,
-) -> Vec<(ConvexPolyhedron, CellSource)> {
-    let flat: Vec<[DVec2; 3]> = tris
-        .iter()
-        .filter(|t| {
-            let n = (t[1] - t[0]).cross(t[2] - t[0]);
-            let len = n.length();
-            len > 0.0 && (n.dot(frame.up) / len).abs() > 0.05
-        })
-        .map(|t| t.map(|p| frame.plan(p)))
-        .collect();
-    let whole = vec![(h.clone(), CellSource::Hull)];
-    if flat.is_empty() {
-        return whole;
-    }
-    let grid = (eps * 0.5).max(extent * 1e-9);
-    let Ok(pieces) = plan_pieces(&flat, grid, eps) else {
-        return whole;
-    };
-    if pieces.len() <= 1 {
-        return whole;
-    }
-    let mut out = Vec::new();
-    for piece in &pieces {
-        let mut cell = Some(h.clone());
-        for (i, a) in piece.iter().enumerate() {
-            let b = piece[(i + 1) % piece.len()];
-            let e = b - *a;
-            let n = frame.lift(DVec2::new(e.y, -e.x));
-            let Some(pl) = Plane::from_point_normal(frame.lift(*a), n) else {
-                continue;
-            };
-            cell = cell.and_then(|c| c.clip(&pl, eps));
-        }
-        if let Some(c) = cell {
-            out.push((c, CellSource::Split));
-        }
-    }
-    if out.is_empty() {
-        whole
-    } else {
-        out
-    }
 }

@@ -441,9 +441,15 @@ fn pair_openings(
                 frame: &f,
             };
             opaque.shadows(&bb, &slab, shadows);
+            let between = if gap > 4.0 * eps {
+                cells_between(a, b, cells, near_cells, &fa.plane, gap, &bb, eps)
+            } else {
+                Vec::new()
+            };
             let blockers: Vec<&[DVec2]> = shadows
                 .rings()
                 .into_iter()
+                .chain(between.iter().map(|r| r.as_slice()))
                 .filter(|r| {
                     let (lo, hi) = ring_bounds(r.iter());
                     lo.x <= shi.x && lo.y <= shi.y && hi.x >= slo.x && hi.y >= slo.y
@@ -481,5 +487,57 @@ fn pair_openings(
         }
     }
 
+    out
+}
+
+/// The cross-sections, on `plane`'s frame, of the cells other than `a` and `b` that lie in the
+/// gap between a face and the face it bridges to. A wall is bridged only where it is wall: a
+/// door reveal that is a cell of its own (a room owning the tunnel through its wall) already
+/// joins the two, and a bridge across it would be a second, shorter path through the same
+/// opening.
+#[allow(clippy::too_many_arguments)]
+fn cells_between(
+    a: usize,
+    b: usize,
+    cells: &CellSet,
+    near_cells: &BoxGrid,
+    plane: &Plane,
+    gap: f64,
+    bb: &Aabb,
+    eps: f64,
+) -> Vec<Vec<DVec2>> {
+    let n = plane.normal;
+    let low = Plane {
+        normal: -n,
+        d: -(plane.d + eps),
+    };
+    let high = Plane {
+        normal: n,
+        d: plane.d + gap - eps,
+    };
+    let f = Frame2::new(plane);
+    let mut out = Vec::new();
+    for k in near_cells.query(bb, eps) {
+        if k == a || k == b {
+            continue;
+        }
+        let Some(inside) = cells.cells[k]
+            .poly
+            .clip(&low, eps)
+            .and_then(|p| p.clip(&high, eps))
+        else {
+            continue;
+        };
+        let flat: Vec<DVec3> = inside
+            .faces
+            .iter()
+            .flat_map(|face| face.points.iter())
+            .map(|p| *p - n * plane.distance(*p))
+            .collect();
+        let ring = convex_ring_on_plane(&flat, plane, eps);
+        if ring.len() >= 3 {
+            out.push(ring.iter().map(|p| f.to2(*p)).collect());
+        }
+    }
     out
 }

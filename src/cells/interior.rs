@@ -1,0 +1,665 @@
+//! The interior of a room's surface as convex cells, in 3D and with no up axis.
+//!
+//! Rooms are not prisms: stairs, platforms, soffits, mezzanines, door reveals and vaults change a
+//! room's section with height, and a level may lie in any orientation. So the interior is found
+//! the way qbsp and dmap find theirs, from the room's own boundary planes:
+//!
+//! 1. **Planes.** The room's triangles are grouped by plane (every vertex within the tolerance;
+//!    the first triangle in input order gives the plane). Triangles on a face of the room's
+//!    convex hull already bound the search space; the others are the *active* fragments.
+//!    A room with no active fragment is convex: its hull is its one cell (the fast path).
+//! 2. **BSP.** The hull is split recursively by the planes of the active fragments. The
+//!    splitter of a node is the plane carrying the most length of *reflex edges* inside it
+//!    (where the surface folds away from the air, as at a stair's nosing or an L's inner
+//!    corner): cutting there separates convex pieces without cutting through the middle of
+//!    one, which is what makes a four-step stair hall four cells and not a stack of slabs.
+//!    Ties go to the plane that splits the fewest fragments, then to input order. Fragments on
+//!    the splitter become boundary of both children; the others are clipped to their side.
+//!    A leaf has no surface inside it, so it is wholly air or wholly solid.
+//! 3. **Inside or outside.** Surfaces face the air (the rendering convention: a floor faces up,
+//!    a wall block faces out of the block). A leaf is air when the surface on its faces, by
+//!    area, faces into it. A leaf that no surface touches is judged by the generalized winding
+//!    number of the room's triangles (Jacobson, Kavan and Sorkine-Hornung 2013), which stays
+//!    meaningful where the surface has holes. A room modelled as a solid (its surface facing
+//!    out and enclosing more than half of its hull, by the divergence theorem about the hull's
+//!    centre) is read the other way round. Rooms built of solid wall blocks on a floor enclose
+//!    little, so they are read as rendered.
+//! 4. **Merge.** Air leaves are merged greedily into maximal convex unions: the pair whose
+//!    union is convex (the planes of both that hold every vertex of both enclose no more than
+//!    their two volumes) and largest goes first, ties by leaf order.
+//!
+//! Invariants: every cell is convex, lies inside the room's hull, and is bounded by planes of
+//! the room's triangles or of its hull; cells do not overlap; their union is the air of the
+//! hull within the tolerance. Limits: a surface that is neither closed nor consistently
+//! oriented is read by area-weighted majority, so a few flipped triangles do no harm but a mesh
+//! with half its faces flipped is read as a mesh would be rendered, wrongly; leaves thinner than
+//! twice the tolerance are dropped as slivers.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+
+use crate::geom::aabb::Aabb;
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
+
+/// A piece of one room triangle.
+#[derive(Debug, Clone)]
+struct Frag {
+    pts: Vec<DVec3>,
+    /// Index into the room's planes.
+    plane: u32,
+    /// Unit normal towards the air.
+    air: DVec3,
+}
+
+/// A piece of a reflex edge, on the two planes that meet there.
+#[derive(Debug, Clone, Copy)]
+struct Seg {
+    a: DVec3,
+    b: DVec3,
+    planes: [u32; 2],
+}
+
+/// The room's surface: its planes and its triangles as fragments.
+struct Surface {
+    planes: Vec<Plane>,
+    /// Fragments on a face of the hull (boundary from the start).
+    hull_frags: Vec<Frag>,
+    /// The other fragments (they split the hull).
+    active: Vec<Frag>,
+    /// +1 when the triangles face the air, -1 for a room modelled as a solid.
+    sense: f64,
+}
+
+impl Surface {
+    /// The BSP's air leaves.
+    fn air_leaves(
+        &self,
+        tris: &[[DVec3; 3]],
+        hull: &ConvexPolyhedron,
+        eps: f64,
+    ) -> Vec<ConvexPolyhedron> {
+        let segs = reflex_segments(self, eps);
+        let mut leaves: Vec<(ConvexPolyhedron, Vec<Frag>)> = Vec::new();
+        split(
+            self,
+            hull.clone(),
+            self.active.clone(),
+            self.hull_frags.clone(),
+            segs,
+            eps,
+            &mut leaves,
+        );
+        leaves
+            .into_iter()
+            .filter(|(leaf, boundary)| {
+                thickness(leaf) > 2.0 * eps && is_air(leaf, boundary, tris, self.sense)
+            })
+            .map(|(leaf, _)| leaf)
+            .collect()
+    }
+}
+
+/// The convex cells of the air inside a room's surface. `hull` is the convex hull of `tris`.
+/// Returns the hull alone when no triangle lies inside it (a convex room).
+pub(crate) fn decompose(
+    tris: &[[DVec3; 3]],
+    hull: &ConvexPolyhedron,
+    eps: f64,
+) -> Vec<ConvexPolyhedron> {
+    // Which way the air lies (see the module docs): a room modelled as a solid encloses most
+    // of its hull with its surface facing out; anything else is read as rendered, the air in
+    // front of its surfaces (including rooms built of solid wall blocks, which enclose little).
+    let centre = hull.interior_point();
+    let enclosed: f64 = tris
+        .iter()
+        .map(|t| (t[0] - centre).dot((t[1] - centre).cross(t[2] - centre)) / 6.0)
+        .sum();
+    let sense = if enclosed > 0.5 * hull.volume() {
+        -1.0
+    } else {
+        1.0
+    };
+    let mut air = Vec::new();
+    for sense in [sense, -sense] {
+        let Some(surface) = Surface::new(tris, hull, eps, sense) else {
+            return vec![hull.clone()];
+        };
+        air = surface.air_leaves(tris, hull, eps);
+        if !air.is_empty() {
+            break;
+        }
+    }
+    if air.is_empty() {
+        // Nothing reads as air either way (an unoriented mesh): the hull, as before there was
+        // a 3D split, rather than no room at all.
+        return vec![hull.clone()];
+    }
+    merge(air, eps)
+}
+
+impl Surface {
+    /// `None` when every triangle lies on the hull (the room is convex).
+    fn new(tris: &[[DVec3; 3]], hull: &ConvexPolyhedron, eps: f64, sense: f64) -> Option<Surface> {
+        let on_hull = |t: &[DVec3; 3]| {
+            hull.faces
+                .iter()
+                .any(|f| t.iter().all(|p| f.plane.distance(*p).abs() <= 2.0 * eps))
+        };
+        if tris.iter().all(on_hull) {
+            return None;
+        }
+        let mut planes: Vec<Plane> = Vec::new();
+        let mut hull_frags = Vec::new();
+        let mut active = Vec::new();
+        for t in tris {
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            let len = n.length();
+            let perimeter = t[0].distance(t[1]) + t[1].distance(t[2]) + t[2].distance(t[0]);
+            // No area to speak of (mean width under the tolerance): no surface.
+            if len <= eps * perimeter {
+                continue;
+            }
+            let unit = n / len;
+            let id = match planes.iter().position(|p| {
+                p.normal.dot(unit).abs() > 0.5 && t.iter().all(|q| p.distance(*q).abs() <= eps)
+            }) {
+                Some(i) => i,
+                None => {
+                    let c = (t[0] + t[1] + t[2]) / 3.0;
+                    planes.push(Plane {
+                        normal: unit,
+                        d: unit.dot(c),
+                    });
+                    planes.len() - 1
+                }
+            };
+            let frag = Frag {
+                pts: t.to_vec(),
+                plane: id as u32,
+                air: unit * sense,
+            };
+            if on_hull(t) {
+                hull_frags.push(frag);
+            } else {
+                active.push(frag);
+            }
+        }
+        (!active.is_empty()).then_some(Surface {
+            planes,
+            hull_frags,
+            active,
+            sense,
+        })
+    }
+}
+
+/// The reflex edges of the surface: where a triangle `g` meets the plane of a triangle `f`
+/// along an edge that `f` holds, with `g` behind `f` (on its solid side).
+fn reflex_segments(s: &Surface, eps: f64) -> Vec<Seg> {
+    let frags: Vec<&Frag> = s.active.iter().chain(s.hull_frags.iter()).collect();
+    let mut by_plane: Vec<Vec<usize>> = vec![Vec::new(); s.planes.len()];
+    for (i, f) in frags.iter().enumerate() {
+        by_plane[f.plane as usize].push(i);
+    }
+    let mut out = Vec::new();
+    for g in &frags {
+        for k in 0..3 {
+            let (a, b, c) = (g.pts[k], g.pts[(k + 1) % 3], g.pts[(k + 2) % 3]);
+            if a.distance(b) <= eps {
+                continue;
+            }
+            for (pi, p) in s.planes.iter().enumerate() {
+                if pi as u32 == g.plane || p.distance(a).abs() > eps || p.distance(b).abs() > eps {
+                    continue;
+                }
+                for &fi in &by_plane[pi] {
+                    let f = frags[fi];
+                    if f.air.dot(c - a) >= -eps {
+                        continue;
+                    }
+                    if let Some((x, y)) = clip_segment_to_triangle(a, b, &f.pts, eps) {
+                        out.push(Seg {
+                            a: x,
+                            b: y,
+                            planes: [pi as u32, g.plane],
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The part of segment `ab` (on the triangle's plane) within `eps` of the triangle.
+fn clip_segment_to_triangle(a: DVec3, b: DVec3, t: &[DVec3], eps: f64) -> Option<(DVec3, DVec3)> {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    for k in 0..3 {
+        let (p, q) = (t[k], t[(k + 1) % 3]);
+        let m = n.cross(q - p).try_normalize()?; // points into the triangle
+        let (da, db) = (m.dot(a - p) + eps, m.dot(b - p) + eps);
+        if da < 0.0 && db < 0.0 {
+            return None;
+        }
+        if da < 0.0 {
+            lo = lo.max(da / (da - db));
+        } else if db < 0.0 {
+            hi = hi.min(da / (da - db));
+        }
+    }
+    let (x, y) = (a + (b - a) * lo, a + (b - a) * hi);
+    (hi > lo && x.distance(y) > eps).then_some((x, y))
+}
+
+/// Which side of a plane some points lie on.
+#[derive(PartialEq)]
+enum Side {
+    On,
+    Back,
+    Front,
+    Both,
+}
+
+fn side(pl: &Plane, pts: &[DVec3], eps: f64) -> Side {
+    let (mut back, mut front) = (false, false);
+    for p in pts {
+        let d = pl.distance(*p);
+        back |= d < -eps;
+        front |= d > eps;
+    }
+    match (back, front) {
+        (false, false) => Side::On,
+        (true, false) => Side::Back,
+        (false, true) => Side::Front,
+        (true, true) => Side::Both,
+    }
+}
+
+/// A fragment's parts behind and in front of a plane (pieces without area are dropped).
+fn cut(f: &Frag, pl: &Plane, eps: f64) -> (Option<Frag>, Option<Frag>) {
+    let piece = |pts: Vec<DVec3>| {
+        let keep = pts.len() >= 3 && polygon_area(&pts, f.air) > eps * eps;
+        keep.then_some(Frag {
+            pts,
+            plane: f.plane,
+            air: f.air,
+        })
+    };
+    (
+        piece(clip_polygon(&f.pts, pl.normal, pl.d)),
+        piece(clip_polygon(&f.pts, -pl.normal, -pl.d)),
+    )
+}
+
+/// The BSP (see the module docs); leaves are pushed back child first.
+fn split(
+    s: &Surface,
+    region: ConvexPolyhedron,
+    active: Vec<Frag>,
+    boundary: Vec<Frag>,
+    segs: Vec<Seg>,
+    eps: f64,
+    leaves: &mut Vec<(ConvexPolyhedron, Vec<Frag>)>,
+) {
+    let Some(id) = splitter(s, &active, &segs, eps) else {
+        leaves.push((region, boundary));
+        return;
+    };
+    let pl = s.planes[id as usize];
+    let (back, front) = (region.clip(&pl, eps), region.clip(&pl.flipped(), eps));
+    let (Some(back), Some(front)) = (back, front) else {
+        // The plane only grazes the region: its fragments lie on the region's boundary.
+        let (on, rest): (Vec<Frag>, Vec<Frag>) = active.into_iter().partition(|f| f.plane == id);
+        let mut boundary = boundary;
+        boundary.extend(on);
+        let segs = segs
+            .into_iter()
+            .filter(|g| !g.planes.contains(&id))
+            .collect();
+        return split(s, region, rest, boundary, segs, eps, leaves);
+    };
+    let mut sides: [(Vec<Frag>, Vec<Frag>, Vec<Seg>); 2] = Default::default();
+    for f in active {
+        match side(&pl, &f.pts, eps) {
+            Side::On => {
+                sides[0].1.push(f.clone());
+                sides[1].1.push(f);
+            }
+            Side::Back => sides[0].0.push(f),
+            Side::Front => sides[1].0.push(f),
+            Side::Both => {
+                let (b, fr) = cut(&f, &pl, eps);
+                sides[0].0.extend(b);
+                sides[1].0.extend(fr);
+            }
+        }
+    }
+    for f in boundary {
+        match side(&pl, &f.pts, eps) {
+            Side::On => {
+                sides[0].1.push(f.clone());
+                sides[1].1.push(f);
+            }
+            Side::Back => sides[0].1.push(f),
+            Side::Front => sides[1].1.push(f),
+            Side::Both => {
+                let (b, fr) = cut(&f, &pl, eps);
+                sides[0].1.extend(b);
+                sides[1].1.extend(fr);
+            }
+        }
+    }
+    for g in segs {
+        let (da, db) = (pl.distance(g.a), pl.distance(g.b));
+        if da.abs() <= eps && db.abs() <= eps {
+            continue; // on the cut: resolved
+        }
+        if da <= eps && db <= eps {
+            sides[0].2.push(g);
+        } else if da >= -eps && db >= -eps {
+            sides[1].2.push(g);
+        } else {
+            let x = g.a + (g.b - g.a) * (da / (da - db));
+            let (back_end, front_end) = if da < 0.0 { (g.a, g.b) } else { (g.b, g.a) };
+            for (k, end) in [(0, back_end), (1, front_end)] {
+                if end.distance(x) > eps {
+                    sides[k].2.push(Seg { a: end, b: x, ..g });
+                }
+            }
+        }
+    }
+    let [(ab, bb, sb), (af, bf, sf)] = sides;
+    split(s, back, ab, bb, sb, eps, leaves);
+    split(s, front, af, bf, sf, eps, leaves);
+}
+
+/// The plane to split a node by: the most reflex-edge length, then the fewest fragments cut,
+/// then the earliest plane. `None` when no active fragment is left (a leaf).
+fn splitter(s: &Surface, active: &[Frag], segs: &[Seg], eps: f64) -> Option<u32> {
+    let mut candidates: Vec<u32> = active.iter().map(|f| f.plane).collect();
+    candidates.sort_unstable();
+    candidates.dedup();
+    if candidates.is_empty() {
+        return None;
+    }
+    let mut reflex = vec![0.0f64; candidates.len()];
+    for g in segs {
+        let len = g.a.distance(g.b);
+        for p in g.planes {
+            if let Ok(k) = candidates.binary_search(&p) {
+                reflex[k] += len;
+            }
+        }
+    }
+    // Lengths within the tolerance of the best are equal (a turned level must choose alike).
+    let best = reflex.iter().copied().fold(0.0, f64::max);
+    let tied: Vec<u32> = candidates
+        .iter()
+        .zip(&reflex)
+        .filter(|(_, r)| **r >= best - 4.0 * eps)
+        .map(|(p, _)| *p)
+        .collect();
+    if tied.len() == 1 {
+        return Some(tied[0]);
+    }
+    tied.into_iter().min_by_key(|&p| {
+        let pl = &s.planes[p as usize];
+        let cuts = active
+            .iter()
+            .filter(|f| side(pl, &f.pts, eps) == Side::Both)
+            .count();
+        (cuts, p)
+    })
+}
+
+/// The width of a convex polyhedron across its thinnest face direction.
+fn thickness(p: &ConvexPolyhedron) -> f64 {
+    p.faces
+        .iter()
+        .map(|f| {
+            p.faces
+                .iter()
+                .flat_map(|g| g.points.iter())
+                .map(|q| -f.plane.distance(*q))
+                .fold(0.0, f64::max)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Whether a leaf is air: by the surface on its faces, else by the winding number.
+fn is_air(leaf: &ConvexPolyhedron, boundary: &[Frag], tris: &[[DVec3; 3]], sense: f64) -> bool {
+    let inside = leaf.interior_point();
+    let evidence: f64 = boundary
+        .iter()
+        .map(|f| {
+            let c = f.pts.iter().copied().sum::<DVec3>() / f.pts.len() as f64;
+            polygon_area(&f.pts, f.air) * f.air.dot(inside - c).signum()
+        })
+        .sum();
+    if evidence != 0.0 {
+        return evidence > 0.0;
+    }
+    // No surface touches the leaf. The winding number is +1 inside a surface facing out, so
+    // the air of a surface facing in (sense +1) is where it is -1.
+    -sense * winding_number(tris, inside) > 0.5
+}
+
+/// The generalized winding number of a triangle soup at `p` (+1 inside a closed surface whose
+/// triangles are counter-clockwise seen from outside).
+pub(crate) fn winding_number(tris: &[[DVec3; 3]], p: DVec3) -> f64 {
+    let mut total = 0.0;
+    for t in tris {
+        let (a, b, c) = (t[0] - p, t[1] - p, t[2] - p);
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
+        let num = a.dot(b.cross(c));
+        let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
+        total += 2.0 * num.atan2(den);
+    }
+    total / (4.0 * std::f64::consts::PI)
+}
+
+/// Air leaves merged greedily into maximal convex unions (see the module docs).
+fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
+    if cells.len() < 2 {
+        return cells;
+    }
+    let total: f64 = cells.iter().map(|c| c.volume()).sum();
+    // Volumes compared on a grid of a millionth of the room's: near-equal volumes are ties.
+    let key = |v: f64| (v / total * 1e6).round() as i64;
+    let mut alive = vec![true; cells.len()];
+    let mut version = vec![0u32; cells.len()];
+    // (volume key, first leaf, second leaf, their versions when the union was found).
+    type Candidate = (i64, Reverse<usize>, Reverse<usize>, u32, u32);
+    let mut heap: BinaryHeap<Candidate> = BinaryHeap::new();
+    let bounds: Vec<Aabb> = cells.iter().map(|c| c.bounds()).collect();
+    let mut bounds = bounds;
+    let mut unions: std::collections::HashMap<(usize, usize), ConvexPolyhedron> =
+        std::collections::HashMap::new();
+    let try_pair = |cells: &Vec<ConvexPolyhedron>,
+                    bounds: &Vec<Aabb>,
+                    i: usize,
+                    j: usize|
+     -> Option<ConvexPolyhedron> {
+        if !bounds[i].grown(eps).meets(&bounds[j]) {
+            return None;
+        }
+        convex_union(&cells[i], &cells[j], eps)
+    };
+    for i in 0..cells.len() {
+        for j in i + 1..cells.len() {
+            if let Some(u) = try_pair(&cells, &bounds, i, j) {
+                heap.push((key(u.volume()), Reverse(i), Reverse(j), 0, 0));
+                unions.insert((i, j), u);
+            }
+        }
+    }
+    while let Some((_, Reverse(i), Reverse(j), vi, vj)) = heap.pop() {
+        if !alive[i] || !alive[j] || version[i] != vi || version[j] != vj {
+            continue;
+        }
+        let Some(u) = unions.remove(&(i, j)) else {
+            continue;
+        };
+        bounds[i] = u.bounds();
+        cells[i] = u;
+        alive[j] = false;
+        version[i] += 1;
+        for (k, &live) in alive.clone().iter().enumerate() {
+            if k == i || !live {
+                continue;
+            }
+            let (a, b) = (i.min(k), i.max(k));
+            unions.remove(&(a, b));
+            if let Some(u) = try_pair(&cells, &bounds, a, b) {
+                heap.push((
+                    key(u.volume()),
+                    Reverse(a),
+                    Reverse(b),
+                    version[a],
+                    version[b],
+                ));
+                unions.insert((a, b), u);
+            }
+        }
+    }
+    cells
+        .into_iter()
+        .zip(alive)
+        .filter_map(|(c, a)| a.then_some(c))
+        .collect()
+}
+
+/// The union of two convex polyhedra when it is convex: the planes of either that hold every
+/// vertex of both, if they enclose no more than the two volumes (within the tolerance over
+/// the union's surface).
+fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<ConvexPolyhedron> {
+    let verts: Vec<DVec3> = a
+        .faces
+        .iter()
+        .chain(b.faces.iter())
+        .flat_map(|f| f.points.iter().copied())
+        .collect();
+    let mut planes: Vec<Plane> = Vec::new();
+    for f in a.faces.iter().chain(b.faces.iter()) {
+        if verts.iter().all(|v| f.plane.distance(*v) <= eps)
+            && !planes.iter().any(|p| p.same_as(&f.plane, eps, 1e-9))
+        {
+            planes.push(f.plane);
+        }
+    }
+    let bounds = a.bounds().union(&b.bounds());
+    let u = ConvexPolyhedron::from_planes(&planes, &bounds, eps)?;
+    let area: f64 = u
+        .faces
+        .iter()
+        .map(|f| polygon_area(&f.points, f.plane.normal))
+        .sum();
+    (u.volume() <= a.volume() + b.volume() + 2.0 * eps * area).then_some(u)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The inward-facing triangles of an axis-aligned box.
+    fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+        let c = |x: bool, y: bool, z: bool| {
+            DVec3::new(
+                if x { hi.x } else { lo.x },
+                if y { hi.y } else { lo.y },
+                if z { hi.z } else { lo.z },
+            )
+        };
+        let quads = [
+            [
+                c(false, false, false),
+                c(false, true, false),
+                c(false, true, true),
+                c(false, false, true),
+            ],
+            [
+                c(true, false, false),
+                c(true, false, true),
+                c(true, true, true),
+                c(true, true, false),
+            ],
+            [
+                c(false, false, false),
+                c(false, false, true),
+                c(true, false, true),
+                c(true, false, false),
+            ],
+            [
+                c(false, true, false),
+                c(true, true, false),
+                c(true, true, true),
+                c(false, true, true),
+            ],
+            [
+                c(false, false, false),
+                c(true, false, false),
+                c(true, true, false),
+                c(false, true, false),
+            ],
+            [
+                c(false, false, true),
+                c(false, true, true),
+                c(true, true, true),
+                c(true, false, true),
+            ],
+        ];
+        let mut out = Vec::new();
+        for q in quads {
+            // Each quad is listed counter-clockwise seen from inside the box.
+            out.push([q[0], q[1], q[2]]);
+            out.push([q[0], q[2], q[3]]);
+        }
+        out
+    }
+
+    #[test]
+    fn winding_number_of_a_closed_box() {
+        let t = box_tris(DVec3::ZERO, DVec3::ONE);
+        // Inward-facing: -1 inside, 0 outside.
+        assert!((winding_number(&t, DVec3::splat(0.5)) + 1.0).abs() < 1e-9);
+        assert!(winding_number(&t, DVec3::splat(2.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_box_room_is_its_hull() {
+        let t = box_tris(DVec3::ZERO, DVec3::new(4.0, 3.0, 4.0));
+        let pts: Vec<DVec3> = t.iter().flatten().copied().collect();
+        let h = crate::geom::hull::hull(&pts, 1e-9).unwrap();
+        let cells = decompose(&t, &h, 1e-9);
+        assert_eq!(cells.len(), 1);
+        assert!((cells[0].volume() - 48.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn segment_clipping_keeps_the_shared_part() {
+        let t = [
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.0, 2.0, 0.0),
+        ];
+        let (a, b) = clip_segment_to_triangle(
+            DVec3::new(-1.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            &t,
+            1e-9,
+        )
+        .unwrap();
+        assert!(a.distance(DVec3::ZERO) < 1e-6 && b.distance(DVec3::X) < 1e-9);
+        assert!(clip_segment_to_triangle(
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            &t,
+            1e-9
+        )
+        .is_none());
+    }
+}

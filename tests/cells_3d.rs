@@ -1,0 +1,501 @@
+//! Rooms of any 3D shape: the samples with known answers (soffit, platform, stairs, mezzanine,
+//! door reveal, crawl tunnel, vault, arched passage), the same levels turned about X and about
+//! an oblique axis, and an oracle that shares no code with the cell stage, run on every sample,
+//! third-party level and generated building: points classified by casting rays against each
+//! room's own triangles must lie in exactly one of the room's cells (inside) or in none
+//! (outside), and a closed room's cells add up to its volume by the divergence theorem.
+
+mod common;
+
+use std::collections::HashMap;
+
+use common::{fixture, levels_with_rooms, sample};
+use glam::{DMat4, DQuat, DVec3};
+use portcullis::cells::{CellSet, CellSource};
+use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
+
+fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet) {
+    let opts = LoadOptions {
+        preset: preset.map(str::to_string),
+        ..Default::default()
+    };
+    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
+    let c = build_cells(&mut t);
+    (t, c)
+}
+
+/// A room's known answer: name, cells, volume (m³).
+type Known = (&'static str, usize, f64);
+
+/// The 3D samples: file, and per room its known answer.
+const SAMPLES_3D: &[(&str, &[Known])] = &[
+    ("soffit_hall.gltf", &[("hall", 2, 153.0)]),
+    ("platform_hall.gltf", &[("hall", 2, 148.5)]),
+    ("stair_hall.gltf", &[("stair", 4, 96.0)]),
+    ("mezzanine_hall.gltf", &[("hall", 3, 315.9)]),
+    ("door_reveal.gltf", &[("west", 2, 49.1), ("east", 1, 48.0)]),
+    (
+        "crawl_tunnel.gltf",
+        &[("west", 1, 48.0), ("tunnel", 1, 2.0), ("east", 1, 48.0)],
+    ),
+    // 8 x (6 x 4 + the upper half of a regular 16-gon of radius 3, 8 x 3² x sin(pi / 8) / 2).
+    (
+        "vaulted_hall.gltf",
+        &[("nave", 1, 8.0 * (24.0 + 36.0 * 0.382_683_432_365_089_8))],
+    ),
+    // 48 + the passage: 0.5 x (1 x 2 + the upper half of a regular 16-gon of radius 0.5,
+    // 8 x 0.5² x sin(pi / 8) / 2).
+    (
+        "arch_passage.gltf",
+        &[
+            ("west", 2, 48.0 + 0.5 * (2.0 + 0.382_683_432_365_089_8)),
+            ("east", 1, 48.0),
+        ],
+    ),
+];
+
+fn room_index(t: &Tagged, name: &str) -> usize {
+    t.tagging
+        .room_by_name(&t.rules, name)
+        .unwrap_or_else(|| panic!("no room {name}"))
+}
+
+#[test]
+fn three_d_samples_have_their_known_cells_and_pass_check_sealed() {
+    for (file, rooms) in SAMPLES_3D {
+        let (t, c) = load(&sample(file), None);
+        for (room, cells, volume) in *rooms {
+            let r = room_index(&t, room);
+            assert_eq!(c.room_cells[r].len(), *cells, "{file}: cells of {room}");
+            let v: f64 = c.room_cells[r].iter().map(|&i| c.cells[i].volume).sum();
+            // Within the f32 rounding of the stored corners (3.3 is not exact); the oracle
+            // below holds the cells to the triangles' own volume within 1e-9.
+            assert!(
+                (v - volume).abs() <= 1e-7 * volume,
+                "{file}: {room} has volume {v}, not {volume}"
+            );
+        }
+        let out = assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args(["check", "--sealed", "--format", "json"])
+            .arg(sample(file))
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{file}: check --sealed failed: {text}"
+        );
+        assert!(!text.contains("LEAK"), "{file}: {text}");
+    }
+}
+
+/// The door reveal and the arched passage belong to the west room: the reveal's far end meets
+/// the east room with exactly the opening, and the reveal meets its own room with a full face.
+#[test]
+fn a_reveal_meets_the_other_room_with_the_exact_opening() {
+    for (file, far_x, area) in [
+        ("door_reveal.gltf", 4.5, 2.2),
+        ("arch_passage.gltf", 4.5, 2.0 + 0.382_683_432_365_089_8),
+    ] {
+        let mut t = load_tagged(&sample(file), &LoadOptions::default()).unwrap();
+        let c = build_cells(&mut t);
+        let p = build_portals(&mut t, &c);
+        let (west, east) = (room_index(&t, "west"), room_index(&t, "east"));
+        let between: Vec<_> = p
+            .portals
+            .iter()
+            .filter(|q| {
+                q.to.is_some_and(|to| c.cells[q.from].room == west && c.cells[to].room == east)
+            })
+            .collect();
+        let total: f64 = between.iter().map(|q| q.area).sum();
+        assert!(
+            (total - area).abs() < 1e-6,
+            "{file}: west -> east {total} m², not {area}"
+        );
+        for q in &between {
+            assert!(
+                q.polygon.iter().all(|v| (v.x - far_x).abs() < 1e-6),
+                "{file}: a west -> east portal is not at the reveal's far end: {:?}",
+                q.polygon
+            );
+        }
+        let inside: f64 = p
+            .portals
+            .iter()
+            .filter(|q| {
+                q.to.is_some_and(|to| c.cells[q.from].room == west && c.cells[to].room == west)
+            })
+            .map(|q| q.area)
+            .sum();
+        assert!(
+            (inside - 2.0 * area).abs() < 1e-6,
+            "{file}: internal portals {inside} m²"
+        );
+    }
+}
+
+/// The same cells, up to the rotation, with the level turned 90° about X and 37° about an
+/// oblique axis ([cells] up turned along).
+#[test]
+fn three_d_samples_are_the_same_turned() {
+    let turns = [
+        DMat4::from_rotation_x(std::f64::consts::FRAC_PI_2),
+        DMat4::from_quat(DQuat::from_axis_angle(
+            DVec3::new(1.0, 2.0, 3.0).normalize(),
+            37f64.to_radians(),
+        )),
+    ];
+    for (file, _) in SAMPLES_3D {
+        let (t, c) = load(&sample(file), None);
+        for m in &turns {
+            let mut t2 = t.clone();
+            for n in &mut t2.scene.nodes {
+                n.world = *m * n.world;
+            }
+            t2.config.cells.up = m
+                .transform_vector3(DVec3::from_array(t.config.cells.up))
+                .to_array();
+            t2.diagnostics = Default::default();
+            let c2 = build_cells(&mut t2);
+            assert_eq!(c.room_cells, c2.room_cells, "{file} turned");
+            for (a, b) in c.cells.iter().zip(&c2.cells) {
+                assert!(
+                    (a.volume - b.volume).abs() <= 1e-9 * a.volume,
+                    "{file}: volumes"
+                );
+                let vb = b.poly.vertices(1e-9);
+                for v in a.poly.vertices(1e-9) {
+                    let w = m.transform_point3(v);
+                    assert!(
+                        vb.iter().any(|u| u.distance(w) <= 1e-6),
+                        "{file}: vertex {w} of a cell of room {} missing when turned",
+                        a.room
+                    );
+                }
+            }
+            let p2 = build_portals(&mut t2, &c2);
+            assert!(
+                !p2.portals.iter().any(|q| q.to.is_none()),
+                "{file} turned: an exterior opening"
+            );
+        }
+    }
+}
+
+/// A room modelled as a solid (every triangle facing out) is read as the room it bounds: as
+/// many cells, the same volume (which of two equal cuts comes first may change with the
+/// triangles' winding, so the cells themselves may differ).
+#[test]
+fn outward_facing_rooms_get_as_many_cells_and_the_same_volume() {
+    for file in [
+        "l_room.gltf",
+        "u_room.gltf",
+        "stair_hall.gltf",
+        "mezzanine_hall.gltf",
+    ] {
+        let (t, c) = load(&sample(file), None);
+        let mut t2 = t.clone();
+        for m in &mut t2.scene.meshes {
+            for tri in &mut m.triangles {
+                tri.swap(1, 2);
+            }
+        }
+        t2.diagnostics = Default::default();
+        let c2 = build_cells(&mut t2);
+        for r in 0..c.room_cells.len() {
+            assert_eq!(
+                c.room_cells[r].len(),
+                c2.room_cells[r].len(),
+                "{file} facing out"
+            );
+            let v =
+                |c: &CellSet| -> f64 { c.room_cells[r].iter().map(|&i| c.cells[i].volume).sum() };
+            let (a, b) = (v(&c), v(&c2));
+            assert!(
+                (a - b).abs() <= 1e-9 * a,
+                "{file} facing out: {a} vs {b} m³"
+            );
+        }
+        let judged = oracle_with(&t2, &c2, 200, file, false);
+        assert!(judged > 100, "{file} facing out: {judged} points judged");
+    }
+}
+
+// --- The oracle: nothing below calls the cell stage's geometry.
+
+/// A small deterministic number source (SplitMix64).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A room's structural triangles in world space, read from the scene: no props, portals,
+/// footprints or bounds.
+fn room_triangles(t: &Tagged, c: &CellSet, r: usize) -> Vec<[DVec3; 3]> {
+    let mut out = Vec::new();
+    for &n in &t.tagging.rooms[r].structure {
+        if c.props.contains(&n) {
+            continue;
+        }
+        let Some(m) = t.scene.nodes[n].mesh else {
+            continue;
+        };
+        let w = t.scene.world_positions(n);
+        for tri in &t.scene.meshes[m].triangles {
+            out.push(tri.map(|i| w[i as usize]));
+        }
+    }
+    out
+}
+
+/// Where a ray from `p` along `d` meets a triangle (Möller–Trumbore): the distance, whether
+/// the triangle's front faces `p`, and whether the hit is clear of the triangle's edges.
+fn hit(p: DVec3, d: DVec3, t: &[DVec3; 3]) -> Option<(f64, bool, bool)> {
+    let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
+    let h = d.cross(e2);
+    let a = e1.dot(h);
+    if a.abs() < 1e-14 * e1.length() * e2.length() {
+        return None;
+    }
+    let s = p - t[0];
+    let u = s.dot(h) / a;
+    let q = s.cross(e1);
+    let v = d.dot(q) / a;
+    let dist = e2.dot(q) / a;
+    let margin = 1e-9;
+    if u < -margin || v < -margin || u + v > 1.0 + margin || dist <= 0.0 {
+        return None;
+    }
+    let clear = u > margin && v > margin && u + v < 1.0 - margin;
+    Some((dist, e1.cross(e2).dot(d) < 0.0, clear))
+}
+
+/// Inside (`Some(true)`), outside (`Some(false)`) or undecided, from seven ray directions; a
+/// ray that grazes an edge does not vote. A closed room whose triangles face in is judged by
+/// ray parity, five of seven. Any other room (open, or made of solid blocks that face out) by
+/// whether the nearest triangle hit faces the point (surfaces face the air), and only where
+/// every ray hits the room and all agree: a point near an opening is left out.
+fn classify(tris: &[[DVec3; 3]], closed: bool, p: DVec3) -> Option<bool> {
+    const DIRS: [[f64; 3]; 7] = [
+        [0.267, 0.534, 0.801],
+        [-0.802, 0.267, 0.535],
+        [0.123, -0.912, 0.391],
+        [0.577, 0.577, -0.578],
+        [-0.311, -0.299, -0.902],
+        [0.905, -0.121, -0.408],
+        [-0.446, 0.873, -0.197],
+    ];
+    let (mut yes, mut no) = (0, 0);
+    'dirs: for d in DIRS {
+        let d = DVec3::from_array(d).normalize();
+        let mut crossings = 0;
+        let mut nearest: Option<(f64, bool)> = None;
+        for t in tris {
+            if let Some((dist, faces, clear)) = hit(p, d, t) {
+                if !clear {
+                    continue 'dirs;
+                }
+                crossings += 1;
+                if nearest.is_none_or(|(n, _)| dist < n) {
+                    nearest = Some((dist, faces));
+                }
+            }
+        }
+        let inside = if closed {
+            crossings % 2 == 1
+        } else {
+            nearest?.1
+        };
+        if inside {
+            yes += 1
+        } else {
+            no += 1
+        }
+    }
+    let needed = if closed { 5 } else { DIRS.len() };
+    if yes >= needed {
+        Some(true)
+    } else if no >= needed {
+        Some(false)
+    } else {
+        None
+    }
+}
+
+/// Every edge of the triangles has exactly one reversed partner (a closed, oriented surface).
+fn is_closed(tris: &[[DVec3; 3]]) -> bool {
+    let key = |p: DVec3| p.to_array().map(f64::to_bits);
+    let mut edges: HashMap<([u64; 3], [u64; 3]), i32> = HashMap::new();
+    for t in tris {
+        for k in 0..3 {
+            *edges.entry((key(t[k]), key(t[(k + 1) % 3]))).or_default() += 1;
+        }
+    }
+    !edges.is_empty()
+        && edges
+            .iter()
+            .all(|((a, b), n)| *n == 1 && edges.get(&(*b, *a)) == Some(&1))
+}
+
+/// Signed volume enclosed by triangles (divergence theorem): negative for a surface facing in.
+fn signed_volume(tris: &[[DVec3; 3]]) -> f64 {
+    tris.iter().map(|t| t[0].dot(t[1].cross(t[2])) / 6.0).sum()
+}
+
+/// A cell's volume from its face polygons (divergence theorem).
+fn cell_volume(c: &portcullis::cells::Cell) -> f64 {
+    let mut v = 0.0;
+    for f in &c.poly.faces {
+        for w in f.points[1..].windows(2) {
+            v += f.points[0].dot(w[0].cross(w[1])) / 6.0;
+        }
+    }
+    v.abs()
+}
+
+/// How deep `p` is inside a cell: the least distance to its face planes, negative outside.
+fn depth(c: &portcullis::cells::Cell, p: DVec3) -> f64 {
+    c.poly
+        .faces
+        .iter()
+        .map(|f| f.plane.d - f.plane.normal.dot(p))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Runs the oracle on every room whose cells come from its own surface; returns the number of
+/// points judged.
+fn oracle(t: &Tagged, c: &CellSet, points_per_room: usize, what: &str) -> usize {
+    oracle_with(t, c, points_per_room, what, true)
+}
+
+/// The oracle; `facing_in` false reads every room as a solid (surfaces facing out).
+fn oracle_with(
+    t: &Tagged,
+    c: &CellSet,
+    points_per_room: usize,
+    what: &str,
+    facing_in: bool,
+) -> usize {
+    let mut judged = 0;
+    let mut rng = Rng(0x5EED);
+    for r in 0..t.tagging.rooms.len() {
+        let cells: Vec<&portcullis::cells::Cell> =
+            c.room_cells[r].iter().map(|&i| &c.cells[i]).collect();
+        if cells.is_empty()
+            || cells
+                .iter()
+                .any(|x| matches!(x.source, CellSource::Bound | CellSource::Footprint))
+        {
+            continue;
+        }
+        let mut tris = room_triangles(t, c, r);
+        if !facing_in {
+            for tri in &mut tris {
+                tri.swap(1, 2);
+            }
+        }
+        // Parity only reads a single closed shell around the air: one that faces in.
+        let closed = is_closed(&tris) && signed_volume(&tris) < 0.0;
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for p in tris.iter().flatten() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let size = hi - lo;
+        let margin = 1e-6 * size.max_element() + 10.0 * c.tolerance.distance;
+        let name = &t.tagging.rooms[r].name;
+        if closed {
+            let room = -signed_volume(&tris);
+            let sum: f64 = cells.iter().map(|x| cell_volume(x)).sum();
+            assert!(
+                (sum - room).abs() <= 1e-9 * room,
+                "{what}: room {name}: cells {sum} m³, room {room} m³"
+            );
+        }
+        for _ in 0..points_per_room {
+            let p = lo + size * DVec3::new(rng.next(), rng.next(), rng.next());
+            let Some(inside) = classify(&tris, closed, p) else {
+                continue;
+            };
+            let deep = cells.iter().filter(|x| depth(x, p) > margin).count();
+            let near = cells.iter().filter(|x| depth(x, p) > -margin).count();
+            if inside {
+                if near == 0 && cells.iter().all(|x| depth(x, p) < -margin) {
+                    // In the air by the rays but in no cell, and not within the margin of one.
+                    panic!("{what}: room {name}: inside point {p} is in no cell");
+                }
+                assert!(
+                    deep <= 1,
+                    "{what}: room {name}: inside point {p} is in {deep} cells"
+                );
+            } else {
+                assert_eq!(
+                    deep, 0,
+                    "{what}: room {name}: outside point {p} is in a cell"
+                );
+            }
+            judged += 1;
+        }
+    }
+    judged
+}
+
+#[test]
+fn ray_oracle_on_samples_and_third_party_levels() {
+    let mut levels = levels_with_rooms();
+    for (file, _) in SAMPLES_3D {
+        levels.push((sample(file), None));
+    }
+    for (path, preset) in levels {
+        let (t, c) = load(&path, preset);
+        let judged = oracle(&t, &c, 400, &path.display().to_string());
+        eprintln!("{}: {judged} points judged", path.display());
+    }
+}
+
+#[test]
+fn ray_oracle_on_doom_maps() {
+    for file in ["E1M2_godot.glb", "MAP01_godot.glb"] {
+        let (t, c) = load(&fixture(file), None);
+        let judged = oracle(&t, &c, 100, file);
+        eprintln!(
+            "{file}: {} rooms, {} cells, {judged} points judged",
+            t.tagging.rooms.len(),
+            c.cells.len()
+        );
+        assert!(judged > 500, "{file}: only {judged} points could be judged");
+    }
+}
+
+#[test]
+fn ray_oracle_on_generated_buildings() {
+    for (rooms, seed) in [(12, 3), (40, 9)] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.glb");
+        common::succeeds(
+            assert_cmd::Command::cargo_bin("portcullis")
+                .unwrap()
+                .args([
+                    "gen",
+                    "--rooms",
+                    &rooms.to_string(),
+                    "--seed",
+                    &seed.to_string(),
+                    "-o",
+                ])
+                .arg(&path),
+        );
+        let (t, c) = load(&path, None);
+        let judged = oracle(&t, &c, 100, &format!("gen {rooms} rooms seed {seed}"));
+        assert!(judged > 10 * rooms, "only {judged} points judged");
+    }
+}
