@@ -476,6 +476,26 @@ fn ray_oracle_on_doom_maps() {
     }
 }
 
+/// The benchmark's big room (`portcullis bench --room-planes`): a stair hall of N steps is N
+/// cells at any size, and the oracle holds on it.
+#[test]
+fn the_benchmark_stair_hall_is_one_cell_per_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("stairs.glb");
+    let scene = portcullis::gen::stair_hall(90);
+    let fmt = portcullis::export::gltf_out::OutFormat::Glb;
+    std::fs::write(
+        &path,
+        portcullis::export::gltf_out::write_plain(&scene, fmt),
+    )
+    .unwrap();
+    let (t, c) = load(&path, None);
+    // 90 planes: 29 steps (3 x 29 + 3 = 90).
+    assert_eq!(c.cells.len(), 29);
+    let judged = oracle(&t, &c, 600, "stair hall");
+    assert!(judged > 100, "{judged} points judged");
+}
+
 #[test]
 fn ray_oracle_on_generated_buildings() {
     for (rooms, seed) in [(12, 3), (40, 9)] {

@@ -36,6 +36,11 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub runs: u32,
 
+    /// Also time the cells of one room of at least this many distinct planes (a stair hall,
+    /// one cell per step); 0 leaves it out.
+    #[arg(long, default_value_t = 500)]
+    pub room_planes: usize,
+
     /// Run one size and print its measurements as JSON (used by the parent process).
     #[arg(long, hide = true)]
     pub one: Option<usize>,
@@ -443,6 +448,13 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         }
         rows.extend(best);
     }
+    let one_room = match one_room(dir, a.room_planes, a.runs) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: the one-room benchmark failed: {e}");
+            return 2;
+        }
+    };
     println!(
         "portcullis {} bench, {} thread(s), seed {}, fastest of {} run(s)\n",
         env!("CARGO_PKG_VERSION"),
@@ -451,6 +463,9 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         a.runs
     );
     print!("{}", table(&rows));
+    if let Some(line) = one_room {
+        println!("\n{line}");
+    }
     if methods.is_empty() {
         return 0;
     }
@@ -484,4 +499,33 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         );
     }
     0
+}
+
+/// The cells of one room of at least `planes` distinct planes ([`gen::stair_hall`]): the 3D
+/// decomposition's cost where a room is large, not where a building is. `None` for 0 planes.
+fn one_room(dir: &Path, planes: usize, runs: u32) -> Result<Option<String>, String> {
+    if planes == 0 {
+        return Ok(None);
+    }
+    let path = dir.join(format!("stair_hall_{planes}.glb"));
+    std::fs::write(
+        &path,
+        gltf_out::write_plain(&gen::stair_hall(planes), OutFormat::Glb),
+    )
+    .map_err(|e| e.to_string())?;
+    let tagged =
+        portcullis::pipeline::load_tagged(&path, &Default::default()).map_err(|d| d.to_string())?;
+    let mut best = f64::INFINITY;
+    let mut cells = 0;
+    for _ in 0..runs {
+        let mut t = tagged.clone();
+        let (set, s) = timed(|| portcullis::pipeline::build_cells(&mut t));
+        best = best.min(s);
+        cells = set.cells.len();
+    }
+    let steps = planes.saturating_sub(3).div_ceil(3).max(1);
+    Ok(Some(format!(
+        "One room of {} distinct planes (a stair hall of {steps} steps): {cells} cells in {best:.3} s.",
+        3 * steps + 3
+    )))
 }

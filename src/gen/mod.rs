@@ -109,6 +109,91 @@ pub fn generate(opts: &GenOptions) -> Scene {
     b.scene
 }
 
+/// One room of at least `planes` distinct planes (`3 × steps + 3`), for timing the 3D cell
+/// decomposition: a stair hall whose floor and ceiling rise together, steps of 0.3 m tread
+/// and 0.15 m rise, 2.575 m clear height (not a whole number of rises, so no tread shares a
+/// plane with a ceiling), 4 m wide. Each step is one convex cell, so the answer is known:
+/// as many cells as steps. Planes: a tread, a ceiling and a riser per step (the first step has
+/// no riser) and the two end walls and two side walls.
+pub fn stair_hall(planes: usize) -> Scene {
+    let steps = planes.saturating_sub(3).div_ceil(3).max(1);
+    let (tread, rise, clear, width) = (0.3, 0.15, 2.575, 4.0);
+    let floor = |i: usize| i as f64 * rise;
+    let x = |i: usize| i as f64 * tread;
+    let mut tris: Vec<[DVec3; 3]> = Vec::new();
+    // A rectangle as two triangles, wound to face `inward`.
+    let mut quad = |a: DVec3, b: DVec3, c: DVec3, d: DVec3, inward: DVec3| {
+        let n = (b - a).cross(c - a);
+        if n.dot(inward) > 0.0 {
+            tris.push([a, b, c]);
+            tris.push([a, c, d]);
+        } else {
+            tris.push([a, c, b]);
+            tris.push([a, d, c]);
+        }
+    };
+    let p = DVec3::new;
+    for i in 0..steps {
+        let (x0, x1, f, c) = (x(i), x(i + 1), floor(i), floor(i) + clear);
+        quad(
+            p(x0, f, 0.0),
+            p(x1, f, 0.0),
+            p(x1, f, width),
+            p(x0, f, width),
+            DVec3::Y,
+        );
+        quad(
+            p(x0, c, 0.0),
+            p(x1, c, 0.0),
+            p(x1, c, width),
+            p(x0, c, width),
+            -DVec3::Y,
+        );
+        for (z, inward) in [(0.0, DVec3::Z), (width, -DVec3::Z)] {
+            quad(p(x0, f, z), p(x1, f, z), p(x1, c, z), p(x0, c, z), inward);
+        }
+        if i > 0 {
+            // The riser below this tread and the one above the previous ceiling (-x faces).
+            let (pf, pc) = (floor(i - 1), floor(i - 1) + clear);
+            quad(
+                p(x0, pf, 0.0),
+                p(x0, f, 0.0),
+                p(x0, f, width),
+                p(x0, pf, width),
+                -DVec3::X,
+            );
+            quad(
+                p(x0, pc, 0.0),
+                p(x0, c, 0.0),
+                p(x0, c, width),
+                p(x0, pc, width),
+                DVec3::X,
+            );
+        }
+    }
+    let (first, last) = (0, steps - 1);
+    let (lx, lf) = (x(steps), floor(last));
+    quad(
+        p(0.0, floor(first), 0.0),
+        p(0.0, clear, 0.0),
+        p(0.0, clear, width),
+        p(0.0, floor(first), width),
+        DVec3::X,
+    );
+    quad(
+        p(lx, lf, 0.0),
+        p(lx, lf + clear, 0.0),
+        p(lx, lf + clear, width),
+        p(lx, lf, width),
+        -DVec3::X,
+    );
+    let mut b = Builder::new();
+    let level = b.node("Level", None, None, None);
+    let room = b.node("stair-room", Some(level), None, None);
+    b.mesh_node("Shell", room, tris, Mat::Wall);
+    b.scene
+}
+
 #[derive(Clone, Copy)]
 enum Mat {
     Floor,

@@ -517,8 +517,15 @@ fn cells_between(
     };
     let f = Frame2::new(plane);
     let mut out = Vec::new();
-    for k in near_cells.query(bb, eps) {
-        if k == a || k == b {
+    // Only a cell whose box reaches into the gap by more than the tolerance can lie in it; the
+    // cells beside the two (the rooms along the same wall) only touch its edges.
+    let (lo, hi) = (
+        bb.min + DVec3::splat(2.0 * eps),
+        bb.max - DVec3::splat(2.0 * eps),
+    );
+    for k in near_cells.query(bb, 0.0) {
+        let kb = &cells.cells[k].bounds;
+        if k == a || k == b || kb.min.cmpge(hi).any() || kb.max.cmple(lo).any() {
             continue;
         }
         let Some(inside) = cells.cells[k]
