@@ -7,16 +7,10 @@ use common::{fixture, sample};
 use glam::{DMat4, DQuat, DVec3};
 use portcullis::cells::{CellSet, CellSource};
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, load_tagged, LoadOptions, Tagged};
+use portcullis::pipeline::{build_cells, Tagged};
 
 fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet) {
-    let opts = LoadOptions {
-        preset: preset.map(str::to_string),
-        ..Default::default()
-    };
-    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
-    let c = build_cells(&mut t);
-    (t, c)
+    common::load_cells(path, preset)
 }
 
 fn room_cells<'a>(t: &Tagged, c: &'a CellSet, room: &str) -> Vec<&'a portcullis::cells::Cell> {

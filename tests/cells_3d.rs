@@ -15,13 +15,7 @@ use portcullis::cells::{CellSet, CellSource};
 use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
 
 fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet) {
-    let opts = LoadOptions {
-        preset: preset.map(str::to_string),
-        ..Default::default()
-    };
-    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
-    let c = build_cells(&mut t);
-    (t, c)
+    common::load_cells(path, preset)
 }
 
 /// A room's known answer: name, cells, volume (m³).
@@ -500,20 +494,7 @@ fn the_benchmark_stair_hall_is_one_cell_per_step() {
 fn ray_oracle_on_generated_buildings() {
     for (rooms, seed) in [(12, 3), (40, 9)] {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("g.glb");
-        common::succeeds(
-            assert_cmd::Command::cargo_bin("portcullis")
-                .unwrap()
-                .args([
-                    "gen",
-                    "--rooms",
-                    &rooms.to_string(),
-                    "--seed",
-                    &seed.to_string(),
-                    "-o",
-                ])
-                .arg(&path),
-        );
+        let path = common::generated_building(dir.path(), rooms, seed);
         let (t, c) = load(&path, None);
         let judged = oracle(&t, &c, 100, &format!("gen {rooms} rooms seed {seed}"));
         assert!(judged > 10 * rooms, "only {judged} points judged");

@@ -69,6 +69,8 @@ fn every_input() -> Vec<(PathBuf, Vec<&'static str>)> {
         "occlusion_room.glb",
         "gi_zdm2.glb",
         "pandora.obj",
+        "E1M2_godot.glb",
+        "MAP01_godot.glb",
     ] {
         v.push((fixture(f), vec![]));
     }

@@ -11,20 +11,7 @@ use portcullis::gen::{self, GenOptions, Layout};
 fn generated_buildings_give_the_rooms_and_doors_they_were_built_with() {
     for (rooms, seed) in [(1, 1), (12, 3), (40, 9)] {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("g.glb");
-        assert_cmd::Command::cargo_bin("portcullis")
-            .unwrap()
-            .args([
-                "gen",
-                "--rooms",
-                &rooms.to_string(),
-                "--seed",
-                &seed.to_string(),
-                "-o",
-            ])
-            .arg(&path)
-            .assert()
-            .success();
+        let path = common::generated_building(dir.path(), rooms, seed);
         // Clean: every authored portal matched, every room reachable, no stray geometry.
         assert_cmd::Command::cargo_bin("portcullis")
             .unwrap()

@@ -323,33 +323,29 @@ fn split(
         return split(s, region, rest, boundary, segs, eps, leaves);
     };
     let mut sides: [(Vec<Frag>, Vec<Frag>, Vec<Seg>); 2] = Default::default();
-    for f in active {
-        match side(&pl, &f.pts, eps) {
-            Side::On => {
-                sides[0].1.push(f.clone());
-                sides[1].1.push(f);
-            }
-            Side::Back => sides[0].0.push(f),
-            Side::Front => sides[1].0.push(f),
-            Side::Both => {
-                let (b, fr) = cut(&f, &pl, eps);
-                sides[0].0.extend(b);
-                sides[1].0.extend(fr);
-            }
-        }
-    }
-    for f in boundary {
-        match side(&pl, &f.pts, eps) {
-            Side::On => {
-                sides[0].1.push(f.clone());
-                sides[1].1.push(f);
-            }
-            Side::Back => sides[0].1.push(f),
-            Side::Front => sides[1].1.push(f),
-            Side::Both => {
-                let (b, fr) = cut(&f, &pl, eps);
-                sides[0].1.extend(b);
-                sides[1].1.extend(fr);
+    for (list, is_active) in [(active, true), (boundary, false)] {
+        for f in list {
+            // Where a piece goes on its side: an active fragment stays active, a boundary one
+            // stays boundary; one on the cut is boundary of both children.
+            let keep = |side: &mut (Vec<Frag>, Vec<Frag>, Vec<Seg>), f: Frag| {
+                if is_active {
+                    side.0.push(f)
+                } else {
+                    side.1.push(f)
+                }
+            };
+            match side(&pl, &f.pts, eps) {
+                Side::On => {
+                    sides[0].1.push(f.clone());
+                    sides[1].1.push(f);
+                }
+                Side::Back => keep(&mut sides[0], f),
+                Side::Front => keep(&mut sides[1], f),
+                Side::Both => {
+                    let (b, fr) = cut(&f, &pl, eps);
+                    b.into_iter().for_each(|b| keep(&mut sides[0], b));
+                    fr.into_iter().for_each(|fr| keep(&mut sides[1], fr));
+                }
             }
         }
     }

@@ -133,60 +133,37 @@ pub fn stair_hall(planes: usize) -> Scene {
         }
     };
     let p = DVec3::new;
+    // A face across the hall (z from 0 to width) between two corners given in (x, y).
+    let mut across = |a: (f64, f64), b: (f64, f64), inward: DVec3| {
+        quad(
+            p(a.0, a.1, 0.0),
+            p(b.0, b.1, 0.0),
+            p(b.0, b.1, width),
+            p(a.0, a.1, width),
+            inward,
+        )
+    };
+    let mut sides: Vec<(f64, f64, f64, f64)> = Vec::new();
     for i in 0..steps {
         let (x0, x1, f, c) = (x(i), x(i + 1), floor(i), floor(i) + clear);
-        quad(
-            p(x0, f, 0.0),
-            p(x1, f, 0.0),
-            p(x1, f, width),
-            p(x0, f, width),
-            DVec3::Y,
-        );
-        quad(
-            p(x0, c, 0.0),
-            p(x1, c, 0.0),
-            p(x1, c, width),
-            p(x0, c, width),
-            -DVec3::Y,
-        );
+        across((x0, f), (x1, f), DVec3::Y);
+        across((x0, c), (x1, c), -DVec3::Y);
+        sides.push((x0, x1, f, c));
+        if i > 0 {
+            // The riser below this tread and the one above the previous ceiling.
+            let (pf, pc) = (floor(i - 1), floor(i - 1) + clear);
+            across((x0, pf), (x0, f), -DVec3::X);
+            across((x0, pc), (x0, c), DVec3::X);
+        }
+    }
+    let (lx, lf) = (x(steps), floor(steps - 1));
+    across((0.0, 0.0), (0.0, clear), DVec3::X);
+    across((lx, lf), (lx, lf + clear), -DVec3::X);
+    for (x0, x1, f, c) in sides {
         for (z, inward) in [(0.0, DVec3::Z), (width, -DVec3::Z)] {
             quad(p(x0, f, z), p(x1, f, z), p(x1, c, z), p(x0, c, z), inward);
         }
-        if i > 0 {
-            // The riser below this tread and the one above the previous ceiling (-x faces).
-            let (pf, pc) = (floor(i - 1), floor(i - 1) + clear);
-            quad(
-                p(x0, pf, 0.0),
-                p(x0, f, 0.0),
-                p(x0, f, width),
-                p(x0, pf, width),
-                -DVec3::X,
-            );
-            quad(
-                p(x0, pc, 0.0),
-                p(x0, c, 0.0),
-                p(x0, c, width),
-                p(x0, pc, width),
-                DVec3::X,
-            );
-        }
     }
-    let (first, last) = (0, steps - 1);
-    let (lx, lf) = (x(steps), floor(last));
-    quad(
-        p(0.0, floor(first), 0.0),
-        p(0.0, clear, 0.0),
-        p(0.0, clear, width),
-        p(0.0, floor(first), width),
-        DVec3::X,
-    );
-    quad(
-        p(lx, lf, 0.0),
-        p(lx, lf + clear, 0.0),
-        p(lx, lf + clear, width),
-        p(lx, lf, width),
-        -DVec3::X,
-    );
     let mut b = Builder::new();
     let level = b.node("Level", None, None, None);
     let room = b.node("stair-room", Some(level), None, None);

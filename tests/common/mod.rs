@@ -174,6 +174,40 @@ pub fn read_gltf(bytes: &[u8]) -> (Value, Option<Vec<u8>>) {
     }
 }
 
+/// Imports, tags, and builds the cells of a level.
+pub fn load_cells(
+    path: &Path,
+    preset: Option<&str>,
+) -> (portcullis::pipeline::Tagged, portcullis::cells::CellSet) {
+    use portcullis::pipeline::{build_cells, load_tagged, LoadOptions};
+    let opts = LoadOptions {
+        preset: preset.map(str::to_string),
+        ..Default::default()
+    };
+    let mut t = load_tagged(path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
+    let c = build_cells(&mut t);
+    (t, c)
+}
+
+/// Writes the building `portcullis gen --rooms N --seed S` makes to `dir/g.glb`.
+pub fn generated_building(dir: &Path, rooms: usize, seed: u64) -> PathBuf {
+    let path = dir.join("g.glb");
+    succeeds(
+        assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args([
+                "gen",
+                "--rooms",
+                &rooms.to_string(),
+                "--seed",
+                &seed.to_string(),
+                "-o",
+            ])
+            .arg(&path),
+    );
+    path
+}
+
 /// Imports, tags, and builds the cells and portals of a level, as `convert` does.
 pub fn load_level(
     path: &Path,
