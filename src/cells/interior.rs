@@ -41,6 +41,7 @@ use std::collections::BinaryHeap;
 use glam::DVec3;
 
 use crate::geom::aabb::Aabb;
+use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
 
@@ -152,6 +153,7 @@ impl Surface {
             return None;
         }
         let mut planes: Vec<Plane> = Vec::new();
+        let mut index = PlaneIndex::default();
         let mut hull_frags = Vec::new();
         let mut active = Vec::new();
         for t in tris {
@@ -163,9 +165,7 @@ impl Surface {
                 continue;
             }
             let unit = n / len;
-            let id = match planes.iter().position(|p| {
-                p.normal.dot(unit).abs() > 0.5 && t.iter().all(|q| p.distance(*q).abs() <= eps)
-            }) {
+            let id = match index.find(&planes, unit, t, eps) {
                 Some(i) => i,
                 None => {
                     let c = (t[0] + t[1] + t[2]) / 3.0;
@@ -173,6 +173,7 @@ impl Surface {
                         normal: unit,
                         d: unit.dot(c),
                     });
+                    index.add(unit, planes.len() - 1);
                     planes.len() - 1
                 }
             };
@@ -196,37 +197,117 @@ impl Surface {
     }
 }
 
+/// The room's planes by direction: a triangle is looked for among the planes whose normal
+/// lies in the same or a neighbouring bin of about a degree (either way round), not among all
+/// of them (a big room has thousands of planes).
+#[derive(Default)]
+struct PlaneIndex {
+    bins: std::collections::HashMap<[i32; 3], Vec<usize>>,
+}
+
+impl PlaneIndex {
+    const BINS: f64 = 64.0;
+
+    /// The normal's bin (a plane is filed under its first triangle's normal, and looked for
+    /// under both `n` and `-n`).
+    fn key(n: DVec3) -> [i32; 3] {
+        let q = (n * Self::BINS).floor();
+        [q.x as i32, q.y as i32, q.z as i32]
+    }
+
+    fn add(&mut self, n: DVec3, id: usize) {
+        self.bins.entry(Self::key(n)).or_default().push(id);
+    }
+
+    /// The earliest plane holding every corner of `t` within `eps`.
+    fn find(&self, planes: &[Plane], n: DVec3, t: &[DVec3; 3], eps: f64) -> Option<usize> {
+        let mut best: Option<usize> = None;
+        for m in [n, -n] {
+            let k = Self::key(m);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let Some(ids) = self.bins.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) else {
+                            continue;
+                        };
+                        for &i in ids {
+                            let p = &planes[i];
+                            if best.is_none_or(|b| i < b)
+                                && p.normal.dot(n).abs() > 0.5
+                                && t.iter().all(|q| p.distance(*q).abs() <= eps)
+                            {
+                                best = Some(i);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
 /// The reflex edges of the surface: where a triangle `g` meets the plane of a triangle `f`
-/// along an edge that `f` holds, with `g` behind `f` (on its solid side).
+/// along an edge that `f` holds, with `g` behind `f` (on its solid side). Only triangles that
+/// share a corner with `g`'s edge are asked: a reflex edge that meets another triangle only
+/// along the middle of its side (a T-junction) is not credited, which changes which cut comes
+/// first, never whether the cells are right.
 fn reflex_segments(s: &Surface, eps: f64) -> Vec<Seg> {
     let frags: Vec<&Frag> = s.active.iter().chain(s.hull_frags.iter()).collect();
-    let mut by_plane: Vec<Vec<usize>> = vec![Vec::new(); s.planes.len()];
+    // Triangles meet at shared corners: each corner's neighbours are found through a grid of
+    // cells a few tolerances wide (a corner and its copy in the next triangle may differ by
+    // the tolerance and straddle a cell boundary, so the 27 cells around are asked).
+    let cell = 4.0 * eps;
+    let key = |p: DVec3| {
+        let q = (p / cell).floor();
+        [q.x as i64, q.y as i64, q.z as i64]
+    };
+    let mut at: std::collections::HashMap<[i64; 3], Vec<u32>> = std::collections::HashMap::new();
     for (i, f) in frags.iter().enumerate() {
-        by_plane[f.plane as usize].push(i);
+        for p in &f.pts {
+            at.entry(key(*p)).or_default().push(i as u32);
+        }
     }
+    let near = |p: DVec3, out: &mut Vec<u32>| {
+        let k = key(p);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(ids) = at.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) {
+                        out.extend_from_slice(ids);
+                    }
+                }
+            }
+        }
+    };
     let mut out = Vec::new();
+    let mut candidates: Vec<u32> = Vec::new();
     for g in &frags {
         for k in 0..3 {
             let (a, b, c) = (g.pts[k], g.pts[(k + 1) % 3], g.pts[(k + 2) % 3]);
             if a.distance(b) <= eps {
                 continue;
             }
-            for (pi, p) in s.planes.iter().enumerate() {
-                if pi as u32 == g.plane || p.distance(a).abs() > eps || p.distance(b).abs() > eps {
+            candidates.clear();
+            near(a, &mut candidates);
+            near(b, &mut candidates);
+            candidates.sort_unstable();
+            candidates.dedup();
+            for &fi in &candidates {
+                let f = frags[fi as usize];
+                let p = &s.planes[f.plane as usize];
+                if f.plane == g.plane || p.distance(a).abs() > eps || p.distance(b).abs() > eps {
                     continue;
                 }
-                for &fi in &by_plane[pi] {
-                    let f = frags[fi];
-                    if f.air.dot(c - a) >= -eps {
-                        continue;
-                    }
-                    if let Some((x, y)) = clip_segment_to_triangle(a, b, &f.pts, eps) {
-                        out.push(Seg {
-                            a: x,
-                            b: y,
-                            planes: [pi as u32, g.plane],
-                        });
-                    }
+                if f.air.dot(c - a) >= -eps {
+                    continue;
+                }
+                if let Some((x, y)) = clip_segment_to_triangle(a, b, &f.pts, eps) {
+                    out.push(Seg {
+                        a: x,
+                        b: y,
+                        planes: [f.plane, g.plane],
+                    });
                 }
             }
         }
@@ -458,7 +539,9 @@ pub(crate) fn winding_number(tris: &[[DVec3; 3]], p: DVec3) -> f64 {
     total / (4.0 * std::f64::consts::PI)
 }
 
-/// Air leaves merged greedily into maximal convex unions (see the module docs).
+/// Air leaves merged greedily into maximal convex unions (see the module docs). Candidates
+/// come from a grid over the leaves' boxes: a merged cell asks for the leaves its box meets and
+/// tries the cells they now belong to.
 fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
     if cells.len() < 2 {
         return cells;
@@ -466,35 +549,67 @@ fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
     let total: f64 = cells.iter().map(|c| c.volume()).sum();
     // Volumes compared on a grid of a millionth of the room's: near-equal volumes are ties.
     let key = |v: f64| (v / total * 1e6).round() as i64;
-    let mut alive = vec![true; cells.len()];
-    let mut version = vec![0u32; cells.len()];
-    // (volume key, first leaf, second leaf, their versions when the union was found).
+    let n = cells.len();
+    let grid = BoxGrid::new(cells.iter().map(|c| c.bounds()).collect());
+    let mut bounds: Vec<Aabb> = cells.iter().map(|c| c.bounds()).collect();
+    // The cell each leaf now belongs to, and each cell's leaves.
+    let mut owner: Vec<usize> = (0..n).collect();
+    let mut members: Vec<Vec<usize>> = (0..n).map(|i| vec![i]).collect();
+    let mut version = vec![0u32; n];
+    // (volume key, first cell, second cell, their versions when the union was found).
     type Candidate = (i64, Reverse<usize>, Reverse<usize>, u32, u32);
     let mut heap: BinaryHeap<Candidate> = BinaryHeap::new();
-    let bounds: Vec<Aabb> = cells.iter().map(|c| c.bounds()).collect();
-    let mut bounds = bounds;
     let mut unions: std::collections::HashMap<(usize, usize), ConvexPolyhedron> =
         std::collections::HashMap::new();
-    let try_pair = |cells: &Vec<ConvexPolyhedron>,
-                    bounds: &Vec<Aabb>,
-                    i: usize,
-                    j: usize|
-     -> Option<ConvexPolyhedron> {
-        if !bounds[i].grown(eps).meets(&bounds[j]) {
-            return None;
-        }
-        convex_union(&cells[i], &cells[j], eps)
-    };
-    for i in 0..cells.len() {
-        for j in i + 1..cells.len() {
-            if let Some(u) = try_pair(&cells, &bounds, i, j) {
-                heap.push((key(u.volume()), Reverse(i), Reverse(j), 0, 0));
-                unions.insert((i, j), u);
+    // Pushes every convex union of cell `i` with a cell its box meets.
+    let consider =
+        |i: usize,
+         cells: &[ConvexPolyhedron],
+         bounds: &[Aabb],
+         owner: &[usize],
+         version: &[u32],
+         only_later: bool,
+         heap: &mut BinaryHeap<Candidate>,
+         unions: &mut std::collections::HashMap<(usize, usize), ConvexPolyhedron>| {
+            let mut others: Vec<usize> = grid
+                .query(&bounds[i], eps)
+                .into_iter()
+                .map(|leaf| owner[leaf])
+                .filter(|&k| k != i && (!only_later || k > i))
+                .collect();
+            others.sort_unstable();
+            others.dedup();
+            for k in others {
+                if !bounds[i].grown(eps).meets(&bounds[k]) {
+                    continue;
+                }
+                if let Some(u) = convex_union(&cells[i], &cells[k], eps) {
+                    let (a, b) = (i.min(k), i.max(k));
+                    heap.push((
+                        key(u.volume()),
+                        Reverse(a),
+                        Reverse(b),
+                        version[a],
+                        version[b],
+                    ));
+                    unions.insert((a, b), u);
+                }
             }
-        }
+        };
+    for i in 0..n {
+        consider(
+            i,
+            &cells,
+            &bounds,
+            &owner,
+            &version,
+            true,
+            &mut heap,
+            &mut unions,
+        );
     }
     while let Some((_, Reverse(i), Reverse(j), vi, vj)) = heap.pop() {
-        if !alive[i] || !alive[j] || version[i] != vi || version[j] != vj {
+        if owner[i] != i || owner[j] != j || version[i] != vi || version[j] != vj {
             continue;
         }
         let Some(u) = unions.remove(&(i, j)) else {
@@ -502,30 +617,27 @@ fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
         };
         bounds[i] = u.bounds();
         cells[i] = u;
-        alive[j] = false;
-        version[i] += 1;
-        for (k, &live) in alive.clone().iter().enumerate() {
-            if k == i || !live {
-                continue;
-            }
-            let (a, b) = (i.min(k), i.max(k));
-            unions.remove(&(a, b));
-            if let Some(u) = try_pair(&cells, &bounds, a, b) {
-                heap.push((
-                    key(u.volume()),
-                    Reverse(a),
-                    Reverse(b),
-                    version[a],
-                    version[b],
-                ));
-                unions.insert((a, b), u);
-            }
+        for leaf in std::mem::take(&mut members[j]) {
+            owner[leaf] = i;
+            members[i].push(leaf);
         }
+        version[i] += 1;
+        version[j] += 1;
+        consider(
+            i,
+            &cells,
+            &bounds,
+            &owner,
+            &version,
+            false,
+            &mut heap,
+            &mut unions,
+        );
     }
     cells
         .into_iter()
-        .zip(alive)
-        .filter_map(|(c, a)| a.then_some(c))
+        .enumerate()
+        .filter_map(|(i, c)| (owner[i] == i).then_some(c))
         .collect()
 }
 
