@@ -291,12 +291,25 @@ pub fn svg_map(
     );
     for (i, (cell, outline)) in cells.cells.iter().zip(&outlines).enumerate() {
         let c = centroid(outline);
+        // A narrow cell (a door reveal) gets its number alone, where `N room` would spill over
+        // its neighbours (a glyph is about 1.1 units wide at this size).
+        let full = format!("{i} {}", room_name(cell.room));
+        let width = outline
+            .iter()
+            .map(|p| p.x)
+            .fold(f64::NEG_INFINITY, f64::max)
+            - outline.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
+        let label = if 1.1 * u * full.chars().count() as f64 <= width {
+            full
+        } else {
+            i.to_string()
+        };
         let _ = writeln!(
             s,
-            r#"<text x="{}" y="{}">{i} {}</text>"#,
+            r#"<text x="{}" y="{}">{}</text>"#,
             num(c.x),
             num(c.y + 0.7 * u),
-            escape(room_name(cell.room))
+            escape(&label)
         );
     }
     let _ = writeln!(s, "</g>");
