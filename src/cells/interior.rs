@@ -33,7 +33,9 @@
 //! hull within the tolerance. Limits: a surface that is neither closed nor consistently
 //! oriented is read by area-weighted majority, so a few flipped triangles do no harm but a mesh
 //! with half its faces flipped is read as a mesh would be rendered, wrongly; leaves thinner than
-//! twice the tolerance are dropped as slivers.
+//! twice the tolerance are dropped as slivers; nothing cuts along the rim of a hole that has no
+//! wall, so a room whose floor and ceiling are both open over a neighbour (a walkway around a
+//! pit) keeps the space over that neighbour in a cell.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
