@@ -13,6 +13,7 @@ use common::{fixture, levels_with_rooms, sample};
 use glam::{DMat4, DQuat, DVec3};
 use portcullis::cells::{CellSet, CellSource};
 use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
+use portcullis::rng::SplitMix64 as Rng;
 
 fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet) {
     common::load_cells(path, preset)
@@ -219,19 +220,6 @@ fn outward_facing_rooms_get_as_many_cells_and_the_same_volume() {
 
 // --- The oracle: nothing below calls the cell stage's geometry.
 
-/// A small deterministic number source (SplitMix64).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// A room's structural triangles in world space, read from the scene: no props, portals,
 /// footprints or bounds.
 fn room_triangles(t: &Tagged, c: &CellSet, r: usize) -> Vec<[DVec3; 3]> {
@@ -380,7 +368,7 @@ fn oracle_with(
     facing_in: bool,
 ) -> usize {
     let mut judged = 0;
-    let mut rng = Rng(0x5EED);
+    let mut rng = Rng::from_state(0x5EED);
     for r in 0..t.tagging.rooms.len() {
         let cells: Vec<&portcullis::cells::Cell> =
             c.room_cells[r].iter().map(|&i| &c.cells[i]).collect();
@@ -416,7 +404,7 @@ fn oracle_with(
             );
         }
         for _ in 0..points_per_room {
-            let p = lo + size * DVec3::new(rng.next(), rng.next(), rng.next());
+            let p = lo + size * DVec3::new(rng.unit(), rng.unit(), rng.unit());
             let Some(inside) = classify(&tris, closed, p) else {
                 continue;
             };

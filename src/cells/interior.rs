@@ -378,7 +378,16 @@ fn cut(f: &Frag, pl: &Plane, eps: f64) -> (Option<Frag>, Option<Frag>) {
     )
 }
 
-/// The BSP (see the module docs); leaves are pushed back child first.
+/// A BSP node still to split: its region and the fragments and reflex edges in it.
+struct Node {
+    region: ConvexPolyhedron,
+    active: Vec<Frag>,
+    boundary: Vec<Frag>,
+    segs: Vec<Seg>,
+}
+
+/// The BSP (see the module docs); leaves are pushed back child first. Nodes wait on a stack of
+/// their own, not the thread's: a room of thousands of planes can be thousands of cuts deep.
 fn split(
     s: &Surface,
     region: ConvexPolyhedron,
@@ -388,23 +397,55 @@ fn split(
     eps: f64,
     leaves: &mut Vec<(ConvexPolyhedron, Vec<Frag>)>,
 ) {
-    let Some(id) = splitter(s, &active, &segs, eps) else {
-        leaves.push((region, boundary));
-        return;
+    let mut stack = vec![Node {
+        region,
+        active,
+        boundary,
+        segs,
+    }];
+    while let Some(node) = stack.pop() {
+        match split_node(s, node, eps) {
+            Ok([back, front]) => {
+                // Front first onto the stack, so the back child comes off first.
+                stack.push(front);
+                stack.push(back);
+            }
+            Err(leaf) => leaves.push(leaf),
+        }
+    }
+}
+
+/// One node: its two children, or the leaf it is (its region and boundary fragments).
+fn split_node(
+    s: &Surface,
+    node: Node,
+    eps: f64,
+) -> Result<[Node; 2], (ConvexPolyhedron, Vec<Frag>)> {
+    let Node {
+        region,
+        mut active,
+        mut boundary,
+        mut segs,
+    } = node;
+    // A plane that only grazes the region puts its fragments on the region's boundary; the
+    // next plane is then tried.
+    let (id, back, front) = loop {
+        let Some(id) = splitter(s, &active, &segs, eps) else {
+            return Err((region, boundary));
+        };
+        let pl = s.planes[id as usize];
+        match (region.clip(&pl, eps), region.clip(&pl.flipped(), eps)) {
+            (Some(back), Some(front)) => break (id, back, front),
+            _ => {
+                let (on, rest): (Vec<Frag>, Vec<Frag>) =
+                    active.into_iter().partition(|f| f.plane == id);
+                active = rest;
+                boundary.extend(on);
+                segs.retain(|g| !g.planes.contains(&id));
+            }
+        }
     };
     let pl = s.planes[id as usize];
-    let (back, front) = (region.clip(&pl, eps), region.clip(&pl.flipped(), eps));
-    let (Some(back), Some(front)) = (back, front) else {
-        // The plane only grazes the region: its fragments lie on the region's boundary.
-        let (on, rest): (Vec<Frag>, Vec<Frag>) = active.into_iter().partition(|f| f.plane == id);
-        let mut boundary = boundary;
-        boundary.extend(on);
-        let segs = segs
-            .into_iter()
-            .filter(|g| !g.planes.contains(&id))
-            .collect();
-        return split(s, region, rest, boundary, segs, eps, leaves);
-    };
     let mut sides: [(Vec<Frag>, Vec<Frag>, Vec<Seg>); 2] = Default::default();
     for (list, is_active) in [(active, true), (boundary, false)] {
         for f in list {
@@ -452,8 +493,20 @@ fn split(
         }
     }
     let [(ab, bb, sb), (af, bf, sf)] = sides;
-    split(s, back, ab, bb, sb, eps, leaves);
-    split(s, front, af, bf, sf, eps, leaves);
+    Ok([
+        Node {
+            region: back,
+            active: ab,
+            boundary: bb,
+            segs: sb,
+        },
+        Node {
+            region: front,
+            active: af,
+            boundary: bf,
+            segs: sf,
+        },
+    ])
 }
 
 /// The plane to split a node by: the most reflex-edge length, then the fewest fragments cut,

@@ -44,7 +44,7 @@ pub use split::{split_geometry, SplitPiece};
 pub enum CellSource {
     /// The convex hull of the room's structure (the room is convex).
     Hull,
-    /// A convex piece of a non-convex room's hull.
+    /// A convex piece of a non-convex room's interior.
     Split,
     /// A bound mesh.
     Bound,
