@@ -39,16 +39,26 @@ fn lportal_tutorial_simple_has_one_door_pair() {
         let (t, c, p) = load(&fixture(file), None);
         let pairs = room_pairs(&t, &c, &p);
         assert_eq!(pairs.len(), 1, "{file}");
-        let door = &p.portals[pairs[0].0];
-        let (lo, hi) = bounds(&door.polygon);
-        let want = (DVec3::new(3.0, 0.1, -1.0), DVec3::new(3.0, 2.0, 1.0));
-        // Within 1e-6 m, plus the precision of the file itself (the OBJ writes -0.999999).
-        let tol = 1e-6 + 2e-9;
-        assert!(
-            (lo - want.0).abs().max_element() <= tol && (hi - want.1).abs().max_element() <= tol,
-            "{file}: {lo} .. {hi}"
-        );
-        assert!((door.area - 2.0 * 1.9).abs() < 1e-5);
+        // The door gap is wall (tests/cells.rs): each side of the pair is its own room's face
+        // of the 0.4 m wall, x = 2.8 for the kitchen and 3.2 for the lounge.
+        let (door, back) = (&p.portals[pairs[0].0], &p.portals[pairs[0].1]);
+        for q in [door, back] {
+            let x = if t.tagging.rooms[c.cells[q.from].room].name == "kitchen" {
+                2.8
+            } else {
+                3.2
+            };
+            let (lo, hi) = bounds(&q.polygon);
+            let want = (DVec3::new(x, 0.1, -1.0), DVec3::new(x, 2.0, 1.0));
+            // Within 1e-6 m, plus the precision of the file itself (the OBJ writes -0.999999).
+            let tol = 1e-6 + 2e-9;
+            assert!(
+                (lo - want.0).abs().max_element() <= tol
+                    && (hi - want.1).abs().max_element() <= tol,
+                "{file}: {lo} .. {hi}"
+            );
+            assert!((q.area - 2.0 * 1.9).abs() < 1e-5);
+        }
         let authored = door.authored.map(|n| t.scene.node_label(n));
         assert_eq!(authored.as_deref(), Some("portal_lounge"), "{file}");
         // No ceilings: the open tops are exterior portals, on the plane y = 2.

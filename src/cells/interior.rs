@@ -35,7 +35,8 @@
 //! with half its faces flipped is read as a mesh would be rendered, wrongly; leaves thinner than
 //! twice the tolerance are dropped as slivers; nothing cuts along the rim of a hole that has no
 //! wall, so a room whose floor and ceiling are both open over a neighbour (a walkway around a
-//! pit) keeps the space over that neighbour in a cell.
+//! pit) keeps the space over that neighbour in a cell, unless it is a prism and its plan cuts
+//! there ([`super::prism`], tried first).
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -98,11 +99,50 @@ impl Surface {
         leaves
             .into_iter()
             .filter(|(leaf, boundary)| {
-                thickness(leaf) > 2.0 * eps && is_air(leaf, boundary, tris, self.sense)
+                thickness(leaf) > 2.0 * eps
+                    && is_air(leaf, boundary, tris, self.sense)
+                    && (enclosed(leaf, boundary, hull, eps)
+                        || -self.sense * winding_number(tris, leaf.interior_point()) > 0.5)
             })
             .map(|(leaf, _)| leaf)
             .collect()
     }
+}
+
+/// Whether the room's surface holds a leaf more than the leaf opens out of the room: the area
+/// of the room's triangles on the leaf's faces against the area of its faces on the room's
+/// hull that no triangle covers (faces the BSP cut inside the hull count for neither). A leaf
+/// more open than held is the room's only if the room's surface still winds around it (the
+/// generalized winding number, as for a leaf no surface touches): a piece of a room beside a
+/// wide window is, while a slot between two of the room's wall blocks that opens onto the
+/// next room and the sky (LPortal's door gaps) is not: the portal stage bridges the wall
+/// there, as for any wall. A closed room has no open face, so this never removes its air.
+fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron, eps: f64) -> bool {
+    let mut covered_on = vec![0.0f64; leaf.faces.len()];
+    let mut covered = 0.0;
+    for f in boundary {
+        let area = polygon_area(&f.pts, f.air);
+        covered += area;
+        if let Some(k) = leaf
+            .faces
+            .iter()
+            .position(|face| f.pts.iter().all(|p| face.plane.distance(*p).abs() <= eps))
+        {
+            covered_on[k] += area;
+        }
+    }
+    let open: f64 = leaf
+        .faces
+        .iter()
+        .zip(&covered_on)
+        .filter(|(face, _)| {
+            hull.faces
+                .iter()
+                .any(|h| face.plane.same_as(&h.plane, 2.0 * eps, 1e-6))
+        })
+        .map(|(face, c)| (polygon_area(&face.points, face.plane.normal) - c).max(0.0))
+        .sum();
+    covered >= open
 }
 
 /// The convex cells of the air inside a room's surface. `hull` is the convex hull of `tris`.

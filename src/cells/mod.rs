@@ -1,8 +1,9 @@
 //! Cells: tagged rooms become convex polyhedra.
 //!
 //! A room's volume comes from, in order: its bound meshes (each one cell, their convex hull);
-//! its footprints (floor polygons extruded along up); the air its structural surface encloses,
-//! decomposed in 3D into convex cells ([`interior`]: a BSP over the room's own planes, leaves
+//! its footprints (floor polygons extruded along up); the air its structural surface encloses:
+//! for a room that is a prism along up, its floor plan's convex pieces ([`prism`]), else a 3D
+//! decomposition into convex cells ([`interior`]: a BSP over the room's own planes, leaves
 //! classified by the surface, air leaves merged into maximal convex unions). A convex room is
 //! its hull, one cell; an L is 2, a U 3, a ring around a pillar 4, a soffit hall 2, a four-step
 //! stair hall 4, and no cell reaches into the solid under a platform or inside a slab.
@@ -34,6 +35,7 @@ mod assign;
 mod footprint;
 mod interior;
 mod overlap;
+mod prism;
 pub mod split;
 
 pub use split::{split_geometry, SplitPiece};
@@ -386,7 +388,8 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                     let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
                     match hull(&pts, eps) {
                         Ok(h) => {
-                            let cells = interior::decompose(&tris, &h, eps);
+                            let cells = prism::cells(&tris, &h, eps, extent, &frame)
+                                .unwrap_or_else(|| interior::decompose(&tris, &h, eps));
                             let source = if cells.len() == 1 && cells[0] == h {
                                 CellSource::Hull
                             } else {
