@@ -149,3 +149,126 @@ pub(crate) fn cells(
     }
     (!out.is_empty()).then_some(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::hull::hull;
+
+    /// The two triangles of the quad `a b c d` (counter-clockwise seen from its front).
+    fn quad(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> [[DVec3; 3]; 2] {
+        [[a, b, c], [a, c, d]]
+    }
+
+    /// An axis-aligned horizontal rectangle at height `y`.
+    fn flat(x0: f64, z0: f64, x1: f64, z1: f64, y: f64) -> [[DVec3; 3]; 2] {
+        quad(
+            DVec3::new(x0, y, z0),
+            DVec3::new(x1, y, z0),
+            DVec3::new(x1, y, z1),
+            DVec3::new(x0, y, z1),
+        )
+    }
+
+    /// The four walls around [x0, x1] x [z0, z1], from `y0` to `y1`.
+    fn walls(x0: f64, z0: f64, x1: f64, z1: f64, y0: f64, y1: f64) -> Vec<[DVec3; 3]> {
+        let c = [(x0, z0), (x1, z0), (x1, z1), (x0, z1)];
+        (0..4)
+            .flat_map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % 4]);
+                quad(
+                    DVec3::new(a.0, y0, a.1),
+                    DVec3::new(b.0, y0, b.1),
+                    DVec3::new(b.0, y1, b.1),
+                    DVec3::new(a.0, y1, a.1),
+                )
+            })
+            .collect()
+    }
+
+    /// A 6 x 6 ring of floor and ceiling around a 2 x 2 hole through both, outer walls only:
+    /// a Doom walkway around a pit whose own sector owns the pit's walls.
+    fn walkway(ceiling: bool) -> Vec<[DVec3; 3]> {
+        let mut t = walls(0.0, 0.0, 6.0, 6.0, 0.0, 3.0);
+        for (x0, z0, x1, z1) in [
+            (0.0, 0.0, 6.0, 2.0),
+            (0.0, 4.0, 6.0, 6.0),
+            (0.0, 2.0, 2.0, 4.0),
+            (4.0, 2.0, 6.0, 4.0),
+        ] {
+            t.extend(flat(x0, z0, x1, z1, 0.0));
+            if ceiling {
+                t.extend(flat(x0, z0, x1, z1, 3.0));
+            }
+        }
+        t
+    }
+
+    fn run(tris: &[[DVec3; 3]]) -> Option<Vec<ConvexPolyhedron>> {
+        let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+        let h = hull(&pts, 1e-6).unwrap();
+        cells(tris, &h, 1e-6, 10.0, &Frame::new([0.0, 1.0, 0.0]))
+    }
+
+    #[test]
+    fn a_walkway_around_a_pit_keeps_out_of_the_pit_column() {
+        for ceiling in [true, false] {
+            let cells = run(&walkway(ceiling)).expect("a prism");
+            let volume: f64 = cells.iter().map(|c| c.volume()).sum();
+            assert!((volume - 32.0 * 3.0).abs() < 1e-6, "{volume}");
+            let pit = DVec3::new(3.0, 1.5, 3.0);
+            assert!(cells.iter().all(|c| !c.contains(pit, 1e-6)));
+            assert!(cells
+                .iter()
+                .any(|c| c.contains(DVec3::new(1.0, 1.5, 1.0), 1e-6)));
+        }
+    }
+
+    #[test]
+    fn a_box_room_is_its_hull() {
+        let mut t = walls(0.0, 0.0, 4.0, 5.0, 0.0, 3.0);
+        t.extend(flat(0.0, 0.0, 4.0, 5.0, 0.0));
+        t.extend(flat(0.0, 0.0, 4.0, 5.0, 3.0));
+        let cells = run(&t).expect("a prism");
+        assert_eq!(cells.len(), 1);
+        assert!((cells[0].volume() - 60.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_ceiling_caps_walls_that_reach_past_it() {
+        // Walls up to 5 m (a neighbour's sky), the ceiling at 3 m.
+        let mut t = walls(0.0, 0.0, 4.0, 4.0, 0.0, 5.0);
+        t.extend(flat(0.0, 0.0, 4.0, 4.0, 0.0));
+        t.extend(flat(0.0, 0.0, 4.0, 4.0, 3.0));
+        let cells = run(&t).expect("a prism");
+        let volume: f64 = cells.iter().map(|c| c.volume()).sum();
+        assert!((volume - 48.0).abs() < 1e-9, "{volume}");
+    }
+
+    #[test]
+    fn steps_part_ceilings_and_slopes_are_not_prisms() {
+        let base = || {
+            let mut t = walls(0.0, 0.0, 4.0, 4.0, 0.0, 3.0);
+            t.extend(flat(0.0, 0.0, 4.0, 4.0, 0.0));
+            t
+        };
+        // A third level (a soffit's underside).
+        let mut soffit = base();
+        soffit.extend(flat(0.0, 0.0, 4.0, 2.0, 3.0));
+        soffit.extend(flat(0.0, 2.0, 4.0, 4.0, 2.5));
+        assert!(run(&soffit).is_none());
+        // A ceiling over half the floor only.
+        let mut half = base();
+        half.extend(flat(0.0, 0.0, 4.0, 2.0, 3.0));
+        assert!(run(&half).is_none());
+        // A sloped ceiling.
+        let mut slope = base();
+        slope.extend(quad(
+            DVec3::new(0.0, 3.0, 0.0),
+            DVec3::new(4.0, 2.0, 0.0),
+            DVec3::new(4.0, 2.0, 4.0),
+            DVec3::new(0.0, 3.0, 4.0),
+        ));
+        assert!(run(&slope).is_none());
+    }
+}
