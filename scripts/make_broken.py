@@ -225,8 +225,16 @@ def level_samples():
     s["TAG_NO_ROOMS.gltf"] = (t, None)
 
     # Cells.
-    s["TOLERANCE_CAPPED.gltf"] = (two_rooms(), lambda doc: doc["nodes"][0].update(
-        {"translation": [200000.0, 0.0, 0.0]}))
+    # Stored 2e5 m out (f32 there is good to about 16 mm): a node translation would not do,
+    # since the tolerance comes from the stored coordinates, not from where nodes put them.
+    def shifted(node, dx):
+        node = dict(node)
+        if "tris" in node:
+            node["tris"] = [[(v[0] + dx, v[1], v[2]) for v in tr] for tr in node["tris"]]
+        if "children" in node:
+            node["children"] = [shifted(c, dx) for c in node["children"]]
+        return node
+    s["TOLERANCE_CAPPED.gltf"] = (shifted(two_rooms(), 200000.0), None)
 
     shell = closed_room("x", 0.0, 4.0)
     floor, ceiling, walls = (child(shell, n)["tris"] for n in ("Floor", "Ceiling", "Walls"))

@@ -178,38 +178,55 @@ pub(crate) fn canonical_triangles(
     out
 }
 
-/// The level's extent, centre and largest stored coordinate, for the tolerance policy.
-fn level_frame(scene: &Scene) -> (Aabb, f64) {
+/// The level's box, and what its precision is measured from: the largest stored coordinate
+/// of each node's mesh times the node's world scale (its largest axis stretch), and the
+/// largest world coordinate.
+///
+/// Per node, because that is where a file loses precision: an f32 mesh is good to its own
+/// ulps wherever its node puts it, and an exactly representable translation (any the f64
+/// world matrix holds) adds nothing but f64 rounding; a node scaled by 1e-3 makes its ulps a
+/// thousand times finer.
+fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
     // Per node on every thread: boxes and maxima combine exactly in any order.
     scene
         .walk()
         .into_par_iter()
         .map(|n| {
             let mut b = Aabb::EMPTY;
-            let mut max_abs: f64 = 0.0;
             for p in scene.world_positions_used_iter(n) {
                 b.add(p);
             }
-            if let Some(m) = scene.nodes[n].mesh {
+            let node = &scene.nodes[n];
+            let mut stored: f64 = 0.0;
+            if let Some(m) = node.mesh {
                 for p in &scene.meshes[m].positions {
-                    max_abs = max_abs.max(p.abs().max_element());
+                    stored = stored.max(p.abs().max_element());
                 }
             }
-            max_abs = max_abs.max(scene.nodes[n].world.w_axis.truncate().abs().max_element());
-            (b, max_abs)
+            let w = node.world;
+            let stretch = [w.x_axis, w.y_axis, w.z_axis]
+                .iter()
+                .map(|c| c.truncate().length())
+                .fold(0.0, f64::max);
+            let world = if b.is_empty() {
+                0.0
+            } else {
+                b.min.abs().max(b.max.abs()).max_element()
+            };
+            (b, stored * stretch, world)
         })
         .reduce(
-            || (Aabb::EMPTY, 0.0),
-            |(a, x), (b, y)| (a.union(&b), x.max(y)),
+            || (Aabb::EMPTY, 0.0, 0.0),
+            |(a, x, u), (b, y, v)| (a.union(&b), x.max(y), u.max(v)),
         )
 }
 
 /// Builds the cells of every tagged room.
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
-    let (level, max_abs) = level_frame(scene);
+    let (level, max_abs, world_abs) = level_frame(scene);
     let extent = level.size().length();
     let single = matches!(scene.format, Format::Gltf | Format::Glb | Format::Usd);
-    let tol = Tolerance::derive(extent, max_abs, single, cfg.max_tolerance);
+    let tol = Tolerance::derive(extent, max_abs, world_abs, single, cfg.max_tolerance);
     let origin = if level.is_empty() {
         DVec3::ZERO
     } else {
@@ -222,12 +239,12 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
             Diagnostic::new(
                 Code::TOLERANCE_CAPPED,
                 format!(
-                    "the input's precision ({:.3e} m at coordinates up to {:.0} m) is coarser than the largest tolerance allowed ({:.3e} m)",
+                    "the input's precision ({:.3e} m at stored coordinates up to {:.0} m) is coarser than the largest tolerance allowed ({:.3e} m)",
                     tol.input_precision, max_abs, cfg.max_tolerance
                 ),
                 Location::file(&scene.path),
             )
-            .hint("move the level closer to the origin before export, or raise [cells] max_tolerance"),
+            .hint("store the geometry near its node's origin and place it with the node's translation (that keeps its precision), or raise [cells] max_tolerance"),
         );
     }
     let loc = |n: NodeId| {
@@ -672,57 +689,79 @@ impl ExactVertices {
 
 /// The convex pieces of the union of plan triangles.
 ///
-/// The union is taken where the triangles are (snapping to the grid there merges the f32 noise
-/// of walls that should line up). Each resulting polygon is then partitioned in a frame fixed
-/// to the polygon itself (its longest boundary edge, ties broken by input order), with
-/// coordinates rounded to the grid, so a level that was moved, turned or scaled gets the same
-/// pieces: a rectangle's corners are exactly cocircular there again and every tie is broken
-/// the same way. The pieces are mapped back and given the exact input coordinates.
+/// Everything is done in a frame fixed to the triangles themselves, so a level that was moved,
+/// turned or scaled gets the same pieces: origin at their area centroid, first axis along
+/// their longest edge (ties within 1e-9 to the earliest, by input order). The union snaps to
+/// the grid of that frame, where a turned rectangle's corners are exactly cocircular again.
+/// Each polygon of the union is then written in the one of its four quarter turns on that
+/// grid whose rings, read from their least point, come first: a canonical form (exact, on
+/// integers) that the same shape has whichever of its edges of equal length was picked and
+/// wherever the union's rings started, so the partition sees the same input and breaks every
+/// tie the same way. The pieces are mapped back and given the exact input coordinates.
 pub(crate) fn plan_pieces(
     flat: &[[DVec2; 3]],
     grid: f64,
     eps: f64,
 ) -> Result<Vec<Vec<DVec2>>, String> {
     let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
+    let Some(&first) = flat.first().map(|t| &t[0]) else {
+        return Ok(Vec::new());
+    };
+    let (mut area, mut acc) = (0.0, DVec2::ZERO);
+    let mut longest: Option<(f64, DVec2)> = None;
+    for t in flat {
+        let a = (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
+        area += a;
+        acc += a * ((t[0] - first) + (t[1] - first) + (t[2] - first)) / 3.0;
+        for k in 0..3 {
+            let e = t[(k + 1) % 3] - t[k];
+            let len = e.length();
+            if len > 0.0 && longest.is_none_or(|(l, _)| len > l * (1.0 + 1e-9)) {
+                longest = Some((len, e / len));
+            }
+        }
+    }
+    let Some((_, dir)) = longest else {
+        return Ok(Vec::new());
+    };
+    let o = if area > 0.0 {
+        first + acc / area
+    } else {
+        first
+    };
+    let perp = dir.perp();
+    let local: Vec<[DVec2; 3]> = flat
+        .iter()
+        .map(|t| {
+            t.map(|p| {
+                let d = p - o;
+                DVec2::new(d.dot(dir), d.dot(perp))
+            })
+        })
+        .collect();
     let mut pieces = Vec::new();
-    for poly in union_triangles(&split_t_junctions(flat, eps.max(grid)), grid) {
+    for poly in union_triangles(&split_t_junctions(&local, eps.max(grid)), grid) {
+        let (turn, canonical) = canonical_turn(&poly, grid);
         // The union snapped every vertex to the grid: a vertex on a straight edge can come
         // back a whole grid step off it (an L turned by (1.47, -0.52, -0.04) rad kept such a
-        // vertex on its long edge at exactly eps + 1e-10, which then framed and split the plan
-        // differently; tests/cells_props.rs). Within the tolerance plus that step is straight.
-        let straight = eps + grid;
-        let outer = simplify_ring(&poly.outer, straight);
-        let holes: Vec<Vec<DVec2>> = poly
-            .holes
-            .iter()
-            .map(|h| simplify_ring(h, straight))
-            .collect();
+        // vertex on its long edge at exactly eps + 1e-10; tests/cells_props.rs). Within the
+        // tolerance plus that step is straight.
+        let straight = (eps + grid) / grid;
+        let outer = simplify_ring(&canonical.outer, straight);
         if outer.len() < 3 {
             continue;
         }
-        // The frame: the longest outer edge, ties (within 1e-9) to the earliest input vertex.
-        let len = |i: usize| outer[i].distance(outer[(i + 1) % outer.len()]);
-        let longest = (0..outer.len()).map(len).fold(0.0, f64::max);
-        let start = (0..outer.len())
-            .filter(|&i| len(i) >= longest * (1.0 - 1e-9))
-            .min_by_key(|&i| exact.index_of(outer[i]).unwrap_or(usize::MAX))
-            .unwrap_or(0);
-        let o = outer[start];
-        let Some(dir) = (outer[(start + 1) % outer.len()] - o).try_normalize() else {
-            continue;
-        };
-        let perp = dir.perp();
-        let to = |q: &DVec2| {
-            let d = *q - o;
-            DVec2::new(
-                (d.dot(dir) / grid).round() * grid,
-                (d.dot(perp) / grid).round() * grid,
-            )
-        };
-        let back = |c: DVec2| o + dir * c.x + perp * c.y;
         let local = Polygon2 {
-            outer: outer.iter().map(to).collect(),
-            holes: holes.iter().map(|h| h.iter().map(to).collect()).collect(),
+            outer,
+            holes: canonical
+                .holes
+                .iter()
+                .map(|h| simplify_ring(h, straight))
+                .collect(),
+        };
+        let back = |c: DVec2| {
+            let c = quarter_turns(c, 4 - turn) * grid;
+            o + dir * c.x + perp * c.y
         };
         let ps = convex_partition(&local).map_err(|e| format!("cannot partition it: {e}"))?;
         let mut keyed: Vec<(Vec<usize>, Vec<DVec2>)> = ps
@@ -742,6 +781,46 @@ pub(crate) fn plan_pieces(
         pieces.extend(keyed.into_iter().map(|(_, p)| p));
     }
     Ok(pieces)
+}
+
+/// `q` turned `n` quarter turns counter-clockwise about the origin (exact).
+fn quarter_turns(q: DVec2, n: usize) -> DVec2 {
+    (0..n % 4).fold(q, |q, _| DVec2::new(-q.y, q.x))
+}
+
+/// The quarter turn (0 to 3) of a polygon on the grid whose rings, each read from its least
+/// point (by x, then y) and the holes sorted by theirs, come first, and the polygon so turned,
+/// in grid steps (integers, exact in f64): the partition then sees the same numbers for a
+/// level scaled by any factor, and no tie between float areas can go another way.
+fn canonical_turn(p: &Polygon2, grid: f64) -> (usize, Polygon2) {
+    let steps = |q: &DVec2| ((q.x / grid).round() as i64, (q.y / grid).round() as i64);
+    let ring = |r: &[DVec2], n: usize| -> Vec<(i64, i64)> {
+        let mut r: Vec<(i64, i64)> = r.iter().map(|q| steps(&quarter_turns(*q, n))).collect();
+        if let Some(at) = (0..r.len()).min_by_key(|&i| r[i]) {
+            r.rotate_left(at);
+        }
+        r
+    };
+    type Ring = Vec<(i64, i64)>;
+    let form = |n: usize| -> (Ring, Vec<Ring>) {
+        let mut holes: Vec<Ring> = p.holes.iter().map(|h| ring(h, n)).collect();
+        holes.sort();
+        (ring(&p.outer, n), holes)
+    };
+    let turn = (0..4).min_by_key(|&n| form(n)).unwrap_or(0);
+    let (outer, holes) = form(turn);
+    let back = |r: Ring| -> Vec<DVec2> {
+        r.into_iter()
+            .map(|(x, y)| DVec2::new(x as f64, y as f64))
+            .collect()
+    };
+    (
+        turn,
+        Polygon2 {
+            outer: back(outer),
+            holes: holes.into_iter().map(back).collect(),
+        },
+    )
 }
 
 /// Inserts every vertex that lies on another triangle's edge (a T-junction, as where a floor

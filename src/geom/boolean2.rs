@@ -113,27 +113,50 @@ fn run<R: AsRef<[DVec2]>>(
         .collect()
 }
 
-/// i_overlay shapes (outer contour first, then holes) back in metres, outer rings CCW.
+/// i_overlay shapes (outer contour first, then holes) back in metres, outer rings CCW, in a
+/// canonical order: each ring starts at its least point (by x, then y, on the integer grid),
+/// holes and polygons are sorted by that point. The same region then comes back the same
+/// whatever order its inputs were given in (shuffled triangles, renumbered nodes), and the
+/// convex partition after it sees the same rings.
 fn polygons(shapes: &[Vec<Vec<IntPoint<i64>>>], grid: f64) -> Vec<Polygon2> {
-    let back = |c: &Vec<IntPoint<i64>>| -> Vec<DVec2> {
+    let least = |c: &[IntPoint<i64>]| c.iter().map(|p| (p.x, p.y)).min();
+    let canonical = |c: &Vec<IntPoint<i64>>, ccw: Option<bool>| -> Vec<DVec2> {
+        let mut c = c.clone();
+        if ccw.is_some_and(|ccw| (int_area2(&c) > 0) != ccw) {
+            c.reverse();
+        }
+        if let Some(at) = (0..c.len()).min_by_key(|&i| (c[i].x, c[i].y)) {
+            c.rotate_left(at);
+        }
         c.iter()
             .map(|p| DVec2::new(p.x as f64 * grid, p.y as f64 * grid))
             .collect()
     };
-    shapes
+    let mut out: Vec<((i64, i64), Polygon2)> = shapes
         .iter()
         .filter(|s| !s.is_empty())
         .map(|s| {
-            let mut outer = back(&s[0]);
-            if signed_area(&outer) < 0.0 {
-                outer.reverse();
-            }
-            Polygon2 {
-                outer,
-                holes: s[1..].iter().map(back).collect(),
-            }
+            let mut holes: Vec<&Vec<IntPoint<i64>>> = s[1..].iter().collect();
+            holes.sort_by_key(|h| least(h));
+            let p = Polygon2 {
+                outer: canonical(&s[0], Some(true)),
+                holes: holes.into_iter().map(|h| canonical(h, None)).collect(),
+            };
+            (least(&s[0]).unwrap_or_default(), p)
         })
-        .collect()
+        .collect();
+    out.sort_by_key(|(k, _)| *k);
+    out.into_iter().map(|(_, p)| p).collect()
+}
+
+/// Twice the signed area of an integer ring, exactly (i128).
+fn int_area2(c: &[IntPoint<i64>]) -> i128 {
+    (0..c.len())
+        .map(|i| {
+            let (a, b) = (c[i], c[(i + 1) % c.len()]);
+            a.x as i128 * b.y as i128 - b.x as i128 * a.y as i128
+        })
+        .sum()
 }
 
 pub fn signed_area(r: &[DVec2]) -> f64 {

@@ -1,8 +1,8 @@
 //! The one tolerance policy every geometric decision uses.
 //!
-//! A distance epsilon must never be finer than the input can express (an f32 position 10 km from
-//! the origin is only good to about a millimetre, so two walls "1e-5 m apart" there are the
-//! same wall) and never coarser than the user allows (`[cells] max_tolerance`, 1 mm by
+//! A distance epsilon must never be finer than the input can express (an f32 position stored
+//! 10 km from its node's origin is only good to about a millimetre, so two walls "1e-5 m apart"
+//! there are the same wall; a node's translation loses nothing, its scale scales the ulps) and never coarser than the user allows (`[cells] max_tolerance`, 1 mm by
 //! default), or doors would silently close. Between those bounds we take the input precision
 //! with a safety factor, and a floor of 1e-9 of the level's extent so f64 arithmetic noise of
 //! the geometry itself is always absorbed. Angles are judged separately (normals within
@@ -29,11 +29,15 @@ pub struct Tolerance {
 
 impl Tolerance {
     /// `extent`: the level's bounding-box diagonal; `max_abs`: the largest absolute coordinate
-    /// as stored in the file (before recentring: that is where the file lost precision);
-    /// `single_precision`: positions were stored as f32 (glTF) rather than decimal text.
+    /// as stored in the file, each times the world scale of the node that places it (that is
+    /// where the file lost precision: a translation the f64 world matrix holds exactly adds
+    /// nothing); `world_abs`: the largest world coordinate, whose f64 rounding is the last
+    /// bound; `single_precision`: positions were stored as f32 (glTF) rather than decimal
+    /// text.
     pub fn derive(
         extent: f64,
         max_abs: f64,
+        world_abs: f64,
         single_precision: bool,
         max_distance: f64,
     ) -> Tolerance {
@@ -44,7 +48,8 @@ impl Tolerance {
         };
         // Four ulps of the largest coordinate: one for storage, the rest for the transforms
         // the exporter applied before storing.
-        let input_precision = 4.0 * unit * max_abs.max(0.0);
+        let input_precision =
+            (4.0 * unit * max_abs.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
         let floor = 1e-9 * extent.max(0.0);
         let wanted = input_precision.max(floor).max(1e-12);
         let capped = wanted > max_distance;
@@ -79,23 +84,32 @@ mod tests {
     #[test]
     fn f32_far_from_origin_is_coarse_and_capped() {
         // 10 km out, f32: about 1 mm per ulp.
-        let t = Tolerance::derive(100.0, 10_000.0, true, DEFAULT_MAX_DISTANCE);
+        let t = Tolerance::derive(100.0, 10_000.0, 10_000.0, true, DEFAULT_MAX_DISTANCE);
         assert!(t.input_precision > 1e-3);
         assert!(t.capped);
         assert_eq!(t.distance, DEFAULT_MAX_DISTANCE);
         // A room near the origin keeps a fine tolerance.
-        let t = Tolerance::derive(20.0, 10.0, true, DEFAULT_MAX_DISTANCE);
+        let t = Tolerance::derive(20.0, 10.0, 10.0, true, DEFAULT_MAX_DISTANCE);
         assert!(t.distance < 1e-5 && t.distance > 1e-7, "{}", t.distance);
         assert!(!t.capped);
         // Decimal input is much finer.
-        let t = Tolerance::derive(20.0, 10.0, false, DEFAULT_MAX_DISTANCE);
+        let t = Tolerance::derive(20.0, 10.0, 10.0, false, DEFAULT_MAX_DISTANCE);
         assert!(t.distance < 1e-7);
     }
 
     #[test]
     fn scales_with_the_level() {
-        let a = Tolerance::derive(10.0, 10.0, true, 1.0);
-        let b = Tolerance::derive(10_000.0, 10_000.0, true, 1.0);
+        let a = Tolerance::derive(10.0, 10.0, 10.0, true, 1.0);
+        let b = Tolerance::derive(10_000.0, 10_000.0, 10_000.0, true, 1.0);
         assert!((b.distance / a.distance - 1000.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_far_translation_adds_only_f64_rounding() {
+        // A 10 m f32 mesh placed 2^20 m out keeps its own precision.
+        let near = Tolerance::derive(15.0, 10.0, 10.0, true, 1e-3);
+        let far = Tolerance::derive(15.0, 10.0, 1_048_586.0, true, 1e-3);
+        assert_eq!(near, far);
+        assert!(!far.capped);
     }
 }

@@ -191,7 +191,7 @@ pub(crate) fn derive(
             Shadows::with(|shadows| {
                 let mut out = Vec::new();
                 for (i, face) in cell.poly.faces.iter().enumerate() {
-                    let f = Frame2::new(&face.plane);
+                    let f = Frame2::of_face(face);
                     let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
                     // Claims first: a face between two rooms is claimed whole by its neighbour,
                     // and then no shadow is needed to know it has no opening to the exterior.
@@ -374,7 +374,7 @@ fn pair_openings(
                 continue;
             }
             let gap = gap.max(0.0);
-            let f = Frame2::new(&fa.plane);
+            let f = Frame2::of_face(fa);
             let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
             let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
             // Rings whose boxes, snapped to the boolean's grid, do not overlap with some area
@@ -404,7 +404,7 @@ fn pair_openings(
                     }
                 }
             }
-            let fb2 = Frame2::new(&fb.plane);
+            let fb2 = Frame2::of_face(fb);
             for s in &shared {
                 out.claims.push((a, ia, s.outer.clone()));
                 let back: Vec<DVec2> = s
@@ -442,7 +442,7 @@ fn pair_openings(
             };
             opaque.shadows(&bb, &slab, shadows);
             let between = if gap > 4.0 * eps {
-                cells_between(a, b, cells, near_cells, &fa.plane, gap, &bb, eps)
+                cells_between(a, b, cells, near_cells, &fa.plane, &f, gap, &bb, eps)
             } else {
                 Vec::new()
             };
@@ -502,6 +502,7 @@ fn cells_between(
     cells: &CellSet,
     near_cells: &BoxGrid,
     plane: &Plane,
+    f: &Frame2,
     gap: f64,
     bb: &Aabb,
     eps: f64,
@@ -515,7 +516,6 @@ fn cells_between(
         normal: n,
         d: plane.d + gap - eps,
     };
-    let f = Frame2::new(plane);
     let mut out = Vec::new();
     // Only a cell whose box reaches into the gap by more than the tolerance can lie in it; the
     // cells beside the two (the rooms along the same wall) only touch its edges.

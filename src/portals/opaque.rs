@@ -46,12 +46,64 @@ pub(crate) struct Frame2 {
 }
 
 impl Frame2 {
+    /// A frame of the plane alone: origin at the foot of the world origin, axes from a world
+    /// helper axis. For tests; the pipeline frames faces with [`Frame2::of_face`].
+    #[cfg(test)]
     pub fn new(p: &crate::geom::plane::Plane) -> Frame2 {
         let (u, v) = p.basis();
         Frame2 {
             origin: p.normal * p.d,
             u,
             v,
+        }
+    }
+
+    /// The frame of a face, made from the face alone, so that moving or turning the level
+    /// moves it along and the 2D coordinates (and the booleans' grid) stay where they were on
+    /// the face: origin at the face's area centroid, `u` along its longest edge (the first
+    /// of equally long ones in ring order), `v` completing a frame CCW about the normal. An
+    /// axis-aligned room turned off the axes keeps its walls on the grid's axes.
+    pub fn of_face(face: &crate::geom::polyhedron::Face) -> Frame2 {
+        let n = face.plane.normal;
+        let pts = &face.points;
+        let Some(&o) = pts.first() else {
+            let (u, v) = face.plane.basis();
+            return Frame2 {
+                origin: n * face.plane.d,
+                u,
+                v,
+            };
+        };
+        let (mut area, mut acc) = (0.0, DVec3::ZERO);
+        for w in pts[1..].windows(2) {
+            let a = (w[0] - o).cross(w[1] - o).dot(n);
+            area += a;
+            acc += a * (w[0] + w[1] - 2.0 * o) / 3.0;
+        }
+        let centre = if area.abs() > 0.0 {
+            o + acc / area
+        } else {
+            pts.iter().map(|p| *p - o).sum::<DVec3>() / pts.len() as f64 + o
+        };
+        // On the plane exactly: the face's points are within the tolerance of it.
+        let origin = centre - n * face.plane.distance(centre);
+        let mut best: Option<(f64, DVec3)> = None;
+        for i in 0..pts.len() {
+            let e = pts[(i + 1) % pts.len()] - pts[i];
+            let e = e - n * e.dot(n);
+            let len = e.length();
+            if len > 0.0 && best.is_none_or(|(l, _)| len > l * (1.0 + 1e-9)) {
+                best = Some((len, e / len));
+            }
+        }
+        let Some((_, u)) = best else {
+            let (u, v) = face.plane.basis();
+            return Frame2 { origin, u, v };
+        };
+        Frame2 {
+            origin,
+            u,
+            v: n.cross(u),
         }
     }
     pub fn to2(&self, p: DVec3) -> DVec2 {
