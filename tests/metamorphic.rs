@@ -476,7 +476,7 @@ const KNOWN: &[(&str, usize)] = &[
     ("E1M2_godot.glb", 103),
     ("MAP01_godot.glb", 96),
     ("panda3d_culling.glb", 27),
-    ("panda3d_culling.obj", 328),
+    ("panda3d_culling.obj", 337),
 ];
 
 fn check_level_file(path: &Path, preset: Option<&str>) -> Vec<String> {

@@ -86,8 +86,12 @@ impl<'a> Context<'a> {
         if let Some(h) = self.cfg.footprint_height {
             return Some(h);
         }
-        let lift = (self.eps * 1000.0).max(1e-4);
+        // The ray starts a little above the footprint, so the footprint's own floor is not
+        // hit: a thousandth of the height to the level's top (a length of the level, so a
+        // level modelled in millimetres lifts as far, relatively, as one in metres), and
+        // above the tolerance's noise.
         let up = self.frame.up;
+        let lift = (1e-3 * (self.top - p.dot(up))).max(4.0 * self.eps);
         match self.clearance(p + up * lift) {
             Some(t) if t + lift > 0.1 * self.cfg.default_height => Some(t + lift),
             Some(_) => None,
