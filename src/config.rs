@@ -64,6 +64,15 @@ pub struct CellsConfig {
     pub detect_props: bool,
     /// The level's up direction (glTF and portcullis's importers use +Y).
     pub up: [f64; 3],
+    /// The distance tolerance is the policy's times this (1 in every run of the tool; not a
+    /// configuration key). For tests that check a result does not hang on the exact value
+    /// the policy picks.
+    #[serde(skip, default = "one")]
+    pub tolerance_factor: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 impl Default for CellsConfig {
@@ -76,6 +85,7 @@ impl Default for CellsConfig {
             max_tolerance: crate::geom::tolerance::DEFAULT_MAX_DISTANCE,
             detect_props: true,
             up: [0.0, 1.0, 0.0],
+            tolerance_factor: 1.0,
         }
     }
 }

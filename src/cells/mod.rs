@@ -226,7 +226,8 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     let (level, max_abs, world_abs) = level_frame(scene);
     let extent = level.size().length();
     let single = matches!(scene.format, Format::Gltf | Format::Glb | Format::Usd);
-    let tol = Tolerance::derive(extent, max_abs, world_abs, single, cfg.max_tolerance);
+    let mut tol = Tolerance::derive(extent, max_abs, world_abs, single, cfg.max_tolerance);
+    tol.distance *= cfg.tolerance_factor;
     let origin = if level.is_empty() {
         DVec3::ZERO
     } else {

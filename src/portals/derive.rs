@@ -209,6 +209,7 @@ pub(crate) fn derive(
                         lo: d - eps,
                         hi: d + eps,
                         frame: &f,
+                        thin: true,
                     };
                     opaque.shadows(&bb, &slab, shadows);
                     let mut covered: Vec<&[DVec2]> = claimed(c, i).collect();
@@ -439,6 +440,7 @@ fn pair_openings(
                 lo,
                 hi,
                 frame: &f,
+                thin: gap <= eps,
             };
             opaque.shadows(&bb, &slab, shadows);
             let between = if gap > 4.0 * eps {
