@@ -46,10 +46,12 @@ impl Tolerance {
         } else {
             f64::EPSILON * 16.0
         };
-        // Four ulps of the largest coordinate: one for storage, the rest for the transforms
-        // the exporter applied before storing.
+        // Eight ulps of the largest coordinate: one for storage, the rest for the transforms
+        // the exporter applied before storing (node rotations and scales composed in f32: at
+        // four, LPortal BoxRooms baked from its USD copy lost a full-wall portal pair to f32
+        // misalignment, tests/import_usd.rs).
         let input_precision =
-            (4.0 * unit * max_abs.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
+            (8.0 * unit * max_abs.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
         let floor = 1e-9 * extent.max(0.0);
         let wanted = input_precision.max(floor).max(1e-12);
         let capped = wanted > max_distance;
