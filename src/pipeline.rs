@@ -239,7 +239,7 @@ pub fn check_level(
 /// allocates its own: glibc's malloc keeps it otherwise, and the next stage's large blocks do
 /// not always fit in it (on a big level, 30 MB more at the export after a PVS). The
 /// `portcullis` binary allocates through jemalloc, which returns freed pages by itself after
-/// 0.1 s, so there this only trims what C code allocated; it matters to library callers on
+/// 0.3 s, so there this only trims what C code allocated; it matters to library callers on
 /// glibc's malloc.
 pub fn release_free_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
