@@ -55,8 +55,9 @@ pub struct CellsConfig {
     /// Extrusion height of footprints (m). Unset: up to the geometry above each footprint
     /// vertex, else `default_height`.
     pub footprint_height: Option<f64>,
-    /// Height used where nothing is above a footprint and the level's top is too close.
-    pub default_height: f64,
+    /// Height used where nothing is above a footprint and the level's top is too close (m).
+    /// Unset: the level's storey height, the median clearance above its footprints.
+    pub default_height: Option<f64>,
     /// The largest distance tolerance allowed (m); see ARCHITECTURE.md, Numerics.
     pub max_tolerance: f64,
     /// Treat small meshes of a room that touch fewer than two sides of the rest of the room
@@ -81,7 +82,7 @@ impl Default for CellsConfig {
             max_planes: 32,
             overlap_volume: 1e-3,
             footprint_height: None,
-            default_height: 3.0,
+            default_height: None,
             max_tolerance: crate::geom::tolerance::DEFAULT_MAX_DISTANCE,
             detect_props: true,
             up: [0.0, 1.0, 0.0],

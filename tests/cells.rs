@@ -452,3 +452,70 @@ fn split_geometry_partitions_surfaces_between_cells() {
         }
     }
 }
+
+/// Where nothing is above a footprint and the level's top is too close (a terrace on the roof),
+/// it rises to the level's own storey height, the median clearance above its footprints, not
+/// to a length in metres: the same cells, scaled, whatever the level's unit.
+#[test]
+fn footprints_with_nothing_above_rise_to_the_levels_storey_height() {
+    use serde_json::json;
+    let v = DVec3::new;
+    // Two triangles over x in [x0, x0 + 4], z in [0, 4] at height y, facing up (or down).
+    let quad = |y: f64, x0: f64, down: bool| {
+        let (a, b, c, d) = (
+            v(x0, y, 0.0),
+            v(x0 + 4.0, y, 0.0),
+            v(x0 + 4.0, y, 4.0),
+            v(x0, y, 4.0),
+        );
+        if down {
+            vec![[a, b, c], [a, c, d]]
+        } else {
+            vec![[a, c, b], [a, d, c]]
+        }
+    };
+    for s in [1e-3, 1.0, 1e3] {
+        let parts: Vec<common::Part> = vec![
+            ("hall-room", None, vec![], None),
+            (
+                "hall_floor",
+                None,
+                quad(0.0, 0.0, false),
+                Some(json!({"footprint": "hall"})),
+            ),
+            ("roof", None, quad(2.5, 0.0, true), None),
+            ("terrace-room", None, vec![], None),
+            (
+                "terrace_floor",
+                None,
+                quad(2.5, 4.0, false),
+                Some(json!({"footprint": "terrace"})),
+            ),
+        ];
+        let scene = common::scene_of(parts, DMat4::from_scale(DVec3::splat(s)));
+        let config = portcullis::config::Config::default();
+        let rules = portcullis::config::rule_set(&config, None).unwrap();
+        let tagging = portcullis::tags::recognise(&scene, &rules);
+        let diagnostics = tagging.diagnostics.clone();
+        let mut t = Tagged {
+            scene,
+            config,
+            rules,
+            tagging,
+            diagnostics,
+        };
+        let c = build_cells(&mut t);
+        for (room, floor) in [("hall", 0.0), ("terrace", 2.5)] {
+            let cells = room_cells(&t, &c, room);
+            assert_eq!(cells.len(), 1, "scale {s}: {room}");
+            let b = cells[0].bounds;
+            let want = [floor * s, (floor + 2.5) * s];
+            let ok = (b.min.y - want[0]).abs() <= 1e-9 * s && (b.max.y - want[1]).abs() <= 1e-9 * s;
+            assert!(
+                ok,
+                "scale {s}: {room} spans {}..{} along up, not {}..{}",
+                b.min.y, b.max.y, want[0], want[1]
+            );
+        }
+    }
+}

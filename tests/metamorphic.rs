@@ -166,7 +166,7 @@ fn run_with(scene: Scene, base: &Tagged, m: DMat4, factor: f64) -> Outcome {
         .to_array();
     config.cells.max_tolerance *= s;
     config.cells.overlap_volume *= s * s * s;
-    config.cells.default_height *= s;
+    config.cells.default_height = config.cells.default_height.map(|h| h * s);
     config.cells.footprint_height = config.cells.footprint_height.map(|h| h * s);
     config.portals.max_wall_thickness *= s;
     let tagging = portcullis::tags::recognise(&scene, &base.rules);

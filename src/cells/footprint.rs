@@ -28,21 +28,28 @@ pub(crate) struct Context<'a> {
     top: f64,
     frame: Frame,
     obstacles: Option<TriMesh>,
+    /// How high a footprint rises where nothing is above it and the level's top is too close,
+    /// and ten times the least clearance taken for a ceiling (nearer geometry is a rug, a
+    /// decal or a copy of the floor): `[cells] default_height`, else the level's own storey
+    /// height (see [`storey_height`]), so a level modelled in millimetres rises as far,
+    /// relatively, as one in metres.
+    storey: f64,
 }
 
 impl<'a> Context<'a> {
     /// `skip`: nodes that are not obstacles (footprints themselves, portals, bounds, ignored).
-    /// `needed`: whether any footprint will be extruded (else no ray mesh is built).
+    /// `footprints`: the nodes that will be extruded (none: no ray mesh is built).
     pub fn new(
         scene: &'a Scene,
         skip: &HashSet<NodeId>,
-        needed: bool,
+        footprints: &[NodeId],
         origin: DVec3,
         cfg: &'a CellsConfig,
         eps: f64,
         frame_top: (Frame, f64),
     ) -> Self {
         let (frame, top) = frame_top;
+        let needed = !footprints.is_empty();
         let obstacles = if needed && cfg.footprint_height.is_none() {
             let nodes: Vec<NodeId> = scene
                 .walk()
@@ -64,7 +71,7 @@ impl<'a> Context<'a> {
         } else {
             None
         };
-        Context {
+        let mut ctx = Context {
             scene,
             origin,
             cfg,
@@ -72,6 +79,47 @@ impl<'a> Context<'a> {
             top,
             frame,
             obstacles,
+            storey: cfg.default_height.unwrap_or(0.0),
+        };
+        if cfg.default_height.is_none() && cfg.footprint_height.is_none() && needed {
+            ctx.storey = ctx.storey_height(footprints);
+        }
+        ctx
+    }
+
+    /// The level's storey height: the median clearance above the centres of its footprints'
+    /// triangles (the ceilings most of the floor area has above it, whatever the level's
+    /// unit). With nothing above any footprint, the height from the lowest footprint to the
+    /// level's top, and on a level that is only flat footprints, their extent across.
+    fn storey_height(&self, footprints: &[NodeId]) -> f64 {
+        let up = self.frame.up;
+        let tris = node_triangles(self.scene, footprints, self.origin);
+        let mut found: Vec<f64> = Vec::new();
+        let mut bounds = crate::geom::aabb::Aabb::EMPTY;
+        let mut lowest = f64::INFINITY;
+        for t in &tris {
+            t.iter().for_each(|p| bounds.add(*p));
+            lowest = t.iter().map(|p| p.dot(up)).fold(lowest, f64::min);
+            let n = (t[1] - t[0]).cross(t[2] - t[0]);
+            let len = n.length();
+            if len <= 0.0 || (n.dot(up) / len).abs() < 0.05 {
+                continue;
+            }
+            let c = (t[0] + t[1] + t[2]) / 3.0;
+            let lift = (1e-3 * (self.top - c.dot(up))).max(4.0 * self.eps);
+            if let Some(h) = self.clearance(c + up * lift) {
+                found.push(h + lift);
+            }
+        }
+        if !found.is_empty() {
+            found.sort_by(f64::total_cmp);
+            return found[(found.len() - 1) / 2];
+        }
+        let above = self.top - lowest;
+        if above > 1e3 * self.eps {
+            above
+        } else {
+            bounds.size().length().max(1e3 * self.eps)
         }
     }
 
@@ -93,12 +141,10 @@ impl<'a> Context<'a> {
         let up = self.frame.up;
         let lift = (1e-3 * (self.top - p.dot(up))).max(4.0 * self.eps);
         match self.clearance(p + up * lift) {
-            Some(t) if t + lift > 0.1 * self.cfg.default_height => Some(t + lift),
+            Some(t) if t + lift > 0.1 * self.storey => Some(t + lift),
             Some(_) => None,
-            None if self.top - p.dot(up) > 0.1 * self.cfg.default_height => {
-                Some(self.top - p.dot(up))
-            }
-            None => Some(self.cfg.default_height),
+            None if self.top - p.dot(up) > 0.1 * self.storey => Some(self.top - p.dot(up)),
+            None => Some(self.storey),
         }
     }
 
@@ -151,9 +197,7 @@ impl<'a> Context<'a> {
             };
             for piece in plan_pieces(flat, grid, self.eps)? {
                 let centre = piece.iter().copied().sum::<DVec2>() / piece.len() as f64;
-                let centre_h = self
-                    .height_at(lift(centre))
-                    .unwrap_or(self.cfg.default_height);
+                let centre_h = self.height_at(lift(centre)).unwrap_or(self.storey);
                 let mut pts = Vec::with_capacity(piece.len() * 2);
                 for q in &piece {
                     let bottom = lift(*q);

@@ -289,8 +289,13 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         .chain(tagging.bounds.iter().map(|b| b.node))
         .chain(tagging.ignored.iter().map(|n| n.node))
         .collect();
-    let needed = !floors.is_empty() || !tagging.footprints.is_empty();
-    let ctx = footprint::Context::new(scene, &skip, needed, origin, cfg, eps, (frame, top));
+    let extruded: Vec<NodeId> = tagging
+        .footprints
+        .iter()
+        .map(|f| f.node)
+        .chain(floors.iter().copied())
+        .collect();
+    let ctx = footprint::Context::new(scene, &skip, &extruded, origin, cfg, eps, (frame, top));
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count.
     let built: Vec<RoomCells> = tagging
