@@ -211,7 +211,20 @@ impl Opaque {
                 break;
             };
             verts.extend(mesh.positions.iter().map(|p| world.transform_point3(*p)));
-            tris.extend(mesh.triangles.iter().map(|t| t.map(|i| base + i)));
+            // In a canonical order: each triangle from its least vertex (winding kept), the
+            // mesh's triangles sorted. The shadows come out in this order, and the booleans
+            // and the exact vertices put back depend on it (an f32 level's near-duplicate
+            // corners), so the same mesh written in another triangle order gives the same
+            // openings.
+            let start = tris.len();
+            tris.extend(mesh.triangles.iter().map(|t| {
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]].map(|i| base + i)
+            }));
+            let mine = &mut tris[start..];
+            if !mine.is_sorted() {
+                mine.sort_unstable();
+            }
         }
         Opaque::from_triangles(verts, tris, thick)
     }
