@@ -492,18 +492,7 @@ fn footprints_with_nothing_above_rise_to_the_levels_storey_height() {
                 Some(json!({"footprint": "terrace"})),
             ),
         ];
-        let scene = common::scene_of(parts, DMat4::from_scale(DVec3::splat(s)));
-        let config = portcullis::config::Config::default();
-        let rules = portcullis::config::rule_set(&config, None).unwrap();
-        let tagging = portcullis::tags::recognise(&scene, &rules);
-        let diagnostics = tagging.diagnostics.clone();
-        let mut t = Tagged {
-            scene,
-            config,
-            rules,
-            tagging,
-            diagnostics,
-        };
+        let mut t = common::tagged(common::scene_of(parts, DMat4::from_scale(DVec3::splat(s))));
         let c = build_cells(&mut t);
         for (room, floor) in [("hall", 0.0), ("terrace", 2.5)] {
             let cells = room_cells(&t, &c, room);

@@ -87,18 +87,7 @@ fn finish(t: &mut Tagged) -> Built {
 
 /// A scene built in code (extras allowed), tagged with the default preset.
 fn build_scene(scene: portcullis::scene::Scene) -> Built {
-    let config = portcullis::config::Config::default();
-    let rules = portcullis::config::rule_set(&config, None).unwrap();
-    let tagging = portcullis::tags::recognise(&scene, &rules);
-    let diagnostics = tagging.diagnostics.clone();
-    let mut t = Tagged {
-        scene,
-        config,
-        rules,
-        tagging,
-        diagnostics,
-    };
-    finish(&mut t)
+    finish(&mut common::tagged(scene))
 }
 
 fn v(x: f64, y: f64, z: f64) -> DVec3 {

@@ -333,3 +333,14 @@ pub fn succeeds(cmd: &mut assert_cmd::Command) -> std::process::Output {
     );
     o
 }
+
+/// A scene built in code, tagged with the default configuration as `convert` tags a level.
+pub fn tagged(scene: portcullis::scene::Scene) -> portcullis::pipeline::Tagged {
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, None).unwrap();
+    let imported = portcullis::import::Imported {
+        scene,
+        diagnostics: Default::default(),
+    };
+    portcullis::pipeline::tag(imported, config, rules)
+}
