@@ -12,7 +12,7 @@ use glam::{DVec2, DVec3};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 
-use super::{node_triangles, plan_pieces, Frame};
+use super::{canonical_triangles, node_triangles, plan_pieces, Frame};
 use crate::config::CellsConfig;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
@@ -150,7 +150,7 @@ impl<'a> Context<'a> {
 
     /// The cells of one footprint node.
     pub fn extrude(&self, node: NodeId) -> Result<Vec<ConvexPolyhedron>, String> {
-        let tris = node_triangles(self.scene, &[node], self.origin);
+        let tris = canonical_triangles(self.scene, &[node], self.origin);
         // Group the triangles by plane (normals made to face up).
         let mut groups: Vec<(Plane, Vec<[DVec2; 3]>)> = Vec::new();
         for t in &tris {

@@ -81,30 +81,19 @@ pub struct CellSet {
 }
 
 impl CellSet {
-    /// A grid over the cells' bounds, and every pair of cells within `pad` of each other in
-    /// the order of a sweep along x (cells by their lowest x, then index): the order the
-    /// overlap check and portal derivation have always visited pairs in, which numbers what
-    /// they find.
-    pub(crate) fn pairs_in_sweep_order(&self, pad: f64) -> (BoxGrid, Vec<(usize, usize)>) {
-        let mut order: Vec<usize> = (0..self.cells.len()).collect();
-        order.sort_by(|&a, &b| {
-            self.cells[a]
-                .bounds
-                .min
-                .x
-                .total_cmp(&self.cells[b].bounds.min.x)
-        });
-        let mut rank = vec![0usize; order.len()];
-        for (k, &c) in order.iter().enumerate() {
-            rank[c] = k;
-        }
+    /// A grid over the cells' bounds, and every pair of cells within `pad` of each other, in
+    /// the order of their indices (the lower first). The overlap check and portal derivation
+    /// number what they find in this order; cells are numbered by room and input order, so a
+    /// level moved or turned gets the same numbers (a sweep along world x, as before, put the
+    /// pairs of a turned level in another order and renumbered its portals).
+    pub(crate) fn pairs_in_order(&self, pad: f64) -> (BoxGrid, Vec<(usize, usize)>) {
         let grid = BoxGrid::new(self.cells.iter().map(|c| c.bounds).collect());
         let mut pairs: Vec<(usize, usize)> = grid
             .pairs(pad)
             .into_iter()
-            .map(|(i, j)| if rank[i] < rank[j] { (i, j) } else { (j, i) })
+            .map(|(i, j)| (i.min(j), i.max(j)))
             .collect();
-        pairs.sort_by_key(|&(a, b)| (rank[a], rank[b]));
+        pairs.sort_unstable();
         (grid, pairs)
     }
 }

@@ -18,7 +18,7 @@ pub(crate) fn find(
 ) -> (Vec<Diagnostic>, Vec<ConvexPolyhedron>) {
     let eps = set.tolerance.distance;
     // Only cells whose bounds overlap are compared (never all pairs), in the sweep's order.
-    let (_, pairs) = set.pairs_in_sweep_order(0.0);
+    let (_, pairs) = set.pairs_in_order(0.0);
     let mut found = Vec::new();
     let mut regions = Vec::new();
     for (a, b) in pairs {

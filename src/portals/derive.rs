@@ -85,6 +85,22 @@ fn drop_near_collinear(ring: &[DVec2], tol: f64) -> Vec<DVec2> {
     r
 }
 
+/// Each cell's place in an order that does not depend on the order the rooms are listed in:
+/// by its room's name, then the room's input order (rooms of one name), then its place among
+/// its room's cells (which the cell stage numbers from the room's own geometry).
+fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
+    let mut order: Vec<usize> = (0..cells.cells.len()).collect();
+    order.sort_by_key(|&c| {
+        let r = cells.cells[c].room;
+        (tagging.rooms[r].name.as_str(), r, c)
+    });
+    let mut rank = vec![0u32; order.len()];
+    for (k, &c) in order.iter().enumerate() {
+        rank[c] = k as u32;
+    }
+    rank
+}
+
 /// Convex pieces of an opening (or its convex hull when the conservative shape is asked for).
 /// Vertices within `tol` of a straight edge are dropped first (see [`drop_near_collinear`]).
 fn pieces(p: &Polygon2, conservative: bool, tol: f64) -> Vec<Vec<DVec2>> {
@@ -123,24 +139,45 @@ pub(crate) fn derive(
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
-        || cells.pairs_in_sweep_order(reach),
+        || cells.pairs_in_order(reach),
     );
     // Each pair's openings are computed in parallel; they are applied in pair order, so the
     // portals are numbered the same whatever the thread count. Pairs differ a lot in cost
     // (most share nothing): in jobs of at most `JOB` pairs no thread is left waiting long
     // for another's last job.
+    //
+    // A pair's openings are found in the frame of the first cell's faces and carried over to
+    // the second's, so which cell goes first is taken from an order of the cells that does
+    // not depend on the order the rooms are listed in (their names); numbers follow the
+    // cells' (the lower first).
+    let rank = name_rank(cells, tagging);
+    let first = |(a, b): (usize, usize)| {
+        if rank[a] <= rank[b] {
+            (a, b)
+        } else {
+            (b, a)
+        }
+    };
     let mut found: Vec<PairOpenings> = pairs
         .par_iter()
         .with_max_len(JOB)
-        .map(|&(a, b)| {
+        .map(|&pair| {
+            let (x, y) = first(pair);
             Shadows::with(|shadows| {
-                pair_openings(a, b, cells, &opaque, &near_cells, cfg, &k, shadows)
+                pair_openings(x, y, cells, &opaque, &near_cells, cfg, &k, shadows)
             })
         })
         .collect();
-    for ((a, b), found) in pairs.into_iter().zip(found.iter_mut()) {
+    for (&(a, b), found) in pairs.iter().zip(found.iter_mut()) {
         let internal = cells.cells[a].room == cells.cells[b].room;
-        for (on_a, on_b, na, area) in std::mem::take(&mut found.portals) {
+        let swapped = first((a, b)).0 != a;
+        for (on_x, on_y, nx, area) in std::mem::take(&mut found.portals) {
+            // As seen from `a`: its side of the opening and the normal from it to `b`.
+            let (on_a, on_b, na) = if swapped {
+                (reversed(&on_y), reversed(&on_x), -nx)
+            } else {
+                (on_x, on_y, nx)
+            };
             let i = set.portals.len();
             let back = Portal::plain(b, Some(a), on_b, -na, area, internal, Some(i));
             let polygon = reversed(&on_a);
@@ -159,27 +196,34 @@ pub(crate) fn derive(
     if !cfg.exterior {
         return;
     }
-    // For each cell face, the regions other cells claim (in that face's frame), in pair
-    // order: the claims stay where the pairs put them, and are found through a list sorted
-    // by cell and face (a stable sort keeps the pair order within a face).
-    let mut claims: Vec<(u32, u32, u32, u32)> = found
+    // For each cell face, the regions other cells claim (in that face's frame). The claims
+    // stay where the pairs put them and are found through a list sorted by cell and face,
+    // and within a face by the claiming cell's room name, then its place in its room: the
+    // order the claims are cut and unioned in (and their vertices put back) is then the same
+    // when the rooms are listed in another order (cell numbers follow the room order).
+    let mut claims: Vec<(u32, u32, u32, u32, u32)> = found
         .iter()
         .enumerate()
         .flat_map(|(p, f)| {
+            let (a, b) = first(pairs[p]);
+            let rank = &rank;
             f.claims
                 .iter()
                 .enumerate()
-                .map(move |(k, &(cell, face, _))| (cell as u32, face as u32, p as u32, k as u32))
+                .map(move |(k, &(cell, face, _))| {
+                    let other = if cell == a { b } else { a };
+                    (cell as u32, face as u32, rank[other], p as u32, k as u32)
+                })
         })
         .collect();
-    claims.par_sort_by_key(|&(cell, face, _, _)| (cell, face));
+    claims.par_sort_unstable();
     let claimed = |c: usize, i: usize| {
         let key = (c as u32, i as u32);
-        let from = claims.partition_point(|&(cell, face, _, _)| (cell, face) < key);
+        let from = claims.partition_point(|&(cell, face, ..)| (cell, face) < key);
         claims[from..]
             .iter()
-            .take_while(move |&&(cell, face, _, _)| (cell, face) == key)
-            .map(|&(_, _, p, k)| found[p as usize].claims[k as usize].2.as_slice())
+            .take_while(move |&&(cell, face, ..)| (cell, face) == key)
+            .map(|&(_, _, _, p, k)| found[p as usize].claims[k as usize].2.as_slice())
     };
 
     let exterior: Vec<Vec<(Vec<DVec3>, DVec3, f64)>> = cells
