@@ -28,11 +28,25 @@ impl std::fmt::Display for HullError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             HullError::TooFewPoints => f.write_str("fewer than four distinct points"),
-            HullError::Flat { normal } => write!(
-                f,
-                "all points lie in one plane (normal ({:.3}, {:.3}, {:.3})), so there is no volume",
-                normal.x, normal.y, normal.z
-            ),
+            HullError::Flat { normal } => {
+                // Either side of the plane will do: the one whose largest component is
+                // positive, each component rounded as printed (no "-0.000").
+                let big = normal.abs().max_element();
+                let first = normal.to_array().into_iter().find(|c| c.abs() == big);
+                let n = if first.is_some_and(|c| c < 0.0) {
+                    -*normal
+                } else {
+                    *normal
+                };
+                let r = |c: f64| (c * 1000.0).round() / 1000.0 + 0.0;
+                write!(
+                    f,
+                    "all points lie in one plane (normal ({:.3}, {:.3}, {:.3})), so there is no volume",
+                    r(n.x),
+                    r(n.y),
+                    r(n.z)
+                )
+            }
             HullError::Failed(s) => write!(f, "convex hull failed: {s}"),
         }
     }
@@ -130,6 +144,14 @@ pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flat_room_names_one_side_of_its_plane_without_negative_zeros() {
+        for n in [DVec3::new(-0.0, -1.0, 0.0), DVec3::new(0.0, 1.0, -1e-9)] {
+            let text = HullError::Flat { normal: n }.to_string();
+            assert!(text.contains("(0.000, 1.000, 0.000)"), "{text}");
+        }
+    }
 
     #[test]
     fn hull_of_a_box_with_coplanar_points() {
