@@ -4,8 +4,10 @@
 //! cut into convex pieces, and every extra piece is an extra cell and extra portals for the
 //! visibility stage to pay for. The partition therefore aims at few pieces, not just at *some*
 //! convex cover: it keeps every cut on an existing vertex (no Steiner points, so shared edges
-//! stay exact), prefers cuts that resolve two reflex corners at once, and finishes with a local
-//! search that replaces three pieces by two where it can.
+//! stay exact), prefers cuts that resolve two reflex corners at once, resolves every other
+//! reflex corner with a cut of its own to the nearest vertex it sees (so the pieces follow the
+//! plan, not the triangulation's diagonals), and finishes with a local search that replaces
+//! three pieces by two where it can.
 //!
 //! Every convexity and cone decision goes through `robust::orient2d`, so collinear walls and
 //! exactly aligned corners (the normal case in authored levels) cannot flip a decision, and the
@@ -410,7 +412,8 @@ fn partition_rings(rings: &[Vec<DVec2>]) -> Result<Vec<Vec<DVec2>>, Attempt> {
         }
     }
 
-    let forced = add_two_corner_cuts(&mut cdt, rings, &handles, &pos);
+    let mut forced = add_two_corner_cuts(&mut cdt, rings, &handles, &pos);
+    add_one_corner_cuts(&mut cdt, rings, &handles, &pos, &mut forced);
 
     // Inside faces by crossing parity from the outer face (the triangulation covers the hull).
     let nf = cdt.num_all_faces();
@@ -482,28 +485,7 @@ fn add_two_corner_cuts(
     handles: &[Vec<FixedVertexHandle>],
     pos: &[DVec2],
 ) -> HashSet<(u32, u32)> {
-    let mut corners: Vec<Corner> = Vec::new();
-    let mut seen: HashMap<u32, usize> = HashMap::new();
-    let mut shared: HashSet<u32> = HashSet::new();
-    for (r, hs) in rings.iter().zip(handles) {
-        let n = r.len();
-        for i in 0..n {
-            let (ip, inx) = ((i + n - 1) % n, (i + 1) % n);
-            if orient(r[ip], r[i], r[inx]) < 0.0 {
-                let v = hs[i].index() as u32;
-                if seen.insert(v, corners.len()).is_some() {
-                    shared.insert(v);
-                }
-                corners.push(Corner {
-                    v,
-                    p: hs[ip].index() as u32,
-                    n: hs[inx].index() as u32,
-                });
-            }
-        }
-    }
-    // A vertex where the boundary touches itself has two corners; a cut there is ambiguous.
-    corners.retain(|c| !shared.contains(&c.v));
+    let corners = reflex_corners(rings, handles);
     let mut forced = HashSet::new();
     if corners.len() < 2 || corners.len() > MAX_REFLEX_PAIRS {
         return forced;
@@ -569,6 +551,77 @@ fn add_two_corner_cuts(
         used[i] = true;
     }
     forced
+}
+
+/// Resolves every reflex corner no two-corner cut took with a cut of its own, to the nearest
+/// vertex it sees in its cone (ties by vertex order, corners in vertex order). The pieces are
+/// then fixed by the plan alone, before the triangulation is merged: its diagonals follow the
+/// Delaunay rule, which near-cocircular corners (a rectangle's, with f32 noise) settle one way
+/// or the other as the booleans' grid changes, and the merge kept whichever diagonal at a
+/// corner came first, so the same L could be cut along either of its two arms.
+fn add_one_corner_cuts(
+    cdt: &mut Cdt,
+    rings: &[Vec<DVec2>],
+    handles: &[Vec<FixedVertexHandle>],
+    pos: &[DVec2],
+    forced: &mut HashSet<(u32, u32)>,
+) {
+    let done: HashSet<u32> = forced.iter().flat_map(|&(a, b)| [a, b]).collect();
+    let mut corners: Vec<Corner> = reflex_corners(rings, handles)
+        .into_iter()
+        .filter(|c| !done.contains(&c.v))
+        .collect();
+    if corners.len() > MAX_REFLEX_PAIRS {
+        return;
+    }
+    corners.sort_by_key(|c| c.v);
+    for c in corners {
+        let from = pos[c.v as usize];
+        let mut options: Vec<(f64, u32)> = (0..pos.len() as u32)
+            .filter(|&w| c.resolves_towards(w, pos))
+            .map(|w| (from.distance_squared(pos[w as usize]), w))
+            .collect();
+        options.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let u = FixedVertexHandle::from_index(c.v as usize);
+        for &(_, w) in options.iter().take(MAX_WALKS_PER_CORNER) {
+            let wh = FixedVertexHandle::from_index(w as usize);
+            if !sees(cdt, u, wh) {
+                continue;
+            }
+            if cdt.try_add_constraint(u, wh).is_empty() && !cdt.exists_constraint(u, wh) {
+                continue;
+            }
+            forced.insert(key(c.v, w));
+            break;
+        }
+    }
+}
+
+/// The reflex corners of the rings, but those where the boundary touches itself (two corners
+/// at one vertex, where a cut is ambiguous).
+fn reflex_corners(rings: &[Vec<DVec2>], handles: &[Vec<FixedVertexHandle>]) -> Vec<Corner> {
+    let mut corners: Vec<Corner> = Vec::new();
+    let mut seen: HashSet<u32> = HashSet::new();
+    let mut shared: HashSet<u32> = HashSet::new();
+    for (r, hs) in rings.iter().zip(handles) {
+        let n = r.len();
+        for i in 0..n {
+            let (ip, inx) = ((i + n - 1) % n, (i + 1) % n);
+            if orient(r[ip], r[i], r[inx]) < 0.0 {
+                let v = hs[i].index() as u32;
+                if !seen.insert(v) {
+                    shared.insert(v);
+                }
+                corners.push(Corner {
+                    v,
+                    p: hs[ip].index() as u32,
+                    n: hs[inx].index() as u32,
+                });
+            }
+        }
+    }
+    corners.retain(|c| !shared.contains(&c.v));
+    corners
 }
 
 /// The open segment u-v crosses no constraint and touches no vertex.
