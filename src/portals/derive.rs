@@ -88,7 +88,7 @@ fn drop_near_collinear(ring: &[DVec2], tol: f64) -> Vec<DVec2> {
 /// Each cell's place in an order that does not depend on the order the rooms are listed in:
 /// by its room's name, then the room's input order (rooms of one name), then its place among
 /// its room's cells (which the cell stage numbers from the room's own geometry).
-fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
+pub(crate) fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
     let mut order: Vec<usize> = (0..cells.cells.len()).collect();
     order.sort_by_key(|&c| {
         let r = cells.cells[c].room;
@@ -150,7 +150,7 @@ pub(crate) fn derive(
     // the second's, so which cell goes first is taken from an order of the cells that does
     // not depend on the order the rooms are listed in (their names); numbers follow the
     // cells' (the lower first).
-    let rank = name_rank(cells, tagging);
+    let rank = &set.cell_rank;
     let first = |(a, b): (usize, usize)| {
         if rank[a] <= rank[b] {
             (a, b)

@@ -89,6 +89,11 @@ pub struct PortalSet {
     pub portals: Vec<Portal>,
     #[serde(skip)]
     pub diagnostics: Diagnostics,
+    /// Each cell's place in an order that does not depend on the order the rooms were listed
+    /// in (by room name; see `derive::name_rank`), for steps that must break ties without the
+    /// cells' numbers (the PVS flow's waves). Empty when not known (a stored annotation).
+    #[serde(skip)]
+    pub cell_rank: Vec<u32>,
 }
 
 impl PortalSet {
@@ -103,7 +108,10 @@ impl PortalSet {
 
 /// Derives and links the portals of a level.
 pub fn build(scene: &Scene, tagging: &Tagging, cells: &CellSet, cfg: &PortalsConfig) -> PortalSet {
-    let mut set = PortalSet::default();
+    let mut set = PortalSet {
+        cell_rank: derive::name_rank(cells, tagging),
+        ..Default::default()
+    };
     derive::derive(scene, tagging, cells, cfg, &mut set);
     authored::link(scene, tagging, cells, cfg, &mut set);
     set

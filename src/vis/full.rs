@@ -18,7 +18,9 @@
 //! for). Where every portal has its reverse and none is transformed, visibility is symmetric:
 //! `p` can see `q` only if `q`'s reverse sees `p`'s reverse, so a finished reverse that never
 //! reached `p`'s cell rules `q` out of `p`'s might-see. The result depends only on the wave
-//! split, never on the thread count.
+//! split, never on the thread count; the split breaks ties by the graph's `order` (the cells'
+//! rank by room name where the level gives it), not by the portals' numbers, so the same
+//! level with its rooms listed in another order gets the same PVS.
 //!
 //! A transformed portal moves the whole stack (source, pass, planes) into the target side's
 //! space, and the might-see of the world no longer applies, so it is reset to every portal;
@@ -109,7 +111,7 @@ pub fn pvs(g: &VisGraph, might: Vec<Vec<u64>>, depth: usize) -> Pvs {
 pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Vec<u64>> {
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by_key(|&p| (bits::count(&rows[p]), p));
+    order.sort_by_key(|&p| (bits::count(&rows[p]), g.order[p], p));
     let mut finished = vec![false; n];
     let wave = n.div_ceil(WAVES).max(1);
     let mut entering = vec![Vec::new(); g.cells];

@@ -35,6 +35,11 @@ pub struct VisGraph {
     /// neither carries a transform: a sightline through one passes through the other the
     /// other way, so what one sees tells what the other is seen by.
     pub reverse: Vec<Option<usize>>,
+    /// Per portal, its place in an order that does not follow the portals' numbers where the
+    /// level says more (its cells' rank by room name, then the portal's number): the flow's
+    /// waves break their ties by it, so the same level with its rooms listed in another
+    /// order gets the same PVS. Plainly the portals' numbers otherwise.
+    pub order: Vec<u32>,
 }
 
 impl VisGraph {
@@ -44,12 +49,14 @@ impl VisGraph {
             leaving[p.from].push(i);
         }
         let reverse = reverses(&portals, &leaving, epsilon);
+        let order = (0..portals.len() as u32).collect();
         VisGraph {
             cells,
             portals,
             leaving,
             epsilon,
             reverse,
+            order,
         }
     }
 
@@ -77,7 +84,19 @@ impl VisGraph {
                 })
             })
             .collect();
-        VisGraph::new(cells, portals, epsilon)
+        let mut g = VisGraph::new(cells, portals, epsilon);
+        let rank = &set.cell_rank;
+        if rank.len() == cells && g.portals.iter().all(|p| p.from < cells && p.to < cells) {
+            let mut by: Vec<usize> = (0..g.portals.len()).collect();
+            by.sort_by_key(|&k| {
+                let p = &g.portals[k];
+                (rank[p.from], rank[p.to], k)
+            });
+            for (place, k) in by.into_iter().enumerate() {
+                g.order[k] = place as u32;
+            }
+        }
+        g
     }
 
     pub fn has_transforms(&self) -> bool {
