@@ -151,8 +151,10 @@ pub(crate) fn derive(
     // not depend on the order the rooms are listed in (their names); numbers follow the
     // cells' (the lower first).
     let rank = &set.cell_rank;
+    // Without a rank (a set not made by `portals::build`), the cells' numbers.
+    let rank_of = |c: usize| rank.get(c).map_or(c as u64, |&r| u64::from(r));
     let first = |(a, b): (usize, usize)| {
-        if rank[a] <= rank[b] {
+        if rank_of(a) <= rank_of(b) {
             (a, b)
         } else {
             (b, a)
@@ -201,18 +203,18 @@ pub(crate) fn derive(
     // and within a face by the claiming cell's room name, then its place in its room: the
     // order the claims are cut and unioned in (and their vertices put back) is then the same
     // when the rooms are listed in another order (cell numbers follow the room order).
-    let mut claims: Vec<(u32, u32, u32, u32, u32)> = found
+    let mut claims: Vec<(u32, u32, u64, u32, u32)> = found
         .iter()
         .enumerate()
         .flat_map(|(p, f)| {
             let (a, b) = first(pairs[p]);
-            let rank = &rank;
+            let rank_of = &rank_of;
             f.claims
                 .iter()
                 .enumerate()
                 .map(move |(k, &(cell, face, _))| {
                     let other = if cell == a { b } else { a };
-                    (cell as u32, face as u32, rank[other], p as u32, k as u32)
+                    (cell as u32, face as u32, rank_of(other), p as u32, k as u32)
                 })
         })
         .collect();
