@@ -558,3 +558,23 @@ fn malformed_nan_is_reported_not_fatal() {
         assert!(p.is_finite());
     }
 }
+
+/// The file's precision is read from its digits: a writer that printed six significant
+/// digits everywhere (`%g`) is taken at its sixth digit, round numbers as exact.
+#[test]
+fn precision_comes_from_the_digits_written() {
+    use portcullis::scene::Precision;
+    let g6 = "v 2.99397 1.48611 -0.838305\nv -2.30748 3.3704 3.18072\nv 0.997627 3.3704 0.115602\nv -4 0 4\nf 1 2 3\nf 1 3 4\n";
+    assert_eq!(obj(g6).scene.precision, Precision::Decimal(6));
+    // Fixed six places (Blender's writer): seven digits at the largest coordinates.
+    let f6 = "v 1.000000 0.000000 -4.250000\nv 2.123457 3.370400 3.180720\nv 0.997627 3.370400 0.115602\nf 1 2 3\n";
+    assert_eq!(obj(f6).scene.precision, Precision::Decimal(7));
+    // Round values, however large, or a few long ones among them: exact as written.
+    let round =
+        "v 100000 0 100004\nv 100003.5 3 100000\nv 100008 0 100002.5\nv 0 0 2.01\nf 1 2 3\n";
+    assert_eq!(obj(round).scene.precision, Precision::Binary64);
+    let full = "v 0.1 0.30000000000000004 2\nv 1 2 3\nv 4 5 6\nf 1 2 3\n";
+    assert_eq!(obj(full).scene.precision, Precision::Binary64);
+    // What six digits mean at the level's size: 1e-5 m for coordinates up to 7.5 m.
+    assert_eq!(Precision::Decimal(6).spacing(4.0), 1e-5);
+}

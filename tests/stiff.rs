@@ -300,6 +300,7 @@ fn f32_coordinates_1e5_m_out_are_capped_and_still_right() {
     let path = common::write(dir.path(), "level.obj", &l.text());
     let mut t = load_tagged(&path, &LoadOptions::default()).unwrap();
     t.scene.format = portcullis::scene::Format::Glb;
+    t.scene.precision = portcullis::scene::Precision::Binary32;
     let b = finish(&mut t);
     assert!(b.c.tolerance.capped);
     assert_eq!(b.c.tolerance.distance, 1e-3);

@@ -21,13 +21,14 @@ use serde::Serialize;
 use crate::config::CellsConfig;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::geom::aabb::Aabb;
+use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::hull::{hull, HullError};
 use crate::geom::partition::{convex_partition, union_triangles, Polygon2};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::geom::tolerance::Tolerance;
-use crate::scene::{Format, NodeId, Scene};
+use crate::scene::{NodeId, Scene};
 use crate::tags::rules::VolumeHint;
 use crate::tags::{RoomId, Tagging};
 
@@ -167,9 +168,9 @@ pub(crate) fn canonical_triangles(
     out
 }
 
-/// The level's box, and what its precision is measured from: the largest stored coordinate
-/// of each node's mesh times the node's world scale (its largest axis stretch), and the
-/// largest world coordinate.
+/// The level's box, what its precision is measured from (the spacing of each node's stored
+/// coordinates at their largest, times the node's world scale, its largest axis stretch), and
+/// the largest world coordinate.
 ///
 /// Per node, because that is where a file loses precision: an f32 mesh is good to its own
 /// ulps wherever its node puts it, and an exactly representable translation (any the f64
@@ -202,7 +203,7 @@ fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
             } else {
                 b.min.abs().max(b.max.abs()).max_element()
             };
-            (b, stored * stretch, world)
+            (b, scene.precision.spacing(stored) * stretch, world)
         })
         .reduce(
             || (Aabb::EMPTY, 0.0, 0.0),
@@ -212,10 +213,9 @@ fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
 
 /// Builds the cells of every tagged room.
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
-    let (level, max_abs, world_abs) = level_frame(scene);
+    let (level, spacing, world_abs) = level_frame(scene);
     let extent = level.size().length();
-    let single = matches!(scene.format, Format::Gltf | Format::Glb | Format::Usd);
-    let mut tol = Tolerance::derive(extent, max_abs, world_abs, single, cfg.max_tolerance);
+    let mut tol = Tolerance::derive(extent, spacing, world_abs, cfg.max_tolerance);
     tol.distance *= cfg.tolerance_factor;
     let origin = if level.is_empty() {
         DVec3::ZERO
@@ -229,8 +229,8 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
             Diagnostic::new(
                 Code::TOLERANCE_CAPPED,
                 format!(
-                    "the input's precision ({:.3e} m at stored coordinates up to {:.0} m) is coarser than the largest tolerance allowed ({:.3e} m)",
-                    tol.input_precision, max_abs, cfg.max_tolerance
+                    "the input's precision ({:.3e} m: its coordinates are stored {:.1e} m apart where they are largest) is coarser than the largest tolerance allowed ({:.3e} m)",
+                    tol.input_precision, spacing, cfg.max_tolerance
                 ),
                 Location::file(&scene.path),
             )
@@ -618,67 +618,6 @@ impl Frame {
     /// A ground-plane vector back in 3D.
     pub fn lift(&self, q: DVec2) -> DVec3 {
         self.u * q.x + self.v * q.y
-    }
-}
-
-/// The 2D booleans snap to a grid; the pieces they return are made of input vertices, so we
-/// put the exact input coordinates back (volumes then add up to f64 precision, not to the grid).
-pub struct ExactVertices {
-    grid: f64,
-    map: std::collections::HashMap<(i64, i64), (usize, DVec2), foldhash::fast::FixedState>,
-}
-
-impl ExactVertices {
-    pub fn new(points: impl Iterator<Item = DVec2>, grid: f64) -> Self {
-        let mut map = std::collections::HashMap::with_hasher(Default::default());
-        for (i, p) in points.enumerate() {
-            map.entry(Self::key(p, grid)).or_insert((i, p));
-        }
-        ExactVertices { grid, map }
-    }
-    /// The input order of the vertex at `p` (the earliest input vertex there): of the input
-    /// vertices within a grid step of `p`, the earliest, not the nearest. Coincident vertices
-    /// of a turned level differ in their last bits and may round to neighbouring grid keys;
-    /// the nearest of them is then a coin toss, and so was the order of a room's cells
-    /// (tests/cells_props.rs, an L turned by (1.47, -0.52, -0.04) rad).
-    pub fn index_of(&self, p: DVec2) -> Option<usize> {
-        let (kx, ky) = Self::key(p, self.grid);
-        let mut earliest: Option<usize> = None;
-        for dx in -2..=2 {
-            for dy in -2..=2 {
-                if let Some(&(i, q)) = self.map.get(&(kx + dx, ky + dy)) {
-                    if q.distance(p) <= self.grid && earliest.is_none_or(|e| i < e) {
-                        earliest = Some(i);
-                    }
-                }
-            }
-        }
-        earliest.or_else(|| self.nearest(p).map(|(i, _)| i))
-    }
-    fn nearest(&self, p: DVec2) -> Option<(usize, DVec2)> {
-        let (kx, ky) = Self::key(p, self.grid);
-        let mut best: Option<(f64, (usize, DVec2))> = None;
-        for dx in -2..=2 {
-            for dy in -2..=2 {
-                if let Some(&(i, q)) = self.map.get(&(kx + dx, ky + dy)) {
-                    let d = q.distance_squared(p);
-                    if best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, (i, q)));
-                    }
-                }
-            }
-        }
-        best.map(|(_, v)| v)
-    }
-    fn key(p: DVec2, grid: f64) -> (i64, i64) {
-        ((p.x / grid).round() as i64, (p.y / grid).round() as i64)
-    }
-    /// The input vertex nearest to `p` within two grid steps, else `p`.
-    pub fn restore(&self, piece: Vec<DVec2>) -> Vec<DVec2> {
-        piece
-            .into_iter()
-            .map(|p| self.nearest(p).map(|(_, q)| q).unwrap_or(p))
-            .collect()
     }
 }
 

@@ -4,6 +4,7 @@
 pub mod aabb;
 pub mod boolean2;
 pub mod cover;
+pub mod exact;
 pub mod grid;
 pub mod hull;
 pub mod partition;

@@ -2,7 +2,9 @@
 //!
 //! A distance epsilon must never be finer than the input can express (an f32 position stored
 //! 10 km from its node's origin is only good to about a millimetre, so two walls "1e-5 m apart"
-//! there are the same wall; a node's translation loses nothing, its scale scales the ulps) and never coarser than the user allows (`[cells] max_tolerance`, 1 mm by
+//! there are the same wall; an OBJ written with six significant digits is good to its sixth
+//! digit, whatever f64 reads it into; a node's translation loses nothing, its scale scales
+//! the spacing) and never coarser than the user allows (`[cells] max_tolerance`, 1 mm by
 //! default), or doors would silently close. Between those bounds we take the input precision
 //! with a safety factor, and a floor of 1e-9 of the level's extent so f64 arithmetic noise of
 //! the geometry itself is always absorbed. Angles are judged separately (normals within
@@ -28,30 +30,18 @@ pub struct Tolerance {
 }
 
 impl Tolerance {
-    /// `extent`: the level's bounding-box diagonal; `max_abs`: the largest absolute coordinate
-    /// as stored in the file, each times the world scale of the node that places it (that is
-    /// where the file lost precision: a translation the f64 world matrix holds exactly adds
-    /// nothing); `world_abs`: the largest world coordinate, whose f64 rounding is the last
-    /// bound; `single_precision`: positions were stored as f32 (glTF) rather than decimal
-    /// text.
-    pub fn derive(
-        extent: f64,
-        max_abs: f64,
-        world_abs: f64,
-        single_precision: bool,
-        max_distance: f64,
-    ) -> Tolerance {
-        let unit = if single_precision {
-            f32::EPSILON as f64
-        } else {
-            f64::EPSILON * 16.0
-        };
-        // Eight ulps of the largest coordinate: one for storage, the rest for the transforms
+    /// `extent`: the level's bounding-box diagonal; `spacing`: the spacing of the stored
+    /// coordinates where they are largest (`scene::Precision::spacing`: an f32 ulp, the last
+    /// digit of decimal text), each node's times its world scale (that is where the file lost
+    /// precision: a translation the f64 world matrix holds exactly adds nothing), the
+    /// largest over the level; `world_abs`: the largest world coordinate, whose f64 rounding
+    /// is the last bound.
+    pub fn derive(extent: f64, spacing: f64, world_abs: f64, max_distance: f64) -> Tolerance {
+        // Eight steps of the stored spacing: one for storage, the rest for the transforms
         // the exporter applied before storing (node rotations and scales composed in f32: at
         // four, LPortal BoxRooms baked from its USD copy lost a full-wall portal pair to f32
         // misalignment, tests/import_usd.rs).
-        let input_precision =
-            (8.0 * unit * max_abs.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
+        let input_precision = (8.0 * spacing.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
         let floor = 1e-9 * extent.max(0.0);
         let wanted = input_precision.max(floor).max(1e-12);
         let capped = wanted > max_distance;
@@ -83,34 +73,55 @@ impl Tolerance {
 mod tests {
     use super::*;
 
+    use crate::scene::Precision;
+
+    fn derive(extent: f64, max_abs: f64, world_abs: f64, p: Precision, cap: f64) -> Tolerance {
+        Tolerance::derive(extent, p.spacing(max_abs), world_abs, cap)
+    }
+
     #[test]
     fn f32_far_from_origin_is_coarse_and_capped() {
         // 10 km out, f32: about 1 mm per ulp.
-        let t = Tolerance::derive(100.0, 10_000.0, 10_000.0, true, DEFAULT_MAX_DISTANCE);
+        let f32 = Precision::Binary32;
+        let t = derive(100.0, 10_000.0, 10_000.0, f32, DEFAULT_MAX_DISTANCE);
         assert!(t.input_precision > 1e-3);
         assert!(t.capped);
         assert_eq!(t.distance, DEFAULT_MAX_DISTANCE);
         // A room near the origin keeps a fine tolerance.
-        let t = Tolerance::derive(20.0, 10.0, 10.0, true, DEFAULT_MAX_DISTANCE);
+        let t = derive(20.0, 10.0, 10.0, f32, DEFAULT_MAX_DISTANCE);
         assert!(t.distance < 1e-5 && t.distance > 1e-7, "{}", t.distance);
         assert!(!t.capped);
-        // Decimal input is much finer.
-        let t = Tolerance::derive(20.0, 10.0, 10.0, false, DEFAULT_MAX_DISTANCE);
+        // Double precision is much finer.
+        let t = derive(20.0, 10.0, 10.0, Precision::Binary64, DEFAULT_MAX_DISTANCE);
         assert!(t.distance < 1e-7);
     }
 
     #[test]
+    fn decimal_text_is_as_good_as_its_last_digit() {
+        // Six significant digits (`%g`) at coordinates up to 7.5: 1e-5 apart.
+        assert_eq!(Precision::Decimal(6).spacing(7.5), 1e-5);
+        assert_eq!(Precision::Decimal(6).spacing(10.0), 1e-4);
+        assert_eq!(Precision::Decimal(6).spacing(0.5), 1e-6);
+        // Seventeen digits hold what a double holds, and no more.
+        let full = Precision::Decimal(17).spacing(7.5);
+        assert_eq!(full, Precision::Binary64.spacing(7.5));
+        let t = derive(20.0, 7.5, 7.5, Precision::Decimal(6), DEFAULT_MAX_DISTANCE);
+        assert_eq!(t.distance, 8e-5);
+    }
+
+    #[test]
     fn scales_with_the_level() {
-        let a = Tolerance::derive(10.0, 10.0, 10.0, true, 1.0);
-        let b = Tolerance::derive(10_000.0, 10_000.0, 10_000.0, true, 1.0);
+        let f32 = Precision::Binary32;
+        let a = derive(10.0, 10.0, 10.0, f32, 1.0);
+        let b = derive(10_000.0, 10_000.0, 10_000.0, f32, 1.0);
         assert!((b.distance / a.distance - 1000.0).abs() < 1e-6);
     }
 
     #[test]
     fn a_far_translation_adds_only_f64_rounding() {
         // A 10 m f32 mesh placed 2^20 m out keeps its own precision.
-        let near = Tolerance::derive(15.0, 10.0, 10.0, true, 1e-3);
-        let far = Tolerance::derive(15.0, 10.0, 1_048_586.0, true, 1e-3);
+        let near = derive(15.0, 10.0, 10.0, Precision::Binary32, 1e-3);
+        let far = derive(15.0, 10.0, 1_048_586.0, Precision::Binary32, 1e-3);
         assert_eq!(near, far);
         assert!(!far.capped);
     }

@@ -18,7 +18,9 @@ use glam::{DMat4, DVec3};
 use super::{ImportOptions, Imported};
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::geom::triangulate::{triangulate_polygon, NotSimple};
-use crate::scene::{Format, Material, MaterialId, Mesh, Node, NodeId, Primitive, Scene, SourceRef};
+use crate::scene::{
+    Format, Material, MaterialId, Mesh, Node, NodeId, Precision, Primitive, Scene, SourceRef,
+};
 
 use text::{decode, strip_comment, tokens, trim};
 
@@ -91,6 +93,8 @@ struct Reader<'a> {
     material_line: Option<usize>,
     skipped: Vec<Skipped>,
     polygon_warnings: usize,
+    /// How the vertex coordinates were written: how precise the file is.
+    digits: Digits,
     stem: String,
     face: Vec<u32>,
 }
@@ -120,6 +124,7 @@ impl<'a> Reader<'a> {
             material_line: None,
             skipped: Vec::new(),
             polygon_warnings: 0,
+            digits: Digits::default(),
             stem,
             face: Vec::new(),
         }
@@ -215,6 +220,7 @@ impl<'a> Reader<'a> {
             })?;
             if count < 3 {
                 xyz[count] = v;
+                self.digits.add(tok);
             }
             count += 1;
         }
@@ -571,6 +577,7 @@ impl<'a> Reader<'a> {
             });
             n.mesh = Some(mesh);
         }
+        self.scene.precision = self.digits.precision();
         self.report_non_finite();
         if !self.skipped.is_empty() {
             let list: Vec<String> = self
@@ -676,6 +683,66 @@ fn is_keyword(kw: &[u8]) -> bool {
 
 fn parse_f64(tok: &[u8]) -> Option<f64> {
     std::str::from_utf8(tok).ok()?.parse().ok()
+}
+
+/// How the vertex coordinates were written: how many of them, the most significant digits
+/// any has, and how many with each number of significant digits (17 and more together) that
+/// go at least two places past the point.
+#[derive(Default)]
+struct Digits {
+    total: u64,
+    most: u32,
+    fine: [u64; 18],
+}
+
+impl Digits {
+    fn add(&mut self, tok: &[u8]) {
+        let (digits, places) = written_digits(tok);
+        self.total += 1;
+        self.most = self.most.max(digits);
+        if places >= 2 {
+            self.fine[digits.min(17) as usize] += 1;
+        }
+    }
+
+    /// What the digits say about the file: a writer that printed every coordinate to the
+    /// same number of significant digits (`%g` keeps six) kept no more than that, and the
+    /// tolerance must not assume it did. Its signature is numbers of every size using all
+    /// those digits (or all but a trailing zero), well past the point (`2.99397`,
+    /// `0.838305`). Files of round numbers (a hand-written `v 3 0 2.5`, or a shortest
+    /// round-trip writer's `100004`) are exact as written: their f64 is all there is.
+    fn precision(&self) -> Precision {
+        let p = self.most.min(17) as usize;
+        if !(5..17).contains(&p) {
+            return Precision::Binary64;
+        }
+        if 3 * (self.fine[p] + self.fine[p - 1]) >= self.total {
+            Precision::Decimal(p as u32)
+        } else {
+            Precision::Binary64
+        }
+    }
+}
+
+/// The significant digits of a decimal number as written, and how many places past the
+/// point its last digit is (`-0.0012e3`: two digits, one place): the sign, the point, the
+/// leading zeros and the exponent are not digits the writer kept.
+fn written_digits(tok: &[u8]) -> (u32, i64) {
+    let mut parts = tok.splitn(2, |&b| b == b'e' || b == b'E');
+    let mantissa = parts.next().unwrap_or(tok);
+    let exponent: i64 = parts
+        .next()
+        .and_then(|e| std::str::from_utf8(e).ok()?.parse().ok())
+        .unwrap_or(0);
+    let digits = mantissa.iter().filter(|b| b.is_ascii_digit());
+    let significant = digits.skip_while(|&&b| b == b'0').count() as u32;
+    let places = mantissa.iter().position(|&b| b == b'.').map_or(0, |dot| {
+        mantissa[dot + 1..]
+            .iter()
+            .filter(|b| b.is_ascii_digit())
+            .count()
+    });
+    (significant, places as i64 - exponent)
 }
 
 fn parse_i64(tok: &[u8]) -> Option<i64> {

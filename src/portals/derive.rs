@@ -7,11 +7,12 @@ use glam::{DVec2, DVec3};
 
 use super::opaque::{Frame2, Opaque, Shadows, Slab};
 use super::{reversed, Portal, PortalSet};
-use crate::cells::{CellSet, ExactVertices};
+use crate::cells::CellSet;
 use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection};
 use crate::geom::cover::{is_covered, Remainder};
+use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
@@ -273,12 +274,12 @@ pub(crate) fn derive(
                         grid,
                     );
                     let exact = ExactVertices::new(
-                        face.points
-                            .iter()
-                            .map(|p| f.to2(*p))
+                        ring.iter()
+                            .copied()
                             .chain(covered.iter().flat_map(|r| r.iter()).copied()),
                         grid,
-                    );
+                    )
+                    .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
                     for o in difference(&whole, &covered, grid)
                         .iter()
                         .filter(|o| mean_width(o) >= min_width)
@@ -431,7 +432,7 @@ fn pair_openings(
             if !snapped_boxes_overlap(&ra, &rb, grid) {
                 continue;
             }
-            let shared = intersection(&[ra], &[rb], grid);
+            let shared = intersection(std::slice::from_ref(&ra), std::slice::from_ref(&rb), grid);
             if shared.is_empty() {
                 continue;
             }
@@ -511,12 +512,16 @@ fn pair_openings(
             }
             let open = difference(&shared, &blockers, grid);
             let exact = ExactVertices::new(
-                fa.points
-                    .iter()
-                    .chain(fb.points.iter())
-                    .map(|p| f.to2(*p))
-                    .chain(blockers.iter().flat_map(|r| r.iter()).copied()),
+                ra.iter()
+                    .chain(rb.iter())
+                    .chain(blockers.iter().flat_map(|r| r.iter()))
+                    .copied(),
                 grid,
+            )
+            .with_rings(
+                [ra.as_slice(), rb.as_slice()]
+                    .into_iter()
+                    .chain(blockers.iter().copied()),
             );
             for o in open.iter().filter(|o| mean_width(o) >= min_width) {
                 for piece in pieces(o, cfg.conservative, eps) {

@@ -48,6 +48,52 @@ impl Format {
     }
 }
 
+/// How finely a file stored its coordinates: what the tolerance policy starts from
+/// (`geom::tolerance`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// IEEE single precision (glTF accessors, USD `point3f`).
+    Binary32,
+    /// IEEE double precision, or text whose digits are not known.
+    Binary64,
+    /// Decimal text with at most this many significant digits in any coordinate (an OBJ
+    /// exporter writing `%g` keeps six): the last digit is all the file holds, whatever the
+    /// parser reads it into.
+    Decimal(u32),
+}
+
+impl Precision {
+    /// What a format stores, before its reader has seen the digits.
+    pub fn of_format(f: Format) -> Precision {
+        match f {
+            Format::Gltf | Format::Glb | Format::Usd => Precision::Binary32,
+            Format::Obj => Precision::Binary64,
+        }
+    }
+
+    /// The spacing of stored numbers as large as `max_abs`: one ulp in binary (bounded by the
+    /// machine epsilon times the number), one unit of the last significant digit in decimal
+    /// (never finer than double precision holds).
+    pub fn spacing(self, max_abs: f64) -> f64 {
+        let max_abs = max_abs.max(0.0);
+        let binary64 = 16.0 * f64::EPSILON * max_abs;
+        match self {
+            Precision::Binary32 => f32::EPSILON as f64 * max_abs,
+            Precision::Binary64 => binary64,
+            Precision::Decimal(digits) => {
+                if !(max_abs > 0.0 && max_abs.is_finite()) {
+                    return binary64;
+                }
+                let lead = max_abs.log10().floor() as i32;
+                10f64
+                    .powi(lead + 1 - digits.clamp(1, 17) as i32)
+                    .max(binary64)
+            }
+        }
+    }
+}
+
 /// Where an item came from in its source file, so a diagnostic can point a designer at it.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct SourceRef {
@@ -362,6 +408,8 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     pub materials: Vec<Material>,
     pub gltf: Option<GltfSource>,
+    /// How finely the file stored the mesh positions.
+    pub precision: Precision,
 }
 
 impl Scene {
@@ -374,6 +422,7 @@ impl Scene {
             meshes: Vec::new(),
             materials: Vec::new(),
             gltf: None,
+            precision: Precision::of_format(format),
         }
     }
 
