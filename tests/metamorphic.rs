@@ -472,11 +472,10 @@ const SHOW: usize = 4;
 /// Levels whose portals are not yet invariant, with the number of portal, PVS and diagnostic
 /// differences (over all changes) they show, held exactly. Their rooms, cells and room
 /// adjacency are compared strictly like every other level's. What differs (the open part of
-/// issue 25): on MAP01 two tiny openings (3e-4
-/// and 4.5e-4 m², a pair each) move by about 2e-6 relative when the level is moved 2^20 m
-/// out (a vertex that is a crossing of two edges stays on the booleans' grid); panda3d's openings move by about 1e-5 relative when the
-/// level is moved far out (the .glb).
-const KNOWN: &[(&str, usize)] = &[("MAP01_godot.glb", 4), ("panda3d_culling.glb", 9)];
+/// issue 25): moved far out, three of panda3d's openings (the .glb) change area by about
+/// 1e-6 to 4e-6 relative: their corners are where sloped stair triangles leave a face's
+/// tolerance slab, which the f64 rounding of the far coordinates moves.
+const KNOWN: &[(&str, usize)] = &[("panda3d_culling.glb", 3)];
 
 /// For working on one level: `METAMORPHIC_ONLY=<part of its path>` skips the others, and
 /// `METAMORPHIC_SHOW_ALL=1` prints every difference found (with `-- --nocapture`).
@@ -604,14 +603,15 @@ fn a_real_change_is_seen() {
 /// Levels whose result moves with the tolerance, with their number of differences over the
 /// four factors (held exactly, like `KNOWN`).
 /// What moves: lportal_boxrooms (rooms of f32 wall blocks) at 0.25 times is cut into more
-/// cells (at one ulp, under the input's precision, its blocks' faces no longer line up); the
-/// rest as in `KNOWN`.
+/// cells (at two ulps, under the input's precision, its blocks' faces no longer line up);
+/// panda3d's stair undersides lie 0.03 to 0.2 mm off the sloped faces of the cells under them
+/// (measured against the triangles), inside the range the factors sweep (0.2 to 3 mm for the
+/// six-digit OBJ, 3e-3 to 4e-2 mm for the f32 .glb), so whether they cover those faces
+/// changes with it.
 const TOLERANCE_KNOWN: &[(&str, usize)] = &[
     ("lportal_boxrooms.glb", 32),
-    ("panda3d_culling.glb", 65),
-    ("panda3d_culling.obj", 28),
-    ("E1M2_godot.glb", 110),
-    ("MAP01_godot.glb", 64),
+    ("panda3d_culling.glb", 70),
+    ("panda3d_culling.obj", 56),
 ];
 
 /// Tolerance stability (issue 25): the policy's tolerance times 0.25, 0.5, 2 and 4 gives the

@@ -176,16 +176,6 @@ impl<'a> Context<'a> {
         if groups.is_empty() {
             return Err("it has no non-vertical triangles".into());
         }
-        let extent = tris
-            .iter()
-            .flatten()
-            .fold(crate::geom::aabb::Aabb::EMPTY, |mut a, p| {
-                a.add(*p);
-                a
-            })
-            .size()
-            .length();
-        let grid = (self.eps * 0.5).max(extent * 1e-9);
         let mut out = Vec::new();
         for (pl, flat) in &groups {
             // The point of the footprint plane above ground-plane point q.
@@ -195,7 +185,7 @@ impl<'a> Context<'a> {
                 let h = (pl.d - pl.normal.dot(g)) / pl.normal.dot(f.up);
                 g + f.up * h
             };
-            for piece in plan_pieces(flat, grid, self.eps)? {
+            for piece in plan_pieces(flat, self.eps)? {
                 let centre = piece.iter().copied().sum::<DVec2>() / piece.len() as f64;
                 let centre_h = self.height_at(lift(centre)).unwrap_or(self.storey);
                 let mut pts = Vec::with_capacity(piece.len() * 2);

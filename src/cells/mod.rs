@@ -400,7 +400,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                     let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
                     match hull(&pts, eps) {
                         Ok(h) => {
-                            let cells = prism::cells(&tris, &h, eps, extent, &frame)
+                            let cells = prism::cells(&tris, &h, eps, &frame)
                                 .unwrap_or_else(|| interior::decompose(&tris, &h, eps));
                             let source = if cells.len() == 1 && cells[0] == h {
                                 CellSource::Hull
@@ -632,12 +632,14 @@ impl Frame {
 /// integers) that the same shape has whichever of its edges of equal length was picked and
 /// wherever the union's rings started, so the partition sees the same input and breaks every
 /// tie the same way. The pieces are mapped back and given the exact input coordinates.
-pub(crate) fn plan_pieces(
-    flat: &[[DVec2; 3]],
-    grid: f64,
-    eps: f64,
-) -> Result<Vec<Vec<DVec2>>, String> {
-    let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
+///
+/// The grid is the plan's own (2^-20 of its extent), not the tolerance's: a grid that moved
+/// with the tolerance rounded the same plan to other integers, and a Doom sector's equal
+/// lengths, tied on one grid, were settled by rounding on another (E1M2 was cut into other
+/// pieces at half or twice the tolerance). What the tolerance decides is decided with it:
+/// which vertices are on a straight edge, which T-junctions split an edge, which slivers and
+/// cracks are noise.
+pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2>>, String> {
     let Some(&first) = flat.first().map(|t| &t[0]) else {
         return Ok(Vec::new());
     };
@@ -673,8 +675,25 @@ pub(crate) fn plan_pieces(
             })
         })
         .collect();
+    let local = weld(local, 0.5 * eps);
+    let mut bounds = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for p in local.iter().flatten() {
+        bounds = (bounds.0.min(*p), bounds.1.max(*p));
+    }
+    let grid = (bounds.1 - bounds.0).length() * PLAN_GRID;
+    if !(grid > 0.0 && grid.is_finite()) {
+        return Ok(Vec::new());
+    }
+    let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
+    // Thinner than half the tolerance on average is noise (what the union's own grid dropped
+    // when it was the tolerance's).
+    let noise = |r: &[DVec2]| mean_width(r) < 0.5 * eps;
     let mut pieces = Vec::new();
-    for poly in union_triangles(&split_t_junctions(&local, eps.max(grid)), grid) {
+    for mut poly in union_triangles(&split_t_junctions(&local, eps.max(grid)), grid) {
+        if noise(&poly.outer) {
+            continue;
+        }
+        poly.holes.retain(|h| !noise(h));
         let (turn, canonical) = canonical_turn(&poly, grid);
         // The union snapped every vertex to the grid: a vertex on a straight edge can come
         // back a whole grid step off it (an L turned by (1.47, -0.52, -0.04) rad kept such a
@@ -715,6 +734,68 @@ pub(crate) fn plan_pieces(
         pieces.extend(keyed.into_iter().map(|(_, p)| p));
     }
     Ok(pieces)
+}
+
+/// The plan partition's grid step, relative to the plan's extent: integer coordinates up to
+/// 2^20, whose squared distances and cross products stay exact in f64.
+const PLAN_GRID: f64 = 1.0 / (1u64 << 20) as f64;
+
+/// Every vertex within `tol` of another (transitively) moved onto the least of them (by x,
+/// then y): f32 noise between the corners of neighbouring floor tiles is gone before the
+/// union, whose grid is finer than the tolerance. The least point is the same whatever order
+/// the triangles come in.
+fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
+    let mut pts: Vec<DVec2> = tris.iter().flatten().copied().collect();
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    let mut parent: Vec<usize> = (0..pts.len()).collect();
+    fn find(parent: &mut [usize], mut x: usize) -> usize {
+        while parent[x] != x {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        x
+    }
+    for i in 0..pts.len() {
+        for j in i + 1..pts.len() {
+            if pts[j].x - pts[i].x > tol {
+                break;
+            }
+            if pts[i].distance(pts[j]) <= tol {
+                // The root is always the least index: the least point of the cluster.
+                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                parent[a.max(b)] = a.min(b);
+            }
+        }
+    }
+    let at = |p: DVec2| {
+        pts.binary_search_by(|q| q.x.total_cmp(&p.x).then(q.y.total_cmp(&p.y)))
+            .ok()
+    };
+    for t in &mut tris {
+        for p in t.iter_mut() {
+            if let Some(i) = at(*p) {
+                *p = pts[find(&mut parent, i)];
+            }
+        }
+    }
+    tris
+}
+
+/// Twice the area over the perimeter: how wide a ring is on average.
+fn mean_width(r: &[DVec2]) -> f64 {
+    let n = r.len();
+    let (mut twice_area, mut perimeter) = (0.0, 0.0);
+    for i in 0..n {
+        let (p, q) = (r[i], r[(i + 1) % n]);
+        twice_area += p.perp_dot(q);
+        perimeter += p.distance(q);
+    }
+    if perimeter > 0.0 {
+        twice_area.abs() / perimeter
+    } else {
+        0.0
+    }
 }
 
 /// `q` turned `n` quarter turns counter-clockwise about the origin (exact).

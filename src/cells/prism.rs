@@ -25,7 +25,6 @@ pub(crate) fn cells(
     tris: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
     eps: f64,
-    extent: f64,
     frame: &Frame,
 ) -> Option<Vec<ConvexPolyhedron>> {
     let height = |p: &DVec3| p.dot(frame.up);
@@ -101,8 +100,7 @@ pub(crate) fn cells(
         }
         _ => {}
     }
-    let grid = (eps * 0.5).max(extent * 1e-9);
-    let pieces = plan_pieces(plan, grid, eps).ok()?;
+    let pieces = plan_pieces(plan, eps).ok()?;
     let mut region = hull.clone();
     if let Some((f, c, top)) = slab {
         // The ceiling must cover the floor, no more and no less: a ceiling over part of the
@@ -207,7 +205,7 @@ mod tests {
     fn run(tris: &[[DVec3; 3]]) -> Option<Vec<ConvexPolyhedron>> {
         let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
         let h = hull(&pts, 1e-6).unwrap();
-        cells(tris, &h, 1e-6, 10.0, &Frame::new([0.0, 1.0, 0.0]))
+        cells(tris, &h, 1e-6, &Frame::new([0.0, 1.0, 0.0]))
     }
 
     #[test]

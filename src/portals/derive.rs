@@ -257,6 +257,7 @@ pub(crate) fn derive(
                         hi: d + eps,
                         frame: &f,
                         thin: true,
+                        outline: &ring,
                     };
                     opaque.shadows(&bb, &slab, shadows);
                     let mut covered: Vec<&[DVec2]> = claimed(c, i).collect();
@@ -453,13 +454,14 @@ fn pair_openings(
                 }
             }
             let fb2 = Frame2::of_face(fb);
+            // Claims are cut from the faces' other openings and the exterior: with their
+            // corners left on the grid, those openings' corners moved with it.
+            let exact_shared = ExactVertices::new(ra.iter().chain(rb.iter()).copied(), grid)
+                .with_rings([ra.as_slice(), rb.as_slice()]);
             for s in &shared {
-                out.claims.push((a, ia, s.outer.clone()));
-                let back: Vec<DVec2> = s
-                    .outer
-                    .iter()
-                    .map(|q| fb2.to2(f.to3(*q, na * gap)))
-                    .collect();
+                let claim = exact_shared.restore(s.outer.clone());
+                let back: Vec<DVec2> = claim.iter().map(|q| fb2.to2(f.to3(*q, na * gap))).collect();
+                out.claims.push((a, ia, claim));
                 out.claims.push((b, ib, back));
             }
             // What blocks: everything on the plane, or inside the wall slab, within 2·eps of
@@ -488,6 +490,7 @@ fn pair_openings(
                 hi,
                 frame: &f,
                 thin: gap <= eps,
+                outline: &ra,
             };
             opaque.shadows(&bb, &slab, shadows);
             let between = if gap > 4.0 * eps {

@@ -124,6 +124,9 @@ pub(crate) struct Slab<'a> {
     /// Only the tolerance around one plane (a face, or two coplanar faces), not a wall's
     /// thickness: a triangle crossing it steeply touches the plane along a line.
     pub thin: bool,
+    /// The face's outline in `frame` (empty: not known): a triangle crossing a thin slab
+    /// along one of its edges is a wall meeting the face there.
+    pub outline: &'a [DVec2],
 }
 
 /// Shadows of the triangles in a slab, as rings in one flat buffer (in triangle order), plus the
@@ -304,8 +307,14 @@ impl Opaque {
 /// it: its shadow is then at most 1e-12 of the slab's thickness wide, so it blocks nothing.
 const STANDING: f64 = 1e-12;
 
-/// cos 30°: a triangle tilted further than this from a thin slab's plane crosses it.
-const TILTED: f64 = 0.866;
+/// A triangle tilted further than this (its normal's cosine to the slab's) from a thin
+/// slab's plane crosses it, and its part inside (a strip along the line where it meets the
+/// plane, the slab's thickness over tan θ wide: 115 half thicknesses at 1°) is a tolerance's
+/// artefact, as wide as the tolerance makes it. Within 1° a wall may lie along the face for
+/// a good way inside the tolerance, and covers it there. cos 1°: an angle whose tangent is
+/// no ratio of small integers, so no slope of a level on an integer grid (a Doom map's 1 in
+/// 5) sits on the threshold, to be settled by rounding.
+const TILTED: f64 = 0.999_847_695_156_391_2;
 
 /// The axis `n` lies on exactly (its other two components zero), if any: then `n·p` is
 /// `±p[axis]` to the bit.
@@ -361,12 +370,19 @@ fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
         if normal.dot(n).abs() <= STANDING * normal.length() {
             return false;
         }
-        // Through a thin slab at more than 30 degrees (a wall meeting the face at its edge,
-        // at an angle), the part inside is a strip at most twice the slab wide along the line
-        // where the triangle meets the plane: an edge, not a cover. Kept, it ate a strip of
-        // about the tolerance off the side of an L room's diagonal portal, and so the
-        // portal's area moved with the tolerance.
+        // Through a thin slab at more than a degree (a wall meeting the face at its edge, at
+        // an angle), the part inside is a strip along the line where the triangle meets the
+        // plane: an edge, not a cover. Kept, it ate a strip of a few tolerances off the side
+        // of an L room's diagonal portal (at 30 degrees and more) and of Doom sectors'
+        // slanted portals (at 23 and 9.6 degrees, E1M2), and so the portal's area moved
+        // with the tolerance.
         if slab.thin && normal.dot(n).abs() <= TILTED * normal.length() {
+            return false;
+        }
+        // However shallow, a wall that crosses the face's plane along one of the face's own
+        // edges (a sector's wall at half a degree to its neighbour's, meeting it at the
+        // corner, MAP01) leaves a wedge a tolerance thick along that edge, not a cover.
+        if slab.thin && crosses_along_outline(t, &d, slab) {
             return false;
         }
         // A triangle clipped by two planes has at most five corners.
@@ -389,6 +405,48 @@ fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
         out.truncate(start);
         false
     }
+}
+
+/// Whether the line where triangle `t` (at heights `d` along the slab's normal) crosses the
+/// middle of a thin slab lies along an edge of the slab's outline, within the slab's
+/// thickness: the corners inside the slab and the points where its edges cross the middle,
+/// all near one edge. A triangle that only touches the slab at one corner counts when that
+/// corner is on an edge (the other half of a wall quad whose diagonal starts at the face's
+/// corner).
+fn crosses_along_outline(t: &[DVec3; 3], d: &[f64; 3], slab: &Slab) -> bool {
+    let (mid, thick) = (0.5 * (slab.lo + slab.hi), slab.hi - slab.lo);
+    let mut pts: Vec<DVec2> = Vec::with_capacity(3);
+    for k in 0..3 {
+        let (a, b) = (k, (k + 1) % 3);
+        let (da, db) = (d[a] - mid, d[b] - mid);
+        // A corner inside the slab is where the triangle touches the plane (the plane's
+        // own rounding puts a corner on it an ulp to one side).
+        if d[a] >= slab.lo && d[a] <= slab.hi {
+            pts.push(slab.frame.to2(t[a]));
+        }
+        if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+            pts.push(slab.frame.to2(t[a] + (t[b] - t[a]) * (da / (da - db))));
+        }
+    }
+    let o = slab.outline;
+    if pts.is_empty() || o.len() < 2 {
+        return false;
+    }
+    (0..o.len()).any(|i| {
+        let (u, v) = (o[i], o[(i + 1) % o.len()]);
+        pts.iter().all(|p| segment_distance(*p, u, v) <= thick)
+    })
+}
+
+fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let e = b - a;
+    let len2 = e.length_squared();
+    let s = if len2 > 0.0 {
+        ((p - a).dot(e) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + e * s)
 }
 
 /// [`crate::geom::polyhedron::clip_polygon`] into a fixed buffer (the same arithmetic, so the
@@ -518,6 +576,7 @@ mod tests {
                 hi: plane.d + t + 1e-6,
                 frame: &frame,
                 thin: false,
+                outline: &[],
             };
             let c = DVec3::new(r() * 10.0, r() * 6.0, r() * 10.0);
             let b = Aabb {
@@ -554,6 +613,7 @@ mod tests {
             hi: 1e-6,
             frame: &frame,
             thin: false,
+            outline: &[],
         };
         let mut out = Vec::new();
         let flat = [DVec3::ZERO, DVec3::X, DVec3::Y];
@@ -571,5 +631,67 @@ mod tests {
         ];
         assert!(slab_shadow(&crossing, &slab, &mut out));
         assert!(out.len() > 3);
+    }
+
+    /// On a face's thin slab: a wall crossing it at more than a degree casts nothing; one
+    /// at half a degree casts a strip, but not when it meets the face's plane along one of
+    /// the face's edges (nor when it only touches it at a corner on that edge), wherever the
+    /// plane's rounding puts that edge.
+    #[test]
+    fn walls_meeting_a_face_at_its_edge_do_not_block_it() {
+        let plane = Plane {
+            normal: DVec3::Z,
+            d: 0.0,
+        };
+        let frame = Frame2::new(&plane);
+        let face = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(4.0, 3.0, 0.0),
+            DVec3::new(0.0, 3.0, 0.0),
+        ];
+        let outline: Vec<DVec2> = face.iter().map(|p| frame.to2(*p)).collect();
+        let eps = 1e-4;
+        let slab = |outline| Slab {
+            n: DVec3::Z,
+            lo: -eps,
+            hi: eps,
+            frame: &frame,
+            thin: true,
+            outline,
+        };
+        let (known, unknown) = (slab(&outline), slab(&[]));
+        // A wall through the edge x = 4, leaning back over the face at `deg` degrees from
+        // its plane, split along its diagonal as exporters do.
+        let wall = |deg: f64, x: f64| {
+            let (s, c) = deg.to_radians().sin_cos();
+            let far = DVec3::new(x - 2.0 * c, 0.0, 2.0 * s);
+            let far_top = far + DVec3::Y * 3.0;
+            let (a, b) = (DVec3::new(x, 0.0, 0.0), DVec3::new(x, 3.0, 0.0));
+            [[a, b, far_top], [a, far_top, far]]
+        };
+        let mut out = Vec::new();
+        for t in wall(20.0, 4.0) {
+            assert!(!slab_shadow(&t, &unknown, &mut out), "steep: an edge");
+        }
+        for t in wall(0.5, 4.0) {
+            assert!(!slab_shadow(&t, &known, &mut out), "along the face's edge");
+        }
+        assert!(out.is_empty());
+        assert!(
+            wall(0.5, 4.0)
+                .iter()
+                .any(|t| slab_shadow(t, &unknown, &mut out)),
+            "the outline is what tells the two apart"
+        );
+        out.clear();
+        // The same wall crossing the face's middle covers the strip where it lies within
+        // the tolerance.
+        assert!(wall(0.5, 2.0)
+            .iter()
+            .any(|t| slab_shadow(t, &known, &mut out)));
+        // An ulp off the plane, the wall's foot still meets the edge.
+        let lifted = wall(0.5, 4.0).map(|t| t.map(|p| p + DVec3::Z * 1e-17));
+        assert!(lifted.iter().all(|t| !slab_shadow(t, &known, &mut out)));
     }
 }
