@@ -215,7 +215,8 @@ fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     let (level, spacing, world_abs) = level_frame(scene);
     let extent = level.size().length();
-    let mut tol = Tolerance::derive(extent, spacing, world_abs, cfg.max_tolerance);
+    let steps = scene.precision.steps();
+    let mut tol = Tolerance::derive(extent, spacing, steps, world_abs, cfg.max_tolerance);
     tol.distance *= cfg.tolerance_factor;
     let origin = if level.is_empty() {
         DVec3::ZERO
@@ -696,10 +697,12 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
         poly.holes.retain(|h| !noise(h));
         let (turn, canonical) = canonical_turn(&poly, grid);
         // The union snapped every vertex to the grid: a vertex on a straight edge can come
-        // back a whole grid step off it (an L turned by (1.47, -0.52, -0.04) rad kept such a
-        // vertex on its long edge at exactly eps + 1e-10; tests/cells_props.rs). Within the
-        // tolerance plus that step is straight.
-        let straight = (eps + grid) / grid;
+        // back up to half a step off it along each axis, and so can the two it is judged
+        // against (an L turned by (1.47, -0.52, -0.04) rad kept such a vertex on its long
+        // edge at exactly eps + 1e-10; an L whose frame follows a tile's diagonal kept its
+        // T-junction 1.0 steps off, tests/cells_props.rs). Within the tolerance plus two
+        // steps is straight.
+        let straight = (eps + 2.0 * grid) / grid;
         let outer = simplify_ring(&canonical.outer, straight);
         if outer.len() < 3 {
             continue;

@@ -34,14 +34,18 @@ impl Tolerance {
     /// coordinates where they are largest (`scene::Precision::spacing`: an f32 ulp, the last
     /// digit of decimal text), each node's times its world scale (that is where the file lost
     /// precision: a translation the f64 world matrix holds exactly adds nothing), the
-    /// largest over the level; `world_abs`: the largest world coordinate, whose f64 rounding
-    /// is the last bound.
-    pub fn derive(extent: f64, spacing: f64, world_abs: f64, max_distance: f64) -> Tolerance {
-        // Eight steps of the stored spacing: one for storage, the rest for the transforms
-        // the exporter applied before storing (node rotations and scales composed in f32: at
-        // four, LPortal BoxRooms baked from its USD copy lost a full-wall portal pair to f32
-        // misalignment, tests/import_usd.rs).
-        let input_precision = (8.0 * spacing.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
+    /// largest over the level; `steps`: how many of those two stored copies of one point may
+    /// be apart (`scene::Precision::steps`); `world_abs`: the largest world coordinate, whose
+    /// f64 rounding is the last bound.
+    pub fn derive(
+        extent: f64,
+        spacing: f64,
+        steps: f64,
+        world_abs: f64,
+        max_distance: f64,
+    ) -> Tolerance {
+        let input_precision =
+            (steps * spacing.max(0.0)).max(4.0 * f64::EPSILON * world_abs.max(0.0));
         let floor = 1e-9 * extent.max(0.0);
         let wanted = input_precision.max(floor).max(1e-12);
         let capped = wanted > max_distance;
@@ -76,7 +80,7 @@ mod tests {
     use crate::scene::Precision;
 
     fn derive(extent: f64, max_abs: f64, world_abs: f64, p: Precision, cap: f64) -> Tolerance {
-        Tolerance::derive(extent, p.spacing(max_abs), world_abs, cap)
+        Tolerance::derive(extent, p.spacing(max_abs), p.steps(), world_abs, cap)
     }
 
     #[test]
@@ -89,7 +93,7 @@ mod tests {
         assert_eq!(t.distance, DEFAULT_MAX_DISTANCE);
         // A room near the origin keeps a fine tolerance.
         let t = derive(20.0, 10.0, 10.0, f32, DEFAULT_MAX_DISTANCE);
-        assert!(t.distance < 1e-5 && t.distance > 1e-7, "{}", t.distance);
+        assert!(t.distance < 3e-5 && t.distance > 1e-6, "{}", t.distance);
         assert!(!t.capped);
         // Double precision is much finer.
         let t = derive(20.0, 10.0, 10.0, Precision::Binary64, DEFAULT_MAX_DISTANCE);
@@ -107,6 +111,9 @@ mod tests {
         assert_eq!(full, Precision::Binary64.spacing(7.5));
         let t = derive(20.0, 7.5, 7.5, Precision::Decimal(6), DEFAULT_MAX_DISTANCE);
         assert_eq!(t.distance, 8e-5);
+        // f32 allows for the exporter's own f32 arithmetic: sixteen ulps.
+        let t = derive(20.0, 8.0, 8.0, Precision::Binary32, DEFAULT_MAX_DISTANCE);
+        assert_eq!(t.distance, 16.0 * 8.0 * f32::EPSILON as f64);
     }
 
     #[test]

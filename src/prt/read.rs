@@ -389,8 +389,15 @@ impl PrtFile {
         };
         let max_abs = lo.abs().max(hi.abs()).max_element().max(0.0);
         let eps = epsilon.unwrap_or_else(|| {
-            let spacing = crate::scene::Precision::Binary64.spacing(max_abs);
-            crate::geom::tolerance::Tolerance::derive(extent, spacing, max_abs, f64::MAX).distance
+            let p = crate::scene::Precision::Binary64;
+            crate::geom::tolerance::Tolerance::derive(
+                extent,
+                p.spacing(max_abs),
+                p.steps(),
+                max_abs,
+                f64::MAX,
+            )
+            .distance
         });
         let mut out = Vec::with_capacity(self.portals.len() * 2);
         for (i, p) in self.portals.iter().enumerate() {

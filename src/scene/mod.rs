@@ -72,6 +72,20 @@ impl Precision {
         }
     }
 
+    /// How many spacings apart two stored copies of one point may be: what the tolerance is.
+    /// Sixteen f32 ulps: one for storage, the rest for the transforms the exporter composed
+    /// in f32 before storing (LPortal BoxRooms baked from its USD copy lost a full-wall
+    /// portal pair at four, tests/import_usd.rs, and its blocks stopped lining up at two:
+    /// sixteen keeps a quarter of the tolerance above that). Eight units of a decimal's last
+    /// digit: the rounding to text is half a unit, and what the writer computed in binary
+    /// before printing is far below a unit of six or seven digits.
+    pub fn steps(self) -> f64 {
+        match self {
+            Precision::Binary32 => 16.0,
+            Precision::Binary64 | Precision::Decimal(_) => 8.0,
+        }
+    }
+
     /// The spacing of stored numbers as large as `max_abs`: one ulp in binary (bounded by the
     /// machine epsilon times the number), one unit of the last significant digit in decimal
     /// (never finer than double precision holds).
