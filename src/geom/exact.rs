@@ -128,9 +128,15 @@ impl ExactVertices {
     }
 }
 
-fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+/// The distance from `p` to the segment `a`-`b` (to `a` when the segment is a point).
+pub(crate) fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let d = b - a;
-    let t = ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+    let len2 = d.length_squared();
+    let t = if len2 > 0.0 {
+        ((p - a).dot(d) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     p.distance(a + d * t)
 }
 

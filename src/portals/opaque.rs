@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use crate::cells::CellSet;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::signed_area;
+use crate::geom::exact::segment_distance;
 use crate::geom::grid::{BoxGrid, Marks};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
@@ -436,17 +437,6 @@ fn crosses_along_outline(t: &[DVec3; 3], d: &[f64; 3], slab: &Slab) -> bool {
         let (u, v) = (o[i], o[(i + 1) % o.len()]);
         pts.iter().all(|p| segment_distance(*p, u, v) <= thick)
     })
-}
-
-fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
-    let e = b - a;
-    let len2 = e.length_squared();
-    let s = if len2 > 0.0 {
-        ((p - a).dot(e) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    p.distance(a + e * s)
 }
 
 /// [`crate::geom::polyhedron::clip_polygon`] into a fixed buffer (the same arithmetic, so the
