@@ -196,7 +196,14 @@ impl<'a> Context<'a> {
                     pts.push(bottom);
                     pts.push(bottom + self.frame.up * h);
                 }
-                match hull(&pts, self.eps) {
+                // The raised corners are computed, not read: a top that the geometry above
+                // bends by about the tolerance (panda3d's stair underside, 2.5e-5 m over a
+                // 0.9 m piece) kept one facet or two as rounding went, and which one. Only
+                // f64 rounding is flat here.
+                let size = crate::geom::aabb::Aabb::from_points(pts.iter())
+                    .size()
+                    .length();
+                match hull(&pts, (1e-9 * size).min(self.eps)) {
                     Ok(h) => out.push(h),
                     Err(e) => return Err(e.to_string()),
                 }
