@@ -14,6 +14,8 @@
 //! Invariants of [`CellSet`]: every cell is convex with outward planes and at least four faces;
 //! the cells of one room do not overlap; `room_cells[r]` lists room `r`'s cells in order.
 
+use std::collections::HashMap;
+
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -759,15 +761,30 @@ fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
         }
         x
     }
+    if !(tol > 0.0 && tol.is_finite()) {
+        return tris;
+    }
+    // Points by cell of a grid `tol` wide: a point's neighbours within `tol` are in the 3 x 3
+    // cells around its own (a sweep along x alone was quadratic in a column of vertices).
+    let key = |p: DVec2| ((p.x / tol).floor() as i64, (p.y / tol).floor() as i64);
+    let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (i, p) in pts.iter().enumerate() {
+        cells.entry(key(*p)).or_default().push(i);
+    }
     for i in 0..pts.len() {
-        for j in i + 1..pts.len() {
-            if pts[j].x - pts[i].x > tol {
-                break;
-            }
-            if pts[i].distance(pts[j]) <= tol {
-                // The root is always the least index: the least point of the cluster.
-                let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-                parent[a.max(b)] = a.min(b);
+        let (kx, ky) = key(pts[i]);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                let Some(near) = cells.get(&(kx + dx, ky + dy)) else {
+                    continue;
+                };
+                for &j in near {
+                    if j > i && pts[i].distance(pts[j]) <= tol {
+                        // The root is always the least index: the least point of the cluster.
+                        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
+                        parent[a.max(b)] = a.min(b);
+                    }
+                }
             }
         }
     }
@@ -915,4 +932,31 @@ fn simplify_ring(ring: &[DVec2], eps: f64) -> Vec<DVec2> {
         }
     }
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Corners within the tolerance of each other (transitively) become the least of them,
+    /// in any triangle order; corners further apart stay.
+    #[test]
+    fn weld_moves_noise_apart_corners_onto_the_least() {
+        let a = DVec2::new(1.0, 1.0);
+        let b = DVec2::new(1.0 + 4e-7, 1.0 - 3e-7);
+        let c = DVec2::new(1.0 + 8e-7, 1.0);
+        let far = DVec2::new(3.0, 1.0);
+        let tris = vec![[b, far, DVec2::new(2.0, 3.0)], [c, a, DVec2::new(0.0, 3.0)]];
+        for order in [tris.clone(), tris.iter().rev().copied().collect()] {
+            let out = weld(order, 6e-7);
+            let corners: Vec<DVec2> = out.iter().flatten().copied().collect();
+            for p in [b, c] {
+                assert!(!corners.contains(&p), "{p} welded");
+            }
+            assert_eq!(corners.iter().filter(|&&p| p == a).count(), 3);
+            assert!(corners.contains(&far));
+        }
+        // A tolerance of zero welds nothing.
+        assert_eq!(weld(tris.clone(), 0.0), tris);
+    }
 }
