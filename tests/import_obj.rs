@@ -575,6 +575,10 @@ fn precision_comes_from_the_digits_written() {
     assert_eq!(obj(round).scene.precision, Precision::Binary64);
     let full = "v 0.1 0.30000000000000004 2\nv 1 2 3\nv 4 5 6\nf 1 2 3\n";
     assert_eq!(obj(full).scene.precision, Precision::Binary64);
+    // A hostile exponent is a number like any other, not an overflow.
+    let hostile =
+        "v 1e-9223372036854775808 0 1.5e+9223372036854775807\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    assert_eq!(obj(hostile).scene.precision, Precision::Binary64);
     // What six digits mean at the level's size: 1e-5 m for coordinates up to 7.5 m.
     assert_eq!(Precision::Decimal(6).spacing(4.0), 1e-5);
 }

@@ -26,7 +26,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::hull::{hull, HullError};
-use crate::geom::partition::{convex_partition, union_triangles, Polygon2};
+use crate::geom::partition::{convex_partition, ring_mean_width, union_triangles, Polygon2};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::geom::tolerance::Tolerance;
@@ -690,7 +690,7 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
     let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
     // Thinner than half the tolerance on average is noise (what the union's own grid dropped
     // when it was the tolerance's).
-    let noise = |r: &[DVec2]| mean_width(r) < 0.5 * eps;
+    let noise = |r: &[DVec2]| ring_mean_width(r) < 0.5 * eps;
     let mut pieces = Vec::new();
     for mut poly in union_triangles(&split_t_junctions(&local, eps.max(grid)), grid) {
         if noise(&poly.outer) {
@@ -800,22 +800,6 @@ fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
         }
     }
     tris
-}
-
-/// Twice the area over the perimeter: how wide a ring is on average.
-fn mean_width(r: &[DVec2]) -> f64 {
-    let n = r.len();
-    let (mut twice_area, mut perimeter) = (0.0, 0.0);
-    for i in 0..n {
-        let (p, q) = (r[i], r[(i + 1) % n]);
-        twice_area += p.perp_dot(q);
-        perimeter += p.distance(q);
-    }
-    if perimeter > 0.0 {
-        twice_area.abs() / perimeter
-    } else {
-        0.0
-    }
 }
 
 /// `q` turned `n` quarter turns counter-clockwise about the origin (exact).

@@ -42,6 +42,33 @@ impl Polygon2 {
     pub fn area(&self) -> f64 {
         ring_area(&self.outer).abs() - self.holes.iter().map(|h| ring_area(h).abs()).sum::<f64>()
     }
+
+    /// Mean width: twice the area over the perimeter (holes' edges count). Thinner than the
+    /// tolerance is float noise along edges that should meet, not a region.
+    pub fn mean_width(&self) -> f64 {
+        let total = perimeter(&self.outer) + self.holes.iter().map(|h| perimeter(h)).sum::<f64>();
+        if total > 0.0 {
+            2.0 * self.area() / total
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The mean width of one ring (either winding): twice its area over its perimeter.
+pub fn ring_mean_width(r: &[DVec2]) -> f64 {
+    let total = perimeter(r);
+    if total > 0.0 {
+        2.0 * ring_area(r).abs() / total
+    } else {
+        0.0
+    }
+}
+
+fn perimeter(r: &[DVec2]) -> f64 {
+    (0..r.len())
+        .map(|i| r[i].distance(r[(i + 1) % r.len()]))
+        .sum()
 }
 
 /// Why a polygon could not be partitioned.

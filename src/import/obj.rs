@@ -742,7 +742,8 @@ fn written_digits(tok: &[u8]) -> (u32, i64) {
             .filter(|b| b.is_ascii_digit())
             .count()
     });
-    (significant, places as i64 - exponent)
+    // A hostile exponent (`1e-9223372036854775808`) saturates rather than overflows.
+    (significant, (places as i64).saturating_sub(exponent))
 }
 
 fn parse_i64(tok: &[u8]) -> Option<i64> {

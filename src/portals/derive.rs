@@ -45,22 +45,6 @@ fn ring_bounds<'a>(pts: impl Iterator<Item = &'a DVec2>) -> (DVec2, DVec2) {
     )
 }
 
-/// Mean width (twice the area over the perimeter): openings thinner than the tolerance are
-/// float noise along edges that should meet, not holes.
-fn mean_width(p: &Polygon2) -> f64 {
-    let perim = |r: &[DVec2]| -> f64 {
-        (0..r.len())
-            .map(|i| r[i].distance(r[(i + 1) % r.len()]))
-            .sum()
-    };
-    let total: f64 = perim(&p.outer) + p.holes.iter().map(|h| perim(h)).sum::<f64>();
-    if total > 0.0 {
-        2.0 * p.area() / total
-    } else {
-        0.0
-    }
-}
-
 /// A ring without the vertices that lie within `tol` of the chord between their neighbours
 /// (and between them along it). The booleans snap to a grid: on a level turned off its axes, a
 /// T-junction on a door's edge (a wall tile's corner) comes back a fraction of the grid off the
@@ -283,7 +267,7 @@ pub(crate) fn derive(
                     .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
                     for o in difference(&whole, &covered, grid)
                         .iter()
-                        .filter(|o| mean_width(o) >= min_width)
+                        .filter(|o| o.mean_width() >= min_width)
                     {
                         for piece in pieces(o, cfg.conservative, eps) {
                             let piece = exact.restore(piece);
@@ -526,7 +510,7 @@ fn pair_openings(
                     .into_iter()
                     .chain(blockers.iter().copied()),
             );
-            for o in open.iter().filter(|o| mean_width(o) >= min_width) {
+            for o in open.iter().filter(|o| o.mean_width() >= min_width) {
                 for piece in pieces(o, cfg.conservative, eps) {
                     let piece = exact.restore(piece);
                     // CCW about na in 2D: seen from A (behind the plane) it turns the
