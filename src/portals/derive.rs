@@ -5,7 +5,7 @@ use rayon::prelude::*;
 
 use glam::{DVec2, DVec3};
 
-use super::opaque::{Frame2, Opaque, Shadows, Slab};
+use super::opaque::{Frame2, Opaque, Shadows, Slab, NEAR};
 use super::{reversed, Portal, PortalSet};
 use crate::cells::CellSet;
 use crate::config::PortalsConfig;
@@ -43,6 +43,16 @@ fn ring_bounds<'a>(pts: impl Iterator<Item = &'a DVec2>) -> (DVec2, DVec2) {
         (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
         |(lo, hi), q| (lo.min(*q), hi.max(*q)),
     )
+}
+
+/// The length of a box's diagonal in a face's own frame: the face's size, the same wherever the
+/// level is moved or turned.
+fn diagonal((lo, hi): (DVec2, DVec2)) -> f64 {
+    if lo.x <= hi.x && lo.y <= hi.y {
+        (hi - lo).length()
+    } else {
+        0.0
+    }
 }
 
 /// A ring without the vertices that lie within `tol` of the chord between their neighbours
@@ -233,7 +243,8 @@ pub(crate) fn derive(
                     if left.at_most(k.closed) {
                         continue;
                     }
-                    let bb = Aabb::from_points(face.points.iter()).grown(eps);
+                    let near = NEAR * diagonal(ring_bounds(ring.iter()));
+                    let bb = Aabb::from_points(face.points.iter()).grown(eps + near);
                     let d = face.plane.d;
                     let slab = Slab {
                         n: face.plane.normal,
@@ -241,7 +252,7 @@ pub(crate) fn derive(
                         hi: d + eps,
                         frame: &f,
                         thin: true,
-                        outline: &ring,
+                        near,
                     };
                     opaque.shadows(&bb, &slab, shadows);
                     let mut covered: Vec<&[DVec2]> = claimed(c, i).collect();
@@ -456,25 +467,27 @@ fn pair_openings(
             // shared with a short room's asks for the short room's part only).
             let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
             let (slo, shi) = ring_bounds(shared.iter().flat_map(|s| s.outer.iter()));
+            let thin = gap <= eps;
+            let beside = NEAR * diagonal((slo, shi));
             let reach = 2.0 * eps;
             let (slo, shi) = (slo - DVec2::splat(reach), shi + DVec2::splat(reach));
             let mut near = Aabb::EMPTY;
-            for t in [-eps, gap + eps] {
+            for t in [-eps - beside, gap + eps + beside] {
                 for c in [slo, DVec2::new(shi.x, slo.y), shi, DVec2::new(slo.x, shi.y)] {
                     near.add(f.to3(c, na * t));
                 }
             }
             // Never more than the faces' own box, as ever (the 2·eps reach can pass it).
             let bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()))
-                .grown(eps)
+                .grown(eps + beside)
                 .intersection(&near);
             let slab = Slab {
                 n: na,
                 lo,
                 hi,
                 frame: &f,
-                thin: gap <= eps,
-                outline: &ra,
+                thin,
+                near: beside,
             };
             opaque.shadows(&bb, &slab, shadows);
             let between = if gap > 4.0 * eps {

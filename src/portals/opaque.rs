@@ -13,7 +13,6 @@ use rayon::prelude::*;
 use crate::cells::CellSet;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::signed_area;
-use crate::geom::exact::segment_distance;
 use crate::geom::grid::{BoxGrid, Marks};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
@@ -125,9 +124,9 @@ pub(crate) struct Slab<'a> {
     /// Only the tolerance around one plane (a face, or two coplanar faces), not a wall's
     /// thickness: a triangle crossing it steeply touches the plane along a line.
     pub thin: bool,
-    /// The face's outline in `frame` (empty: not known): a triangle crossing a thin slab
-    /// along one of its edges is a wall meeting the face there.
-    pub outline: &'a [DVec2],
+    /// How far off a thin slab a triangle within a degree of its plane may lie and still lie
+    /// on the face (see [`NEAR`]); 0 for thick slabs.
+    pub near: f64,
 }
 
 /// Shadows of the triangles in a slab, as rings in one flat buffer (in triangle order), plus the
@@ -308,14 +307,22 @@ impl Opaque {
 /// it: its shadow is then at most 1e-12 of the slab's thickness wide, so it blocks nothing.
 const STANDING: f64 = 1e-12;
 
-/// A triangle tilted further than this (its normal's cosine to the slab's) from a thin
-/// slab's plane crosses it, and its part inside (a strip along the line where it meets the
-/// plane, the slab's thickness over tan θ wide: 115 half thicknesses at 1°) is a tolerance's
-/// artefact, as wide as the tolerance makes it. Within 1° a wall may lie along the face for
-/// a good way inside the tolerance, and covers it there. cos 1°: an angle whose tangent is
-/// no ratio of small integers, so no slope of a level on an integer grid (a Doom map's 1 in
-/// 5) sits on the threshold, to be settled by rounding.
+/// A triangle tilted further than this (its normal's cosine to the slab's) from a slab's
+/// planes stands across it; within it, the triangle lies on them. Standing across a thin
+/// slab, its part inside (a strip along the line where it meets the plane, the slab's
+/// thickness over tan θ wide: 115 half thicknesses at 1°) is a tolerance's artefact, as wide
+/// as the tolerance makes it. Lying, all of it covers (see [`slab_shadow`]). cos 1°: an
+/// angle whose tangent is no ratio of small integers, so no slope of a level on an integer
+/// grid (a Doom map's 1 in 5) sits on the threshold, to be settled by rounding.
 const TILTED: f64 = 0.999_847_695_156_391_2;
+
+/// How far a triangle within a degree of a thin slab's plane may lie beside the slab and still
+/// lie on the face, as a share of the face's size: a sightline through the gap between them
+/// is within a twentieth of a degree of grazing the face. Modelled levels are that far off
+/// their own footprints (panda3d's walls 1.4e-5 m off a cell's side, 0.2 mm under a stair),
+/// further than their coordinates' precision, so no tolerance from the precision closes the
+/// gap at every factor, and whether it was closed moved with the tolerance.
+pub(crate) const NEAR: f64 = 1e-3;
 
 /// The axis `n` lies on exactly (its other two components zero), if any: then `n·p` is
 /// `±p[axis]` to the bit.
@@ -357,48 +364,54 @@ fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
     // Most triangles near a face are wholly on one side of the slab, or wholly in it (then
     // clipping would return them as they are): decided here without clipping.
     let d = t.map(|p| n.dot(p));
-    if d.iter().all(|&x| x > hi) || d.iter().all(|&x| -x > -lo) {
+    let beside = d.iter().all(|&x| x > hi) || d.iter().all(|&x| -x > -lo);
+    if beside && !(d.iter().any(|&x| x <= hi + slab.near) && d.iter().any(|&x| x >= lo - slab.near))
+    {
         return false;
     }
     let start = out.len();
-    if d.iter().all(|&x| x <= hi && -x <= -lo) {
+    if !beside && d.iter().all(|&x| x <= hi && -x <= -lo) {
         out.extend(t.iter().map(|p| slab.frame.to2(*p)));
     } else {
         // A triangle standing across the slab (a wall on the floor a face pair looks through,
         // the most common candidate by far) casts a shadow as wide as the slab times the cosine
         // of its angle to the slab: nothing, at a right angle to well within f64 rounding.
         let normal = (t[1] - t[0]).cross(t[2] - t[0]);
-        if normal.dot(n).abs() <= STANDING * normal.length() {
+        let cos = normal.dot(n).abs();
+        if cos <= STANDING * normal.length() {
             return false;
         }
-        // Through a thin slab at more than a degree (a wall meeting the face at its edge, at
-        // an angle), the part inside is a strip along the line where the triangle meets the
-        // plane: an edge, not a cover. Kept, it ate a strip of a few tolerances off the side
-        // of an L room's diagonal portal (at 30 degrees and more) and of Doom sectors'
-        // slanted portals (at 23 and 9.6 degrees, E1M2), and so the portal's area moved
-        // with the tolerance.
-        if slab.thin && normal.dot(n).abs() <= TILTED * normal.length() {
+        if cos > TILTED * normal.length() {
+            // Lying within a degree of the slab's planes, across one of them or beside it
+            // within `near`: a wall or floor on the face, modelled a little off it or bent,
+            // and all of it covers. Its part within the slab would be a strip as wide as the
+            // distance to the plane over the sine of the angle, so it moved with both:
+            // panda3d's floor rising 4 mm over half a metre left the rest of a cell's bottom
+            // open to the exterior at one tolerance and closed at another.
+            out.extend(t.iter().map(|p| slab.frame.to2(*p)));
+        } else if beside || slab.thin {
+            // Beside the slab, a tilted triangle is not on the face. Through a thin slab
+            // (a wall meeting the face at an angle) its part inside is a strip along the line
+            // where it meets the plane: an edge, not a cover. Kept, it ate a strip of a few
+            // tolerances off the side of an L room's diagonal portal (at 30 degrees and more)
+            // and of Doom sectors' slanted portals (at 23 and 9.6 degrees, E1M2), and so the
+            // portal's area moved with the tolerance.
             return false;
+        } else {
+            // A triangle clipped by two planes has at most five corners.
+            let mut a = [DVec3::ZERO; 8];
+            let mut b = [DVec3::ZERO; 8];
+            a[..3].copy_from_slice(t);
+            let k = clip_into(&a[..3], n, hi, &mut b);
+            if k < 3 {
+                return false;
+            }
+            let k = clip_into(&b[..k], -n, -lo, &mut a);
+            if k < 3 {
+                return false;
+            }
+            out.extend(a[..k].iter().map(|p| slab.frame.to2(*p)));
         }
-        // However shallow, a wall that crosses the face's plane along one of the face's own
-        // edges (a sector's wall at half a degree to its neighbour's, meeting it at the
-        // corner, MAP01) leaves a wedge a tolerance thick along that edge, not a cover.
-        if slab.thin && crosses_along_outline(t, &d, slab) {
-            return false;
-        }
-        // A triangle clipped by two planes has at most five corners.
-        let mut a = [DVec3::ZERO; 8];
-        let mut b = [DVec3::ZERO; 8];
-        a[..3].copy_from_slice(t);
-        let k = clip_into(&a[..3], n, hi, &mut b);
-        if k < 3 {
-            return false;
-        }
-        let k = clip_into(&b[..k], -n, -lo, &mut a);
-        if k < 3 {
-            return false;
-        }
-        out.extend(a[..k].iter().map(|p| slab.frame.to2(*p)));
     }
     if signed_area(&out[start..]).abs() > 0.0 {
         true
@@ -406,37 +419,6 @@ fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
         out.truncate(start);
         false
     }
-}
-
-/// Whether the line where triangle `t` (at heights `d` along the slab's normal) crosses the
-/// middle of a thin slab lies along an edge of the slab's outline, within the slab's
-/// thickness: the corners inside the slab and the points where its edges cross the middle,
-/// all near one edge. A triangle that only touches the slab at one corner counts when that
-/// corner is on an edge (the other half of a wall quad whose diagonal starts at the face's
-/// corner).
-fn crosses_along_outline(t: &[DVec3; 3], d: &[f64; 3], slab: &Slab) -> bool {
-    let (mid, thick) = (0.5 * (slab.lo + slab.hi), slab.hi - slab.lo);
-    let mut pts: Vec<DVec2> = Vec::with_capacity(3);
-    for k in 0..3 {
-        let (a, b) = (k, (k + 1) % 3);
-        let (da, db) = (d[a] - mid, d[b] - mid);
-        // A corner inside the slab is where the triangle touches the plane (the plane's
-        // own rounding puts a corner on it an ulp to one side).
-        if d[a] >= slab.lo && d[a] <= slab.hi {
-            pts.push(slab.frame.to2(t[a]));
-        }
-        if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-            pts.push(slab.frame.to2(t[a] + (t[b] - t[a]) * (da / (da - db))));
-        }
-    }
-    let o = slab.outline;
-    if pts.is_empty() || o.len() < 2 {
-        return false;
-    }
-    (0..o.len()).any(|i| {
-        let (u, v) = (o[i], o[(i + 1) % o.len()]);
-        pts.iter().all(|p| segment_distance(*p, u, v) <= thick)
-    })
 }
 
 /// [`crate::geom::polyhedron::clip_polygon`] into a fixed buffer (the same arithmetic, so the
@@ -565,8 +547,8 @@ mod tests {
                 lo: plane.d - 1e-6,
                 hi: plane.d + t + 1e-6,
                 frame: &frame,
-                thin: false,
-                outline: &[],
+                thin: t == 0.0,
+                near: [0.0, 0.05][q % 2],
             };
             let c = DVec3::new(r() * 10.0, r() * 6.0, r() * 10.0);
             let b = Aabb {
@@ -603,7 +585,7 @@ mod tests {
             hi: 1e-6,
             frame: &frame,
             thin: false,
-            outline: &[],
+            near: 0.0,
         };
         let mut out = Vec::new();
         let flat = [DVec3::ZERO, DVec3::X, DVec3::Y];
@@ -623,65 +605,60 @@ mod tests {
         assert!(out.len() > 3);
     }
 
-    /// On a face's thin slab: a wall crossing it at more than a degree casts nothing; one
-    /// at half a degree casts a strip, but not when it meets the face's plane along one of
-    /// the face's edges (nor when it only touches it at a corner on that edge), wherever the
-    /// plane's rounding puts that edge.
+    /// A wall crossing a face's thin slab at more than a degree casts nothing; one lying
+    /// within a degree of it casts all of itself, across the slab or beside it within `near`,
+    /// on a thin slab or a thick one; beside it further off, or tilted, nothing.
     #[test]
-    fn walls_meeting_a_face_at_its_edge_do_not_block_it() {
+    fn walls_lying_on_a_face_cover_it_whole() {
         let plane = Plane {
             normal: DVec3::Z,
             d: 0.0,
         };
         let frame = Frame2::new(&plane);
-        let face = [
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(4.0, 0.0, 0.0),
-            DVec3::new(4.0, 3.0, 0.0),
-            DVec3::new(0.0, 3.0, 0.0),
-        ];
-        let outline: Vec<DVec2> = face.iter().map(|p| frame.to2(*p)).collect();
         let eps = 1e-4;
-        let slab = |outline| Slab {
+        let slab = |hi: f64, near: f64| Slab {
             n: DVec3::Z,
             lo: -eps,
-            hi: eps,
+            hi: hi + eps,
             frame: &frame,
-            thin: true,
-            outline,
+            thin: hi == 0.0,
+            near,
         };
-        let (known, unknown) = (slab(&outline), slab(&[]));
-        // A wall through the edge x = 4, leaning back over the face at `deg` degrees from
-        // its plane, split along its diagonal as exporters do.
-        let wall = |deg: f64, x: f64| {
+        // A wall through the line x = 4, leaning back over the face at `deg` degrees from its
+        // plane and `lift` above it, split along its diagonal as exporters do.
+        let wall = |deg: f64, lift: f64| {
             let (s, c) = deg.to_radians().sin_cos();
-            let far = DVec3::new(x - 2.0 * c, 0.0, 2.0 * s);
+            let z = DVec3::Z * lift;
+            let far = DVec3::new(4.0 - 2.0 * c, 0.0, 2.0 * s) + z;
             let far_top = far + DVec3::Y * 3.0;
-            let (a, b) = (DVec3::new(x, 0.0, 0.0), DVec3::new(x, 3.0, 0.0));
+            let (a, b) = (DVec3::new(4.0, 0.0, 0.0) + z, DVec3::new(4.0, 3.0, 0.0) + z);
             [[a, b, far_top], [a, far_top, far]]
         };
-        let mut out = Vec::new();
-        for t in wall(20.0, 4.0) {
-            assert!(!slab_shadow(&t, &unknown, &mut out), "steep: an edge");
+        let area = |ts: [[DVec3; 3]; 2], slab: &Slab| {
+            let mut out = Vec::new();
+            let mut total = 0.0;
+            for t in ts {
+                let start = out.len();
+                if slab_shadow(&t, slab, &mut out) {
+                    total += signed_area(&out[start..]).abs();
+                }
+            }
+            total
+        };
+        let (thin, thick) = (slab(0.0, 3e-3), slab(0.25, 3e-3));
+        assert_eq!(area(wall(20.0, 0.0), &thin), 0.0, "steep: an edge");
+        let whole = 2.0 * 3.0 * 0.5f64.to_radians().cos();
+        for (what, lift) in [("across", 0.0), ("beside", 2e-3), ("below", -2e-3)] {
+            let got = area(wall(0.5, lift), &thin);
+            assert!((got - whole).abs() < 1e-9, "{what}: {got} of {whole}");
         }
-        for t in wall(0.5, 4.0) {
-            assert!(!slab_shadow(&t, &known, &mut out), "along the face's edge");
-        }
-        assert!(out.is_empty());
-        assert!(
-            wall(0.5, 4.0)
-                .iter()
-                .any(|t| slab_shadow(t, &unknown, &mut out)),
-            "the outline is what tells the two apart"
-        );
-        out.clear();
-        // The same wall crossing the face's middle covers the strip where it lies within
-        // the tolerance.
-        assert!(wall(0.5, 2.0)
-            .iter()
-            .any(|t| slab_shadow(t, &known, &mut out)));
-        // An ulp off the plane, the wall's foot still meets the edge.
-        let lifted = wall(0.5, 4.0).map(|t| t.map(|p| p + DVec3::Z * 1e-17));
-        assert!(lifted.iter().all(|t| !slab_shadow(t, &known, &mut out)));
+        assert_eq!(area(wall(0.5, 4e-3), &thin), 0.0, "beyond `near`");
+        assert_eq!(area(wall(0.5, 4e-3), &slab(0.0, 0.0)), 0.0, "no `near`");
+        // On a wall's far face, across the slab's far plane, on a thick slab.
+        let far = area(wall(0.5, 0.25 - 1e-3), &thick);
+        assert!((far - whole).abs() < 1e-9, "{far} of {whole}");
+        // Tilted across a thick slab, the part inside.
+        let part = area(wall(20.0, 0.0), &thick);
+        assert!(part > 0.0 && part < whole, "{part}");
     }
 }
