@@ -55,6 +55,16 @@ fn diagonal((lo, hi): (DVec2, DVec2)) -> f64 {
     }
 }
 
+/// The booleans' grid on a face: 2^-24 of its size, so that where a face's openings are cut
+/// depends on the face alone, not on the tolerance (on a grid of half the tolerance, a door
+/// jamb 5e-6 m off plumb was cut at its top corner or at its bottom one as the tolerance
+/// went; panda3d). Finer than f32 coordinates on the face; i_overlay's i32 engine holds it.
+fn face_grid(ring: &[DVec2]) -> f64 {
+    (diagonal(ring_bounds(ring.iter())) * FACE_GRID).max(f64::MIN_POSITIVE)
+}
+
+const FACE_GRID: f64 = 1.0 / (1u64 << 24) as f64;
+
 /// A ring without the vertices that lie within `tol` of the chord between their neighbours
 /// (and between them along it). The booleans snap to a grid: on a level turned off its axes, a
 /// T-junction on a door's edge (a wall tile's corner) comes back a fraction of the grid off the
@@ -130,7 +140,7 @@ pub(crate) fn derive(
     set: &mut PortalSet,
 ) {
     let k = Limits::new(cells.tolerance.distance, cfg);
-    let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
+    let (eps, min_width, reach) = (k.eps, k.min_width, k.reach);
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
@@ -234,6 +244,7 @@ pub(crate) fn derive(
                 for (i, face) in cell.poly.faces.iter().enumerate() {
                     let f = Frame2::of_face(face);
                     let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
+                    let grid = face_grid(&ring);
                     // Claims first: a face between two rooms is claimed whole by its neighbour,
                     // and then no shadow is needed to know it has no opening to the exterior.
                     let mut left = Remainder::new(&ring, k.grow, k.sliver);
@@ -311,8 +322,6 @@ const JOB: usize = 64;
 /// The distances derivation works with, all from the one tolerance.
 struct Limits {
     eps: f64,
-    /// The i_overlay snapping grid.
-    grid: f64,
     /// Openings thinner than this on average are float noise.
     min_width: f64,
     /// Faces this far apart face each other across a wall.
@@ -334,7 +343,6 @@ impl Limits {
     fn new(eps: f64, cfg: &PortalsConfig) -> Limits {
         Limits {
             eps,
-            grid: eps * 0.5,
             min_width: 10.0 * eps,
             reach: cfg.max_wall_thickness + eps,
             closed: eps * eps,
@@ -372,7 +380,7 @@ fn pair_openings(
     k: &Limits,
     shadows: &mut Shadows,
 ) -> PairOpenings {
-    let (eps, grid, min_width, reach) = (k.eps, k.grid, k.min_width, k.reach);
+    let (eps, min_width, reach) = (k.eps, k.min_width, k.reach);
     // Faces this close to opposite are treated as facing each other.
     let cos_tol = (1e-4f64).cos();
     let mut out = PairOpenings::default();
@@ -421,6 +429,7 @@ fn pair_openings(
             let f = Frame2::of_face(fa);
             let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
             let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
+            let grid = face_grid(&ra);
             // Rings whose boxes, snapped to the boolean's grid, do not overlap with some area
             // have an intersection without area, which the boolean drops: most face pairs of
             // neighbouring cells (a diagonal neighbour's wall is in the same plane, further
