@@ -302,6 +302,35 @@ def thick_wall():
     return level(west, room_node("east-room", ef, ec, ew))
 
 
+COURT = ((0.0, 4.0), (6.0, 10.0))  # courtyard: the two courts' x ranges, z 0..4
+COURT_BACK = 6.0                    # height of each court's back wall (the others are H)
+
+
+def lean_to(x_front, x_back, name):
+    """A roofless court: floor [x0, x1] x [0, 4], a wall H high on the side facing the other
+    court (x = x_front), one COURT_BACK high at the far side (x = x_back), side walls sloping
+    between them, all facing in; no ceiling."""
+    x0, x1 = min(x_front, x_back), max(x_front, x_back)
+    z0, z1 = 0.0, 4.0
+    floor = facing(quad((x0, 0, z0), (x0, 0, z1), (x1, 0, z1), (x1, 0, z0)), (0, 1, 0))
+    into = 1 if x_back < x_front else -1  # +x faces in from the back wall's side
+    walls = wall_x(x_front, [rect_zy(z0, 0, z1, H)], -into)
+    walls += wall_x(x_back, [rect_zy(z0, 0, z1, COURT_BACK)], into)
+    top = {x_front: H, x_back: COURT_BACK}
+    for z, nz in ((z0, 1), (z1, -1)):
+        side = [(x0, 0, z), (x1, 0, z), (x1, top[x1], z), (x0, top[x0], z)]
+        walls += facing(fan(side), (0, 0, nz))
+    return {"name": name, "children": [
+        {"name": "Floor", "tris": floor, "material": "floor"},
+        {"name": "Walls", "tris": walls, "material": "wall"},
+    ]}
+
+
+def courtyard():
+    (a0, a1), (b0, b1) = COURT
+    return level(lean_to(a1, a0, "west-room"), lean_to(b0, b1, "east-room"))
+
+
 ARCH_SEGMENTS = 8
 
 
@@ -844,6 +873,10 @@ if __name__ == "__main__":
                       "mirror": mirror(), "teleporter": teleporter()}
     self_check_portals(portal_samples)
     for name, tree in portal_samples.items():
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
+    sight_samples = {"courtyard": courtyard()}
+    for name, tree in sight_samples.items():
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
     samples_3d = {"soffit_hall": soffit_hall(), "platform_hall": platform_hall(),

@@ -197,15 +197,27 @@ fn clean_samples_have_no_warning_or_error() {
         .collect();
     files.sort();
     assert!(files.len() >= 10);
-    let (exit, report) = check_json(&files, &["--deny", "warnings"]);
+    // The courtyard's two courts are joined by no portal (they see each other only over
+    // their walls): one unreachable court is its known warning.
+    let warned = |f: &Value| {
+        f["file"]
+            .as_str()
+            .is_some_and(|n| n.ends_with("courtyard.gltf"))
+    };
+    let (exit, report) = check_json(&files, &[]);
     assert_eq!(exit, 0, "{report:#}");
     for f in report["files"].as_array().unwrap() {
-        for d in f["diagnostics"].as_array().unwrap() {
-            assert_eq!(d["severity"], "info", "{}: {d}", f["file"]);
+        let ds = f["diagnostics"].as_array().unwrap();
+        let warnings: Vec<&Value> = ds.iter().filter(|d| d["severity"] != "info").collect();
+        if warned(f) {
+            assert_eq!(warnings.len(), 1, "{}: {warnings:?}", f["file"]);
+            assert_eq!(warnings[0]["code"], "GRAPH_UNREACHABLE");
+        } else {
+            assert!(warnings.is_empty(), "{}: {warnings:?}", f["file"]);
         }
     }
     assert_eq!(report["summary"]["errors"], 0);
-    assert_eq!(report["summary"]["warnings"], 0);
+    assert_eq!(report["summary"]["warnings"], 1);
 }
 
 /// The stored annotation is read from the JSON text the importer let go: an annotated level

@@ -276,7 +276,13 @@ fn export_round_trips_to_the_same_visibility() {
         });
         assert_eq!(file.portals.len(), two_way.count());
         let opts = VisOptions::default();
-        let direct = vis::of_level(c.cells.len(), &p, c.tolerance.distance, &opts);
+        // A .prt file has no outside (Quake's exterior is solid): the file's PVS is the
+        // level's with its openings to the exterior walled up.
+        let mut walled = p.clone();
+        for q in walled.portals.iter_mut().filter(|q| q.to.is_none()) {
+            q.closed = true;
+        }
+        let direct = vis::of_level(c.cells.len(), &walled, c.tolerance.distance, &opts);
         let again = vis::compute(&file.graph(Some(c.tolerance.distance)), &opts);
         // A PRT portal is one polygon; a pair across a thick wall (each side on its own
         // cell's face) is two, and only the direct PVS sees through both.

@@ -54,6 +54,79 @@ fn methods_nest_on_every_level() {
     }
 }
 
+/// The level with its openings to the exterior walled up: the PVS without the outside.
+fn walled(p: &portcullis::portals::PortalSet) -> portcullis::portals::PortalSet {
+    let mut w = p.clone();
+    for q in w.portals.iter_mut().filter(|q| q.to.is_none()) {
+        q.closed = true;
+    }
+    w
+}
+
+/// The outside only ever adds sightlines: on every level the PVS with it holds the PVS with
+/// the openings to the exterior walled up, and a level with no such opening (closed) gets
+/// exactly the same PVS, with no outside cell in its graph.
+#[test]
+fn the_outside_only_adds_sightlines() {
+    let mut opened = 0;
+    for (f, preset) in common::levels_with_rooms() {
+        let (_, c, p) = common::load_level(&f, preset);
+        let opts = VisOptions::default();
+        let eps = c.tolerance.distance;
+        let with = vis::of_level(c.cells.len(), &p, eps, &opts);
+        let without = vis::of_level(c.cells.len(), &walled(&p), eps, &opts);
+        assert_eq!(with.cells(), c.cells.len(), "{}", f.display());
+        let extra = without.missing_from(&with);
+        assert!(extra.is_empty(), "{}: lost {extra:?}", f.display());
+        let exterior = p.portals.iter().any(|q| q.to.is_none() && !q.closed);
+        let g = VisGraph::from_portal_set(c.cells.len(), &p, eps);
+        assert_eq!(g.outside.is_some(), exterior, "{}", f.display());
+        if exterior {
+            opened += usize::from(with != without);
+        } else {
+            assert_eq!(with, without, "{}", f.display());
+        }
+    }
+    assert!(
+        opened >= 2,
+        "only {opened} levels see more through the outside"
+    );
+}
+
+/// Two roofless courts side by side (x 0..4 and 6..10), each walled 3 m high towards the
+/// other and 6 m at its back, no door: no portal joins them, yet each sees the other over the
+/// walls, through the sky, and a segment the ray caster finds clear says so too.
+#[test]
+fn courts_see_each_other_over_the_top() {
+    let (t, c, p) = common::load_level(&sample("courtyard.gltf"), None);
+    assert_eq!(c.cells.len(), 2);
+    assert!(
+        p.portals.iter().all(|q| q.to.is_none()),
+        "no portal between the courts"
+    );
+    assert_eq!(p.portals.len(), 2, "each court's top opens to the sky");
+    let eps = c.tolerance.distance;
+    for method in Method::ALL {
+        let opts = VisOptions {
+            method,
+            samples: 300,
+            ..Default::default()
+        };
+        let pvs = vis::of_level(2, &p, eps, &opts);
+        let sees = method != Method::Sampled;
+        assert_eq!(pvs.sees(0, 1) && pvs.sees(1, 0), sees, "{}", method.name());
+        assert!(!vis::of_level(2, &walled(&p), eps, &opts).sees(0, 1));
+    }
+    // High at each back wall, 5.5 m up: over both 3 m front walls.
+    let mesh = common::opaque_mesh(&t);
+    let (a, b) = (DVec3::new(0.5, 5.5, 2.0), DVec3::new(9.5, 5.5, 2.0));
+    let cell_of = |q: DVec3| (0..2).find(|&k| c.cells[k].poly.contains_strictly(q, 1e-6));
+    let (ca, cb) = (cell_of(a), cell_of(b));
+    assert!(ca.is_some() && cb.is_some() && ca != cb, "{ca:?} {cb:?}");
+    let d = b - a;
+    assert!(!mesh.intersects_local_ray(&Ray::new(a, d / d.length()), d.length()));
+}
+
 /// A quad on the plane `axis = at` spanning `(a0..a1)` on the other horizontal axis and
 /// height 0..3, leading from `from` to `to` in the direction `dir` (±1 along `axis`).
 fn door(from: usize, to: usize, axis: usize, at: f64, dir: f64, a0: f64, a1: f64) -> VisPortal {

@@ -145,7 +145,7 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
         println!(
             "| {} | {} | {} | {} | {} | {:.3} s | {} | {} | {:+.1}%{} | {} |",
             f.file_name().unwrap_or_default().to_string_lossy(),
-            g.cells,
+            g.level_cells(),
             g.portals.len(),
             m.name(),
             threads,

@@ -1,8 +1,15 @@
 //! The portal graph every method runs on, whatever the level came from (a [`PortalSet`] or a
 //! .prt file): cells, and directed portals with their polygon and plane. Only portals light
-//! can pass are in it: closed portals and openings to the exterior are left out here, one-way
-//! portals are present only in their own direction (the set has no partner for them), so the
-//! methods never need to know about those flags.
+//! can pass are in it: closed portals are left out here, one-way portals are present only in
+//! their own direction (the set has no partner for them), so the methods never need to know
+//! about those flags.
+//!
+//! A level's openings to the exterior all lead into one more cell, the outside, after the
+//! level's own (each opening a portal both ways): a sightline may leave through one opening
+//! and come back through any other. The outside is not convex and nothing in it is known to
+//! block, so the conservative methods treat it as open space (sight through it is still
+//! clipped by the openings themselves, as through any cell), and [`super::compute`] drops its
+//! row and column from the result.
 
 use glam::{DMat4, DVec3};
 
@@ -40,6 +47,8 @@ pub struct VisGraph {
     /// waves break their ties by it, so the same level with its rooms listed in another
     /// order gets the same PVS. Plainly the portals' numbers otherwise.
     pub order: Vec<u32>,
+    /// The outside's cell (the last), when the level has openings to the exterior.
+    pub outside: Option<usize>,
 }
 
 impl VisGraph {
@@ -57,36 +66,72 @@ impl VisGraph {
             epsilon,
             reverse,
             order,
+            outside: None,
         }
+    }
+
+    /// The level's own cells: every cell but the outside.
+    pub fn level_cells(&self) -> usize {
+        self.cells - usize::from(self.outside.is_some())
     }
 
     /// The open portals of a level. `epsilon`: the level's distance tolerance.
     pub fn from_portal_set(cells: usize, set: &PortalSet, epsilon: f64) -> VisGraph {
-        let portals = set
+        let open = |p: &&crate::portals::Portal| !p.closed && p.polygon.len() >= 3;
+        let exterior = |p: &crate::portals::Portal| p.to.is_none() && p.transform.is_none();
+        let outside = set
             .portals
             .iter()
-            .enumerate()
-            .filter(|(_, p)| !p.closed && p.polygon.len() >= 3)
-            .filter_map(|(i, p)| {
-                let to = p.to?;
-                let d =
-                    p.normal.dot(p.polygon.iter().copied().sum::<DVec3>()) / p.polygon.len() as f64;
-                Some(VisPortal {
+            .filter(open)
+            .any(|p| exterior(p) && p.from < cells)
+            .then_some(cells);
+        let plane_of = |normal: DVec3, polygon: &[DVec3]| Plane {
+            normal,
+            d: normal.dot(polygon.iter().copied().sum::<DVec3>()) / polygon.len() as f64,
+        };
+        let mut portals = Vec::new();
+        for (i, p) in set.portals.iter().enumerate().filter(|(_, p)| open(p)) {
+            match (p.to, outside) {
+                (Some(to), _) => portals.push(VisPortal {
                     from: p.from,
                     to,
                     winding: p.polygon.clone(),
-                    plane: Plane {
-                        normal: p.normal,
-                        d,
-                    },
+                    plane: plane_of(p.normal, &p.polygon),
                     transform: p.transform,
                     origin: i,
-                })
-            })
-            .collect();
-        let mut g = VisGraph::new(cells, portals, epsilon);
-        let rank = &set.cell_rank;
-        if rank.len() == cells && g.portals.iter().all(|p| p.from < cells && p.to < cells) {
+                }),
+                // Out through the opening (its normal faces away from its cell), and back in.
+                (None, Some(o)) if exterior(p) && p.from < cells => {
+                    portals.push(VisPortal {
+                        from: p.from,
+                        to: o,
+                        winding: p.polygon.clone(),
+                        plane: plane_of(p.normal, &p.polygon),
+                        transform: None,
+                        origin: i,
+                    });
+                    let back: Vec<DVec3> = p.polygon.iter().rev().copied().collect();
+                    portals.push(VisPortal {
+                        from: o,
+                        to: p.from,
+                        plane: plane_of(-p.normal, &back),
+                        winding: back,
+                        transform: None,
+                        origin: i,
+                    });
+                }
+                _ => {}
+            }
+        }
+        let all = cells + usize::from(outside.is_some());
+        let mut g = VisGraph::new(all, portals, epsilon);
+        g.outside = outside;
+        // The outside ranks after every cell.
+        let mut rank = set.cell_rank.clone();
+        if rank.len() == cells && outside.is_some() {
+            rank.push(cells as u32);
+        }
+        if rank.len() == all && g.portals.iter().all(|p| p.from < all && p.to < all) {
             let mut by: Vec<usize> = (0..g.portals.len()).collect();
             by.sort_by_key(|&k| {
                 let p = &g.portals[k];

@@ -110,9 +110,13 @@ pub fn compute(g: &VisGraph, opts: &VisOptions) -> Pvs {
     if let Some(t) = opts.threads {
         b = b.num_threads(t.max(1));
     }
-    match b.build() {
+    let pvs = match b.build() {
         Ok(pool) => pool.install(run),
         Err(_) => run(),
+    };
+    match g.outside {
+        Some(o) => pvs.first_cells(o),
+        None => pvs,
     }
 }
 

@@ -18,6 +18,16 @@ impl Pvs {
         }
         Pvs { bits }
     }
+    /// The rows and columns of the first `n` cells (the level's, without the outside).
+    pub fn first_cells(&self, n: usize) -> Pvs {
+        let mut out = Pvs::identity(n);
+        for c in 0..n.min(self.cells()) {
+            for v in self.visible(c).take_while(|&v| v < n) {
+                out.bits.set(c, v);
+            }
+        }
+        out
+    }
     pub fn cells(&self) -> usize {
         self.bits.len()
     }

@@ -6,7 +6,8 @@
 //!
 //! The cells are taken as the portal graph describes them: convex space bounded by opaque walls
 //! and the portals (true of portcullis cells and Quake leaves; a Quake cluster is treated as
-//! open space inside, as vis treats it). Each source portal has its own seeded generator, so
+//! open space inside, as vis treats it). The outside is not walked into: what blocks there is
+//! not known (`check --sightlines` traces the real triangles). Each source portal has its own seeded generator, so
 //! the result does not depend on the thread count.
 
 use glam::{DMat4, DVec3};
@@ -118,6 +119,11 @@ fn walk_from(
     if src.transform.is_some() && depth == 0 {
         return;
     }
+    // Nothing is known of what blocks sight in the outside, so no walk is sure through it:
+    // for a lower bound its openings are walls.
+    if g.outside.is_some_and(|o| src.from == o || src.to == o) {
+        return;
+    }
     let targets: Vec<usize> = bits::ones(&might[p]).collect();
     let mut r = Rng::new(seed.wrapping_add((p as u64).wrapping_mul(0x2545_f491_4f6c_dd1d)));
     let mut chain = Vec::new();
@@ -160,6 +166,9 @@ fn walk_from(
             }
             let Some((t, q)) = best else { break };
             let portal = &g.portals[q];
+            if g.outside == Some(portal.to) {
+                break;
+            }
             if portal.transform.is_some() {
                 if transforms >= depth {
                     break;

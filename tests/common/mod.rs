@@ -316,6 +316,7 @@ pub fn levels_with_rooms() -> Vec<(PathBuf, Option<&'static str>)> {
         "mirror.gltf",
         "teleporter.gltf",
         "sloped_hall.gltf",
+        "courtyard.gltf",
     ] {
         v.push((sample(s), None));
     }
