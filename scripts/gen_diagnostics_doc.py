@@ -6,6 +6,7 @@ after `cargo build --features usd`, `cargo build --release` (a build without USD
 USD_UNSUPPORTED_BUILD) and `python3 scripts/make_broken.py`; a unit test checks the doc lists every
 code with an example or a reason.
 """
+import json
 import re
 import subprocess
 import sys
@@ -38,6 +39,10 @@ PRT_TEXT = {
 COMMANDS.update({c: ["vis", "bad.prt"] for c in PRT_TEXT})
 COMMANDS["PRT_EXPORT_DROPPED"] = ["convert", "teleporter.gltf", "-o", "teleporter.prt"]
 COMMANDS["VIS_TRANSFORM_DEPTH"] = ["vis", "teleporter.gltf"]
+COMMANDS["SIGHTLINES_CONFIRMED"] = ["check", "--sightlines", "200", "two_rooms.gltf"]
+# A converted two_rooms.gltf whose stored PVS lost the pairs out of cell 0 (written before the
+# command runs, as tests/sightlines.rs does).
+COMMANDS["PVS_MISSES_SIGHTLINE"] = ["check", "--sightlines", "200", "edited.gltf"]
 NO_EXAMPLE = {
     "USD_CORE_MISSING": "No level file triggers it: it is about the machine. Run a `usd` build with "
                         "`--python-venv` pointing at a venv without usd-core to see it; the fix is "
@@ -80,6 +85,15 @@ def example(code):
             (Path(d) / "teleporter.gltf").write_bytes((ROOT / "samples" / "teleporter.gltf").read_bytes())
             if code in PRT_TEXT:
                 (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
+            if code == "PVS_MISSES_SIGHTLINE":
+                subprocess.run([EXE, "convert", "two_rooms.gltf", "-o", "edited.gltf"], cwd=d,
+                               capture_output=True, check=True)
+                doc = json.loads((Path(d) / "edited.gltf").read_text())
+                ext = doc["extensions"]["PORTCULLIS_portals"]
+                n = len(ext["cells"])
+                lists = [[0]] + [list(range(n)) for _ in range(1, n)]
+                ext["visibility"] = {"method": "full", "encoding": "lists", "lists": lists}
+                (Path(d) / "edited.gltf").write_text(json.dumps(doc))
             r = subprocess.run([EXE, *COMMANDS[code], "--color", "never"], cwd=d, capture_output=True, text=True)
             cmd = "portcullis " + " ".join(COMMANDS[code])
             return cmd, block(r.stdout + r.stderr, code)

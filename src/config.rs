@@ -131,6 +131,8 @@ pub struct VisConfig {
 pub struct CheckConfig {
     /// The level is meant to be closed: every opening to the exterior is a leak (an error).
     pub sealed: bool,
+    /// Rays per cell for the PVS audit against the level's geometry (0: none).
+    pub sightlines: usize,
     /// Codes never reported for levels this configuration applies to.
     pub ignore: Vec<String>,
     /// Severity overrides, `CODE = "error" | "warning" | "info"`.

@@ -235,6 +235,68 @@ pub fn check_level(
     found.leaks
 }
 
+/// The full PVS of a level just built, through mirrors and teleporters as deep as the loop
+/// check allows (or `[vis] transform_depth`), as `convert` stores it by default.
+pub fn full_pvs(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+) -> crate::vis::Pvs {
+    let depth =
+        crate::vis::level_transform_depth(cells, portals, tagged.config.vis.transform_depth);
+    let opts = crate::vis::VisOptions {
+        transform_depth: depth,
+        ..Default::default()
+    };
+    crate::vis::of_level(cells.cells.len(), portals, cells.tolerance.distance, &opts)
+}
+
+/// `check --sightlines`: audits `pvs` against the level's triangles with `rays` rays per cell.
+pub fn audit_sightlines(
+    tagged: &Tagged,
+    cells: &CellSet,
+    portals: &crate::portals::PortalSet,
+    pvs: &crate::vis::Pvs,
+    rays: usize,
+) -> crate::check::sightlines::Audit {
+    let subject = crate::check::Subject::built(tagged, cells, portals);
+    let triangles =
+        crate::portals::blocking_triangles(&tagged.scene, &tagged.tagging, &cells.props);
+    let depth =
+        crate::vis::level_transform_depth(cells, portals, tagged.config.vis.transform_depth);
+    crate::check::sightlines::audit(&subject, &triangles, pvs, rays, depth)
+}
+
+/// `check --sightlines` on a stored annotation: its stored PVS (or, when it stores none, the
+/// full PVS of its stored portals) against the level's triangles. Props are not known from an
+/// annotation, so they block here (which only ever confirms fewer pairs).
+pub fn audit_stored(
+    tagged: &Tagged,
+    annotated: &crate::export::read::Annotated,
+    subject: &crate::check::Subject,
+    rays: usize,
+) -> crate::check::sightlines::Audit {
+    let cells = annotated.cells.len();
+    let stored = tagged.scene.gltf.as_ref().and_then(|src| {
+        let buffers = src.buffer_data().ok()?;
+        let doc = src.subset(&["bufferViews"]).ok()?;
+        crate::export::read::visibility(annotated, &doc, &buffers)?.ok()
+    });
+    let depth =
+        tagged.config.vis.transform_depth.unwrap_or_else(|| {
+            crate::portals::loops::recursion_depth(subject.portals, subject.extent)
+        });
+    let pvs = stored.unwrap_or_else(|| {
+        let opts = crate::vis::VisOptions {
+            transform_depth: depth,
+            ..Default::default()
+        };
+        crate::vis::of_level(cells, subject.portals, subject.eps, &opts)
+    });
+    let triangles = crate::portals::blocking_triangles(&tagged.scene, &tagged.tagging, &[]);
+    crate::check::sightlines::audit(subject, &triangles, &pvs, rays, depth)
+}
+
 /// Hands the heap a stage freed (portals, the PVS) back to the system before the next
 /// allocates its own: glibc's malloc keeps it otherwise, and the next stage's large blocks do
 /// not always fit in it (on a big level, 30 MB more at the export after a PVS). The

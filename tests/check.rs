@@ -39,6 +39,8 @@ const NOT_FROM_A_FILE: &[&str] = &[
     "PRT_TRAILING_DATA",
     "PRT_PORTAL_DEGENERATE",
     "PRT_EXPORT_DROPPED",
+    "PVS_MISSES_SIGHTLINE",
+    "SIGHTLINES_CONFIRMED",
 ];
 
 /// Whether this binary reads USD (built with the `usd` feature): the sample named after the

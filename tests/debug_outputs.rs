@@ -129,7 +129,7 @@ fn debug_glb_parses_validates_and_repeats() {
 }
 
 #[test]
-fn debug_glb_draws_leaks_and_overlaps() {
+fn debug_glb_draws_leaks_missed_sightlines_and_overlaps() {
     let (t, c, p) = load(&sample("two_rooms.gltf"), None);
     let b = c.cells[0].bounds;
     let extras = DebugExtras {
@@ -145,18 +145,25 @@ fn debug_glb_draws_leaks_and_overlaps() {
             min: b.min,
             max: (b.min + b.max) * 0.5,
         })],
+        sightlines: vec![vec![b.min, b.max]],
     };
     let bytes = debug_glb(&t.tagging, &c, &p, &extras);
     let gltf = gltf::Gltf::from_slice(&bytes).unwrap();
     let base = c.cells.len() + p.portals.len();
-    assert_eq!(gltf.nodes().count(), base + 3);
+    assert_eq!(gltf.nodes().count(), base + 4);
     let leak = gltf.nodes().nth(base).unwrap();
     assert_eq!(leak.name(), Some("leak 0"));
     let prim = leak.mesh().unwrap().primitives().next().unwrap();
     assert_eq!(prim.mode(), gltf::mesh::Mode::LineStrip);
     // A one-point leak has nothing to draw but keeps its node, so indices stay predictable.
     assert!(gltf.nodes().nth(base + 1).unwrap().mesh().is_none());
-    let overlap = gltf.nodes().nth(base + 2).unwrap();
+    let ray = gltf.nodes().nth(base + 2).unwrap();
+    assert_eq!(ray.name(), Some("missed sightline 0"));
+    assert_eq!(
+        ray.mesh().unwrap().primitives().next().unwrap().mode(),
+        gltf::mesh::Mode::LineStrip
+    );
+    let overlap = gltf.nodes().nth(base + 3).unwrap();
     assert_eq!(overlap.name(), Some("overlap 0"));
     assert_eq!(
         overlap.mesh().unwrap().primitives().next().unwrap().mode(),

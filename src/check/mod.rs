@@ -21,6 +21,7 @@ use crate::portals::PortalSet;
 mod graph;
 mod leaks;
 mod portals;
+pub mod sightlines;
 pub mod stored;
 mod transforms;
 

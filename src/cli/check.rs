@@ -63,6 +63,14 @@ pub struct CheckArgs {
     #[arg(long)]
     pub sealed: bool,
 
+    /// Audit the PVS against the level's real geometry with N rays per cell from random points
+    /// (seeded), traced through its triangles, open portals, the outside, mirrors and
+    /// teleporters: each pair of cells a ray joins that the PVS lacks is a
+    /// PVS_MISSES_SIGHTLINE error (same as `[check] sightlines = N`). A file with a stored
+    /// annotation has its stored PVS audited.
+    #[arg(long, value_name = "N")]
+    pub sightlines: Option<usize>,
+
     /// Rebuild cells and portals from the geometry even when the file carries a stored
     /// annotation, and check those.
     #[arg(long)]
@@ -120,6 +128,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
             return report;
         }
     };
+    let rays = a.sightlines.unwrap_or(t.config.check.sightlines);
     let stored = if a.recompute {
         None
     } else {
@@ -139,12 +148,21 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
                 };
                 let found = portcullis::check::run(&subject, &opts);
                 t.diagnostics.extend(found.diagnostics);
+                if rays > 0 {
+                    let audit = pipeline::audit_stored(&t, ann, &subject, rays);
+                    t.diagnostics.extend(audit.diagnostics);
+                }
             }
         }
         None => {
             let cells = pipeline::build_cells(&mut t);
             let portals = pipeline::build_portals(&mut t, &cells);
             pipeline::check_level(&mut t, &cells, &portals, a.sealed);
+            if rays > 0 {
+                let pvs = pipeline::full_pvs(&t, &cells, &portals);
+                let audit = pipeline::audit_sightlines(&t, &cells, &portals, &pvs, rays);
+                t.diagnostics.extend(audit.diagnostics);
+            }
             report.cells = Some(cells.cells.len());
             report.portals = Some(portals.portals.len());
         }

@@ -202,6 +202,21 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     }
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
+    let mut sightlines = Vec::new();
+    if t.config.check.sightlines > 0 {
+        let fresh;
+        let audited = match &pvs {
+            Some(p) => p,
+            None => {
+                fresh = pipeline::full_pvs(&t, &cells, &portals);
+                &fresh
+            }
+        };
+        let audit =
+            pipeline::audit_sightlines(&t, &cells, &portals, audited, t.config.check.sightlines);
+        t.diagnostics.extend(audit.diagnostics);
+        sightlines = audit.lines;
+    }
     let written = if usda || to_stdout {
         let bytes = if usda {
             portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals, stored)
@@ -230,6 +245,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         let extras = portcullis::export::debug::DebugExtras {
             overlaps: cells.overlaps.clone(),
             leaks,
+            sightlines,
         };
         let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;

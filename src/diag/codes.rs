@@ -133,6 +133,10 @@ codes! {
     EXTERIOR_OPENINGS = Info, "cells open to the exterior (an error when the level is declared sealed)";
     LEAK = Error, "a level declared sealed opens to the exterior";
 
+    // --- sightlines (check --sightlines N) ---
+    PVS_MISSES_SIGHTLINE = Error, "a ray through the level's geometry joins two cells that the PVS says cannot see each other";
+    SIGHTLINES_CONFIRMED = Info, "the share of the PVS's pairs that rays through the level's geometry confirmed";
+
     // --- usd ---
     USD_CORE_MISSING = Error, "USD input needs Pixar's usd-core Python package, which the embedded Python cannot import";
     USD_OPEN_FAILED = Error, "USD could not open the stage (syntax error, missing layer, unknown format)";

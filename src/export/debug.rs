@@ -24,6 +24,8 @@ pub struct DebugExtras {
     pub leaks: Vec<Vec<DVec3>>,
     /// Regions where cells overlap.
     pub overlaps: Vec<ConvexPolyhedron>,
+    /// Rays that joined two cells the PVS keeps apart (`[check] sightlines`), each a polyline.
+    pub sightlines: Vec<Vec<DVec3>>,
 }
 
 /// How a portal is shown. The GLB and the SVG map share it so a colour means the same thing in
@@ -381,6 +383,18 @@ pub fn debug_glb(
             json!({ "attributes": { "POSITION": pos }, "material": mat, "mode": MODE_LINE_STRIP })
         });
         doc.node(format!("leak {k}"), prim, json!({ "leak": k }));
+    }
+    for (k, line) in extra.sightlines.iter().enumerate() {
+        let prim = (line.len() >= 2).then(|| {
+            let mat = doc.material("sightline", "sightline", [1.0, 0.8, 0.0], 1.0);
+            let pos = doc.positions(line);
+            json!({ "attributes": { "POSITION": pos }, "material": mat, "mode": MODE_LINE_STRIP })
+        });
+        doc.node(
+            format!("missed sightline {k}"),
+            prim,
+            json!({ "sightline": k }),
+        );
     }
     for (k, poly) in extra.overlaps.iter().enumerate() {
         let mat = doc.material("overlap", "overlap", [1.0, 0.0, 1.0], 0.4);

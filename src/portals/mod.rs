@@ -28,6 +28,7 @@ mod authored;
 mod derive;
 pub mod loops;
 mod opaque;
+pub use opaque::blocking_triangles;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Portal {

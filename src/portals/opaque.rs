@@ -184,24 +184,52 @@ impl Shadows {
     }
 }
 
+/// The nodes whose meshes block sight, with their mesh: every mesh node but portals, ignored,
+/// detail, bound and footprint nodes, rooms' detail and `props`.
+pub(crate) fn blocking_nodes(
+    scene: &Scene,
+    tagging: &Tagging,
+    props: &[NodeId],
+) -> Vec<(NodeId, usize)> {
+    let mut skip: HashSet<NodeId> = HashSet::new();
+    skip.extend(tagging.portals.iter().map(|p| p.node));
+    skip.extend(tagging.ignored.iter().map(|n| n.node));
+    skip.extend(tagging.detail.iter().map(|n| n.node));
+    skip.extend(tagging.bounds.iter().map(|n| n.node));
+    skip.extend(tagging.footprints.iter().map(|n| n.node));
+    skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
+    skip.extend(props.iter().copied());
+    scene
+        .walk()
+        .into_iter()
+        .filter(|n| !skip.contains(n))
+        .filter_map(|n| Some((n, scene.nodes[n].mesh?)))
+        .collect()
+}
+
+/// The triangles that block sight, in world space (see [`blocking_nodes`]).
+pub fn blocking_triangles(scene: &Scene, tagging: &Tagging, props: &[NodeId]) -> Vec<[DVec3; 3]> {
+    let mut out = Vec::new();
+    for (n, m) in blocking_nodes(scene, tagging, props) {
+        let world = scene.nodes[n].world;
+        let mesh = &scene.meshes[m];
+        out.extend(mesh.triangles.iter().filter_map(|t| {
+            let p = t.map(|i| {
+                mesh.positions
+                    .get(i as usize)
+                    .map(|p| world.transform_point3(*p))
+            });
+            Some([p[0]?, p[1]?, p[2]?])
+        }));
+    }
+    out
+}
+
 impl Opaque {
     /// `thick`: the thickest slab [`Opaque::shadows`] will be asked about (thicker ones are
     /// answered too, from every grid).
     pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet, thick: f64) -> Opaque {
-        let mut skip: HashSet<NodeId> = HashSet::new();
-        skip.extend(tagging.portals.iter().map(|p| p.node));
-        skip.extend(tagging.ignored.iter().map(|n| n.node));
-        skip.extend(tagging.detail.iter().map(|n| n.node));
-        skip.extend(tagging.bounds.iter().map(|n| n.node));
-        skip.extend(tagging.footprints.iter().map(|n| n.node));
-        skip.extend(tagging.rooms.iter().flat_map(|r| r.detail.iter().copied()));
-        skip.extend(cells.props.iter().copied());
-        let blocking: Vec<(NodeId, usize)> = scene
-            .walk()
-            .into_iter()
-            .filter(|n| !skip.contains(n))
-            .filter_map(|n| Some((n, scene.nodes[n].mesh?)))
-            .collect();
+        let blocking = blocking_nodes(scene, tagging, &cells.props);
         let meshes = || blocking.iter().map(|&(_, m)| &scene.meshes[m]);
         let mut verts = Vec::with_capacity(meshes().map(|m| m.positions.len()).sum());
         let mut tris = Vec::with_capacity(meshes().map(|m| m.triangles.len()).sum());

@@ -1,0 +1,348 @@
+//! The PVS against the level's real geometry (`check --sightlines N`): rays from random points
+//! inside every cell, in random directions, traced against every blocking triangle through a
+//! BVH (parry's `TriMesh`), through open portals and the outside as the straight line goes,
+//! stopped by closed portals and by one-way portals crossed against their way, and carried on
+//! through mirrors and teleporters with their transform, at most `depth` of them. Every cell a
+//! ray passes through is really visible from the cell it started in: a pair the PVS lacks is
+//! an error, and the pairs the rays confirm tell how tight the PVS is.
+//!
+//! It shares nothing with the visibility methods but the cells and portals: the rays know
+//! triangles and planes, not portal flow. Each cell's rays come from a generator seeded by the
+//! cell's number, so the result is the same for any thread count.
+
+use std::collections::BTreeMap;
+
+use glam::{DMat4, DVec3};
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+use rayon::prelude::*;
+
+use super::Subject;
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::geom::aabb::Aabb;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::rng::SplitMix64 as Rng;
+use crate::vis::Pvs;
+
+/// What the audit found.
+#[derive(Debug, Clone, Default)]
+pub struct Audit {
+    pub diagnostics: Diagnostics,
+    /// One polyline per missed pair: the ray that found it, for debug output.
+    pub lines: Vec<Vec<DVec3>>,
+    /// PVS pairs between different cells that some ray confirmed, and all of them.
+    pub confirmed: usize,
+    pub pairs: usize,
+}
+
+/// How a portal changes a ray that crosses it.
+enum Rule {
+    Block,
+    /// Passes only along the portal's normal (into its target).
+    OneWay,
+    Transform(DMat4),
+}
+
+struct Gate {
+    polygon: Vec<DVec3>,
+    normal: DVec3,
+    d: f64,
+    rule: Rule,
+}
+
+/// The portals that do more than let a straight ray through.
+fn gates(s: &Subject) -> Vec<Gate> {
+    s.portals
+        .portals
+        .iter()
+        .filter(|p| p.polygon.len() >= 3)
+        .filter_map(|p| {
+            let rule = if p.closed {
+                Rule::Block
+            } else if let Some(m) = p.transform {
+                Rule::Transform(m)
+            } else if p.one_way && p.to.is_some() {
+                Rule::OneWay
+            } else {
+                return None;
+            };
+            let c = p.polygon.iter().copied().sum::<DVec3>() / p.polygon.len() as f64;
+            Some(Gate {
+                polygon: p.polygon.clone(),
+                normal: p.normal,
+                d: p.normal.dot(c),
+                rule,
+            })
+        })
+        .collect()
+}
+
+/// Where the ray `o + t d` crosses the gate's polygon (either winding), if it does.
+fn crossing(g: &Gate, o: DVec3, d: DVec3) -> Option<f64> {
+    let nd = g.normal.dot(d);
+    if nd == 0.0 {
+        return None;
+    }
+    let t = (g.d - g.normal.dot(o)) / nd;
+    let x = o + d * t;
+    let w = &g.polygon;
+    let mut sign = 0.0;
+    for k in 0..w.len() {
+        let s = (w[(k + 1) % w.len()] - w[k]).cross(x - w[k]).dot(g.normal);
+        if s != 0.0 {
+            if sign != 0.0 && s.signum() != sign {
+                return None;
+            }
+            sign = s.signum();
+        }
+    }
+    Some(t)
+}
+
+/// The part of the segment `o + t d`, `t` in `[0, len]`, inside a convex cell, as `(t0, t1)`.
+fn clip(poly: &ConvexPolyhedron, o: DVec3, d: DVec3, len: f64) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, len);
+    for f in &poly.faces {
+        let dn = f.plane.normal.dot(d);
+        let dist = f.plane.distance(o);
+        if dn == 0.0 {
+            if dist > 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let t = -dist / dn;
+        if dn > 0.0 {
+            t1 = t1.min(t);
+        } else {
+            t0 = t0.max(t);
+        }
+        if t0 >= t1 {
+            return None;
+        }
+    }
+    Some((t0, t1))
+}
+
+/// Whether the segment from `o` along `d` for `len` meets the box.
+fn meets_box(b: &Aabb, o: DVec3, d: DVec3, len: f64) -> bool {
+    let (mut t0, mut t1) = (0.0f64, len);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if o[k] < b.min[k] || o[k] > b.max[k] {
+                return false;
+            }
+            continue;
+        }
+        let (a, c) = ((b.min[k] - o[k]) / d[k], (b.max[k] - o[k]) / d[k]);
+        t0 = t0.max(a.min(c));
+        t1 = t1.min(a.max(c));
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+/// A uniformly random point strictly inside the cell (rejection in its box), if one is found
+/// in a few tries.
+fn point_in(poly: &ConvexPolyhedron, b: &Aabb, eps: f64, r: &mut Rng) -> Option<DVec3> {
+    (0..64).find_map(|_| {
+        let q = b.min + (b.max - b.min) * DVec3::new(r.unit(), r.unit(), r.unit());
+        poly.contains_strictly(q, eps).then_some(q)
+    })
+}
+
+fn direction(r: &mut Rng) -> DVec3 {
+    let z = 2.0 * r.unit() - 1.0;
+    let phi = std::f64::consts::TAU * r.unit();
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    DVec3::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+struct Tracer<'a> {
+    mesh: Option<TriMesh>,
+    gates: Vec<Gate>,
+    cells: Vec<Option<(&'a ConvexPolyhedron, Aabb)>>,
+    /// Rays stop this far out (past the level).
+    far: f64,
+    /// A ray must run this far inside a cell to see into it (grazing a face or an edge is not
+    /// seeing in).
+    within: f64,
+    depth: usize,
+}
+
+impl Tracer<'_> {
+    /// The straight pieces of one ray, `(origin, direction, length)`.
+    fn trace(&self, mut o: DVec3, mut d: DVec3) -> Vec<(DVec3, DVec3, f64)> {
+        let mut out = Vec::new();
+        let mut left = self.depth;
+        for _ in 0..=self.depth {
+            let hit = self
+                .mesh
+                .as_ref()
+                .and_then(|m| m.cast_local_ray(&Ray::new(o, d), self.far, false))
+                .unwrap_or(self.far);
+            // A portal lying on a wall (a mirror) is met at the wall's distance: it wins.
+            let mut best: Option<(f64, usize)> = None;
+            for (k, g) in self.gates.iter().enumerate() {
+                let Some(t) = crossing(g, o, d) else { continue };
+                if t <= self.within || t > hit + self.within {
+                    continue;
+                }
+                let along = g.normal.dot(d) > 0.0;
+                let counts = match g.rule {
+                    Rule::Block => true,
+                    Rule::OneWay => !along,
+                    Rule::Transform(_) => along,
+                };
+                if counts && best.is_none_or(|(bt, _)| t < bt) {
+                    best = Some((t, k));
+                }
+            }
+            let Some((t, k)) = best else {
+                out.push((o, d, hit));
+                break;
+            };
+            out.push((o, d, t));
+            match self.gates[k].rule {
+                Rule::Transform(m) if left > 0 => {
+                    left -= 1;
+                    o = m.transform_point3(o + d * t);
+                    d = m.transform_vector3(d).normalize_or_zero();
+                    if d == DVec3::ZERO {
+                        break;
+                    }
+                }
+                _ => break,
+            }
+        }
+        out
+    }
+
+    /// The cells a ray's pieces run through, each once, in the order met.
+    fn cells_met(&self, pieces: &[(DVec3, DVec3, f64)]) -> Vec<usize> {
+        let mut out: Vec<usize> = Vec::new();
+        for &(o, d, len) in pieces {
+            let mut here: Vec<(f64, usize)> = self
+                .cells
+                .iter()
+                .enumerate()
+                .filter_map(|(c, cell)| {
+                    let (poly, b) = cell.as_ref()?;
+                    if !meets_box(b, o, d, len) {
+                        return None;
+                    }
+                    let (t0, t1) = clip(poly, o, d, len)?;
+                    (t1 - t0 > self.within).then_some((t0, c))
+                })
+                .collect();
+            here.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            for (_, c) in here {
+                if !out.contains(&c) {
+                    out.push(c);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Audits `pvs` (rows for the subject's cells) with `rays` rays per cell; `triangles`: the
+/// level's blocking triangles in world space; `depth`: transformed portals one ray passes.
+pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, depth: usize) -> Audit {
+    let mesh = (!triangles.is_empty()).then(|| {
+        let verts: Vec<DVec3> = triangles.iter().flatten().copied().collect();
+        let idx: Vec<[u32; 3]> = (0..triangles.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        TriMesh::new(verts, idx).ok()
+    });
+    let cells: Vec<Option<(&ConvexPolyhedron, Aabb)>> = s
+        .cells
+        .iter()
+        .map(|c| {
+            let p = c.poly.as_ref()?;
+            let b = Aabb::from_points(p.faces.iter().flat_map(|f| f.points.iter()));
+            (!b.is_empty()).then_some((p, b))
+        })
+        .collect();
+    let tracer = Tracer {
+        mesh: mesh.flatten(),
+        gates: gates(s),
+        cells,
+        far: 4.0 * s.extent.max(s.eps),
+        within: 10.0 * s.eps,
+        depth,
+    };
+    let n = s.cells.len().min(pvs.cells());
+    // Per cell: the cells its rays reached, each with the first ray that reached it.
+    let reached: Vec<BTreeMap<usize, Vec<DVec3>>> = (0..n)
+        .into_par_iter()
+        .map(|c| {
+            let mut found = BTreeMap::new();
+            let Some((poly, b)) = tracer.cells[c] else {
+                return found;
+            };
+            let mut r = Rng::new(0x5167_4711_u64 ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+            for _ in 0..rays {
+                let Some(p) = point_in(poly, &b, s.eps, &mut r) else {
+                    continue;
+                };
+                let pieces = tracer.trace(p, direction(&mut r));
+                for x in tracer.cells_met(&pieces) {
+                    if x != c {
+                        found.entry(x).or_insert_with(|| {
+                            let mut line = vec![p];
+                            line.extend(pieces.iter().map(|&(o, d, l)| o + d * l));
+                            line
+                        });
+                    }
+                }
+            }
+            found
+        })
+        .collect();
+    let mut out = Audit::default();
+    for (c, found) in reached.iter().enumerate() {
+        out.pairs += pvs.visible(c).filter(|&v| v != c).count();
+        for (&x, line) in found {
+            if x >= n {
+                continue;
+            }
+            if pvs.sees(c, x) {
+                out.confirmed += 1;
+                continue;
+            }
+            let (from, to) = (line[0], line[line.len() - 1]);
+            out.diagnostics.push(
+                Diagnostic::new(
+                    Code::PVS_MISSES_SIGHTLINE,
+                    format!(
+                        "a sightline from {} reaches {}, which its PVS leaves out: the ray from ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})",
+                        s.cell(c),
+                        s.cell(x),
+                        from.x, from.y, from.z, to.x, to.y, to.z
+                    ),
+                    s.cells[c].at.clone().with_position(from.to_array()),
+                )
+                .hint("if the geometry should block this ray, close the gap it passes through; if not, the PVS is wrong: convert the level again (a stored PVS may be stale), and report it if a fresh one misses the pair too; with `[check] sightlines = N` in portcullis.toml, `convert --debug` draws the ray"),
+            );
+            out.lines.push(line.clone());
+        }
+    }
+    let share = if out.pairs > 0 {
+        100.0 * out.confirmed as f64 / out.pairs as f64
+    } else {
+        100.0
+    };
+    out.diagnostics.push(Diagnostic::new(
+        Code::SIGHTLINES_CONFIRMED,
+        format!(
+            "{rays} sightlines from each of {n} cells confirmed {} of the PVS's {} pairs of different cells ({share:.1}%); the rest are seen from points or directions no ray took, or are the PVS's over-estimate",
+            out.confirmed, out.pairs
+        ),
+        Location::file(&s.file),
+    ));
+    out
+}
