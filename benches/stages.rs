@@ -1,4 +1,5 @@
-//! Every stage of a conversion, each PVS method and the read+write floor, on generated buildings,
+//! Every stage of a conversion, each PVS method and the read+write floor, on generated buildings
+//! (and the sightline audit on the Doom maps of tests/fixtures),
 //! with divan's statistics: `cargo bench --bench stages`. Sizes 10, 100 and 1 000 rooms by
 //! default; `PORTCULLIS_BENCH_ROOMS=10000` (comma-separated) for others. The targets of the
 //! performance issue are checked with `portcullis bench`, which prints the same stages as one
@@ -151,4 +152,19 @@ fn pvs<M: PvsMethod>(b: Bencher, rooms: usize) {
         ..Default::default()
     };
     b.bench(|| portcullis::vis::compute(&graph, &opts));
+}
+
+/// `check --sightlines 200` (the audit alone, the PVS built beforehand) on the two Doom maps:
+/// MAP01 (479 cells, 4 607 triangles) and E1M2 (868 cells, 8 243 triangles). The target: at
+/// most 5 s for a 400-cell level of about 8 000 triangles on 2 cores.
+#[divan::bench(args = ["MAP01_godot.glb", "E1M2_godot.glb"], sample_count = 5)]
+fn sightlines(b: Bencher, level: &str) {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/third_party")
+        .join(level);
+    let mut t = pipeline::load_tagged(&path, &Default::default()).unwrap();
+    let cells = pipeline::build_cells(&mut t);
+    let portals = pipeline::build_portals(&mut t, &cells);
+    let pvs = pipeline::full_pvs(&t, &cells, &portals);
+    b.bench(|| pipeline::audit_sightlines(&t, &cells, &portals, &pvs, 200));
 }
