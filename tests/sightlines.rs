@@ -179,3 +179,31 @@ fn the_audit_does_not_depend_on_the_thread_count() {
     assert_eq!(one.lines, three.lines);
     assert_eq!((one.confirmed, one.pairs), (three.confirmed, three.pairs));
 }
+
+/// `vis --report` prints the ray-traced bound beside the sampled one: over it by 0% for every
+/// method on the courtyard (each court sees the other, and rays find it), and no conservative
+/// method misses a ray-traced pair on a shared level.
+#[test]
+fn vis_report_has_the_ray_traced_bound() {
+    let run = |path: &std::path::Path| {
+        let o = assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args(["vis", "--report", "--samples", "100", "--rays", "400"])
+            .arg(path)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(0));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let court = run(&sample("courtyard.gltf"));
+    for m in ["flood", "fast", "full"] {
+        let row = court
+            .lines()
+            .find(|l| l.contains(&format!("| {m} |")))
+            .unwrap();
+        assert!(row.ends_with("| +0.0% | 400 |"), "{row}");
+    }
+    let boxes = run(&fixture("lportal_boxrooms.glb"));
+    assert!(boxes.contains("over ray-traced"), "{boxes}");
+    assert!(!boxes.contains("ray-traced pairs missing"), "{boxes}");
+}

@@ -25,7 +25,7 @@ use crate::rng::SplitMix64 as Rng;
 use crate::vis::Pvs;
 
 /// What the audit found.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Audit {
     pub diagnostics: Diagnostics,
     /// One polyline per missed pair: the ray that found it, for debug output.
@@ -33,6 +33,9 @@ pub struct Audit {
     /// PVS pairs between different cells that some ray confirmed, and all of them.
     pub confirmed: usize,
     pub pairs: usize,
+    /// Every pair some ray joined (each cell with itself): a lower bound of the real PVS from
+    /// the level's own geometry.
+    pub seen: Pvs,
 }
 
 /// How a portal changes a ray that crosses it.
@@ -303,8 +306,17 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
             found
         })
         .collect();
-    let mut out = Audit::default();
+    let mut out = Audit {
+        diagnostics: Diagnostics::default(),
+        lines: Vec::new(),
+        confirmed: 0,
+        pairs: 0,
+        seen: Pvs::identity(n),
+    };
     for (c, found) in reached.iter().enumerate() {
+        for &x in found.keys().filter(|&&x| x < n) {
+            out.seen.bits.set(c, x);
+        }
         out.pairs += pvs.visible(c).filter(|&v| v != c).count();
         for (&x, line) in found {
             if x >= n {

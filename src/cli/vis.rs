@@ -42,6 +42,11 @@ pub struct VisArgs {
     #[arg(long)]
     pub report: bool,
 
+    /// With --report, rays per cell for the ray-traced lower bound: random sightlines traced
+    /// through the level's triangles (`check --sightlines`); 0 for none. Not for .prt files.
+    #[arg(long, value_name = "N", default_value_t = 200, requires = "report")]
+    pub rays: usize,
+
     /// With --report, the methods to time (comma-separated; default all four).
     #[arg(long, value_name = "LIST", requires = "report", value_delimiter = ',')]
     pub methods: Vec<String>,
@@ -80,8 +85,8 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
         methods = Method::ALL.to_vec();
     }
     if a.report {
-        println!("| level | cells | portals | method | threads | time | cpu | pairs | over lower bound | samples |");
-        println!("|---|---|---|---|---|---|---|---|---|---|");
+        println!("| level | cells | portals | method | threads | time | cpu | pairs | over lower bound | samples | over ray-traced | rays |");
+        println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     }
     for f in &a.files {
         totals.files += 1;
@@ -129,6 +134,10 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
     let cpu0 = cpu_seconds();
     let (lower, lower_time) = vis::timed(g, &lower_opts);
     let lower_cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+    // The bound from the level's own triangles, beside the one from its portals.
+    let traced = loaded.level.as_ref().filter(|_| a.rays > 0).map(|l| {
+        portcullis::pipeline::audit_sightlines(&l.tagged, &l.cells, &l.portals, &lower, a.rays).seen
+    });
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -142,8 +151,21 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
         };
         let over = pvs.pairs() as f64 / lower.pairs().max(1) as f64 - 1.0;
         let missing = lower.missing_from(&pvs).len();
+        let rays = match &traced {
+            Some(t) => {
+                let over = pvs.pairs() as f64 / t.pairs().max(1) as f64 - 1.0;
+                let missing = t.missing_from(&pvs).len();
+                let note = if missing > 0 && m != Method::Sampled {
+                    format!(" ({missing} ray-traced pairs missing)")
+                } else {
+                    String::new()
+                };
+                format!("{:+.1}%{note} | {}", over * 100.0, a.rays)
+            }
+            None => "– | –".to_string(),
+        };
         println!(
-            "| {} | {} | {} | {} | {} | {:.3} s | {} | {} | {:+.1}%{} | {} |",
+            "| {} | {} | {} | {} | {} | {:.3} s | {} | {} | {:+.1}%{} | {} | {rays} |",
             f.file_name().unwrap_or_default().to_string_lossy(),
             g.level_cells(),
             g.portals.len(),

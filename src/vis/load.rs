@@ -15,6 +15,16 @@ pub struct Loaded {
     pub config: crate::config::Config,
     /// The transform depth bound for this input (configured, else the loop check's).
     pub transform_depth: usize,
+    /// The level the graph was built from (none for a .prt file): what `vis --report` traces
+    /// rays through.
+    pub level: Option<Level>,
+}
+
+/// A level as built for its graph.
+pub struct Level {
+    pub tagged: crate::pipeline::Tagged,
+    pub cells: crate::cells::CellSet,
+    pub portals: crate::portals::PortalSet,
 }
 
 pub fn is_prt(path: &Path) -> bool {
@@ -34,6 +44,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
                 .transform_depth
                 .unwrap_or(super::DEFAULT_TRANSFORM_DEPTH),
             config,
+            level: None,
         });
     }
     let mut t = pipeline::load_tagged(path, opts)?;
@@ -46,7 +57,12 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
             &portals,
             t.config.vis.transform_depth,
         ),
-        diagnostics: t.diagnostics,
-        config: t.config,
+        diagnostics: std::mem::take(&mut t.diagnostics),
+        config: t.config.clone(),
+        level: Some(Level {
+            tagged: t,
+            cells,
+            portals,
+        }),
     })
 }
