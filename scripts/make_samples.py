@@ -331,6 +331,25 @@ def courtyard():
     return level(lean_to(a1, a0, "west-room"), lean_to(b0, b1, "east-room"))
 
 
+OFFSET = (4.0, 4.3)                  # offset_holes: the west room's wall, the east room's
+OFFSET_HOLES = ((0.5, 0.0, 1.5, 2.2),  # the hole in x = 4, (z0, y0, z1, y1)
+                (2.5, 0.0, 3.5, 2.2))  # the hole in x = 4.3
+
+
+def offset_holes():
+    """Two rooms 0.3 m apart, each wall with a door hole, the holes not facing each other: the
+    hollow between the walls is open at its ends and top, and sight passes through it
+    slantwise (from the west room through (4, 1, 1) to (4.3, 1, 3) and on)."""
+    rooms = []
+    for name, (x0, x1), wall, nx, hole in (("west-room", (0.0, OFFSET[0]), OFFSET[0], -1, OFFSET_HOLES[0]),
+                                           ("east-room", (OFFSET[1], OFFSET[1] + 4.0), OFFSET[1], 1,
+                                            OFFSET_HOLES[1])):
+        f, c, w = box_room(x0, x1, skip=(wall,))
+        pieces = [rect_zy(*r) for r in grid_cells((0.0, 0.0, 4.0, H), [hole])]
+        rooms.append(room_node(name, f, c, w + wall_x(wall, pieces, nx)))
+    return level(*rooms)
+
+
 ARCH_SEGMENTS = 8
 
 
@@ -875,7 +894,7 @@ if __name__ == "__main__":
     for name, tree in portal_samples.items():
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
-    sight_samples = {"courtyard": courtyard()}
+    sight_samples = {"courtyard": courtyard(), "offset_holes": offset_holes()}
     for name, tree in sight_samples.items():
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")

@@ -127,6 +127,35 @@ fn courts_see_each_other_over_the_top() {
     assert!(!mesh.intersects_local_ray(&Ray::new(a, d / d.length()), d.length()));
 }
 
+/// Two rooms 0.3 m apart whose walls each have a door, the doors not facing each other (z
+/// 0.5..1.5 in x = 4, z 2.5..3.5 in x = 4.3): no portal bridges the wall, each door is a 2.2 m²
+/// hole into the hollow between the walls, and through it each room sees the other, as a
+/// clear segment through both doors shows.
+#[test]
+fn offset_doors_see_through_the_hollow_wall() {
+    let (t, c, p) = common::load_level(&sample("offset_holes.gltf"), None);
+    assert_eq!(c.cells.len(), 2);
+    assert!(
+        p.portals.iter().all(|q| q.to.is_none()),
+        "no portal bridges the wall"
+    );
+    let mut areas: Vec<f64> = p.portals.iter().map(|q| q.area).collect();
+    areas.sort_by(f64::total_cmp);
+    assert_eq!(areas.len(), 2);
+    assert!(areas.iter().all(|a| (a - 2.2).abs() < 1e-6), "{areas:?}");
+    let eps = c.tolerance.distance;
+    let opts = VisOptions::default();
+    let pvs = vis::of_level(2, &p, eps, &opts);
+    assert!(pvs.sees(0, 1) && pvs.sees(1, 0));
+    assert!(!vis::of_level(2, &walled(&p), eps, &opts).sees(0, 1));
+    let (a, b) = (DVec3::new(3.88, 1.0, 0.2), DVec3::new(4.42, 1.0, 3.8));
+    let cell_of = |q: DVec3| (0..2).find(|&k| c.cells[k].poly.contains_strictly(q, 1e-6));
+    assert!(cell_of(a).is_some() && cell_of(b).is_some() && cell_of(a) != cell_of(b));
+    let d = b - a;
+    let mesh = common::opaque_mesh(&t);
+    assert!(!mesh.intersects_local_ray(&Ray::new(a, d / d.length()), d.length()));
+}
+
 /// A quad on the plane `axis = at` spanning `(a0..a1)` on the other horizontal axis and
 /// height 0..3, leading from `from` to `to` in the direction `dir` (±1 along `axis`).
 fn door(from: usize, to: usize, axis: usize, at: f64, dir: f64, a0: f64, a1: f64) -> VisPortal {

@@ -462,11 +462,23 @@ fn pair_openings(
             // corners left on the grid, those openings' corners moved with it.
             let exact_shared = ExactVertices::new(ra.iter().chain(rb.iter()).copied(), grid)
                 .with_rings([ra.as_slice(), rb.as_slice()]);
-            for s in &shared {
-                let claim = exact_shared.restore(s.outer.clone());
-                let back: Vec<DVec2> = claim.iter().map(|q| fb2.to2(f.to3(*q, na * gap))).collect();
-                out.claims.push((a, ia, claim));
-                out.claims.push((b, ib, back));
+            let mut claim = |cell: usize, piece: Vec<DVec2>| {
+                if cell == a {
+                    out.claims.push((a, ia, piece));
+                } else {
+                    let back = piece.iter().map(|q| fb2.to2(f.to3(*q, na * gap))).collect();
+                    out.claims.push((b, ib, back));
+                }
+            };
+            // Faces on one plane claim all they share: whatever is open there opens onto the
+            // other cell. Faces across a wall, below, each what is not a hole into the wall.
+            let bridged = gap > eps;
+            if !bridged {
+                for s in &shared {
+                    let piece = exact_shared.restore(s.outer.clone());
+                    claim(a, piece.clone());
+                    claim(b, piece);
+                }
             }
             // What blocks: everything on the plane, or inside the wall slab, within 2·eps of
             // the shared region: the others (the next room's wall, in the same plane past the
@@ -516,34 +528,86 @@ fn pair_openings(
             let closed = shared.iter().all(|s| {
                 s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
             });
-            if closed {
-                continue;
+            let exact = || {
+                ExactVertices::new(
+                    ra.iter()
+                        .chain(rb.iter())
+                        .chain(blockers.iter().flat_map(|r| r.iter()))
+                        .copied(),
+                    grid,
+                )
+                .with_rings(
+                    [ra.as_slice(), rb.as_slice()]
+                        .into_iter()
+                        .chain(blockers.iter().copied()),
+                )
+            };
+            let mut through: Vec<Vec<DVec2>> = Vec::new();
+            if !closed {
+                let open = difference(&shared, &blockers, grid);
+                let exact = exact();
+                for o in open.iter().filter(|o| o.mean_width() >= min_width) {
+                    for piece in pieces(o, cfg.conservative, eps) {
+                        let piece = exact.restore(piece);
+                        // CCW about na in 2D: seen from A (behind the plane) it turns the
+                        // other way, so A's polygon is the reversed ring.
+                        let on_a: Vec<DVec3> =
+                            piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+                        let Some(on_a) = usable_polygon(&on_a, na, eps) else {
+                            continue;
+                        };
+                        let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
+                        let area = polygon_area(&on_a, na);
+                        out.portals.push((on_a, on_b, na, area));
+                        through.push(piece);
+                    }
+                }
             }
-            let open = difference(&shared, &blockers, grid);
-            let exact = ExactVertices::new(
-                ra.iter()
-                    .chain(rb.iter())
-                    .chain(blockers.iter().flat_map(|r| r.iter()))
-                    .copied(),
-                grid,
-            )
-            .with_rings(
-                [ra.as_slice(), rb.as_slice()]
-                    .into_iter()
-                    .chain(blockers.iter().copied()),
-            );
-            for o in open.iter().filter(|o| o.mean_width() >= min_width) {
-                for piece in pieces(o, cfg.conservative, eps) {
-                    let piece = exact.restore(piece);
-                    // CCW about na in 2D: seen from A (behind the plane) it turns the
-                    // other way, so A's polygon is the reversed ring.
-                    let on_a: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                    let Some(on_a) = usable_polygon(&on_a, na, eps) else {
-                        continue;
+            if bridged {
+                // Each face of the wall on its own: what lies on it and what was bridged
+                // through; what is left is a hole into the wall that does not go through it
+                // (the doors of two rooms' walls, offset along the hollow between them). The
+                // face claims the rest, and the exterior stage finds the hole open unless
+                // another cell's claim covers it.
+                let sides = [
+                    (a, lo - beside, lo + 2.0 * eps + beside),
+                    (b, hi - 2.0 * eps - beside, hi + beside),
+                ];
+                for (cell, from, to) in sides {
+                    let mut cover: Vec<&[DVec2]> = shadows
+                        .rings_with_spans()
+                        .filter(|(_, (x, y))| *x >= from && *y <= to)
+                        .map(|(r, _)| r)
+                        .collect();
+                    cover.extend(through.iter().map(Vec::as_slice));
+                    let whole = !cfg.exterior
+                        || shared.iter().all(|s| {
+                            s.holes.is_empty()
+                                && is_covered(&s.outer, &cover, k.grow, k.sliver, k.closed)
+                        });
+                    // Holes narrower than the wall is thick are where two doors' jambs miss
+                    // each other by a modelling error, not a way into the wall.
+                    let holes: Vec<Vec<DVec2>> = if whole {
+                        Vec::new()
+                    } else {
+                        difference(&shared, &cover, grid)
+                            .into_iter()
+                            .filter(|o| o.mean_width() >= gap.max(min_width))
+                            .map(|o| o.outer)
+                            .collect()
                     };
-                    let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
-                    let area = polygon_area(&on_a, na);
-                    out.portals.push((on_a, on_b, na, area));
+                    if holes.is_empty() {
+                        for s in &shared {
+                            claim(cell, exact_shared.restore(s.outer.clone()));
+                        }
+                        continue;
+                    }
+                    let exact = exact();
+                    for o in difference(&shared, &holes, grid) {
+                        for piece in pieces(&o, false, eps) {
+                            claim(cell, exact.restore(piece));
+                        }
+                    }
                 }
             }
         }

@@ -140,6 +140,8 @@ pub(crate) struct Shadows {
     kept: Vec<(u32, usize, usize)>,
     pts: Vec<DVec2>,
     ends: Vec<usize>,
+    /// Per ring, the least and greatest height of its triangle along the slab's normal.
+    spans: Vec<(f64, f64)>,
 }
 
 impl Shadows {
@@ -156,6 +158,16 @@ impl Shadows {
             Ok(mut s) => f(&mut s),
             Err(_) => f(&mut Shadows::default()),
         })
+    }
+
+    /// Every ring (duplicates kept) with the span of its triangle along the slab's normal:
+    /// which of a wall's two faces a shadow lies on.
+    pub fn rings_with_spans(&self) -> impl Iterator<Item = (&[DVec2], (f64, f64))> {
+        let starts = std::iter::once(0).chain(self.ends.iter().copied());
+        starts
+            .zip(self.ends.iter().copied())
+            .zip(self.spans.iter().copied())
+            .map(|((a, b), span)| (&self.pts[a..b], span))
     }
 
     /// The rings, in the order of the triangles that cast them, each once: a ring with the
@@ -296,6 +308,7 @@ impl Opaque {
     pub fn shadows(&self, b: &Aabb, slab: &Slab, out: &mut Shadows) {
         out.pts.clear();
         out.ends.clear();
+        out.spans.clear();
         out.kept.clear();
         out.scratch.clear();
         let Shadows {
@@ -324,9 +337,12 @@ impl Opaque {
             }
         }
         kept.sort_unstable_by_key(|k| k.0);
-        for &(_, start, end) in kept.iter() {
+        for &(i, start, end) in kept.iter() {
             out.pts.extend_from_slice(&out.scratch[start..end]);
             out.ends.push(out.pts.len());
+            let d = self.triangle(i).map(|p| slab.n.dot(p));
+            out.spans
+                .push((d[0].min(d[1]).min(d[2]), d[0].max(d[1]).max(d[2])));
         }
     }
 }

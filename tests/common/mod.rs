@@ -317,6 +317,7 @@ pub fn levels_with_rooms() -> Vec<(PathBuf, Option<&'static str>)> {
         "teleporter.gltf",
         "sloped_hall.gltf",
         "courtyard.gltf",
+        "offset_holes.gltf",
     ] {
         v.push((sample(s), None));
     }
