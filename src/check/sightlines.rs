@@ -1,5 +1,6 @@
 //! The PVS against the level's real geometry (`check --sightlines N`): rays from random points
-//! inside every cell, in random directions, traced against every blocking triangle through a
+//! inside every cell, half in random directions and half aimed at random points of the level's
+//! portals, traced against every blocking triangle through a
 //! BVH (parry's `TriMesh`), through open portals and the outside as the straight line goes,
 //! stopped by closed portals and by one-way portals crossed against their way, and carried on
 //! through mirrors and teleporters with their transform, at most `depth` of them. Every cell a
@@ -156,6 +157,24 @@ fn point_in(poly: &ConvexPolyhedron, b: &Aabb, eps: f64, r: &mut Rng) -> Option<
     })
 }
 
+/// A random point of a convex polygon (a fan triangle picked by area, then a point in it).
+fn point_on(poly: &[DVec3], r: &mut Rng) -> DVec3 {
+    let o = poly[0];
+    let area = |k: usize| (poly[k] - o).cross(poly[k + 1] - o).length();
+    let total: f64 = (1..poly.len() - 1).map(area).sum();
+    let mut pick = r.unit() * total;
+    let mut k = 1;
+    while k + 2 < poly.len() && pick > area(k) {
+        pick -= area(k);
+        k += 1;
+    }
+    let (mut u, mut v) = (r.unit(), r.unit());
+    if u + v > 1.0 {
+        (u, v) = (1.0 - u, 1.0 - v);
+    }
+    o + (poly[k] - o) * u + (poly[k + 1] - o) * v
+}
+
 fn direction(r: &mut Rng) -> DVec3 {
     let z = 2.0 * r.unit() - 1.0;
     let phi = std::f64::consts::TAU * r.unit();
@@ -279,6 +298,13 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         depth,
     };
     let n = s.cells.len().min(pvs.cells());
+    let targets: Vec<&[DVec3]> = s
+        .portals
+        .portals
+        .iter()
+        .filter(|p| !p.closed && p.polygon.len() >= 3)
+        .map(|p| p.polygon.as_slice())
+        .collect();
     // Per cell: the cells its rays reached, each with the first ray that reached it.
     let reached: Vec<BTreeMap<usize, Vec<DVec3>>> = (0..n)
         .into_par_iter()
@@ -288,11 +314,20 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
                 return found;
             };
             let mut r = Rng::new(0x5167_4711_u64 ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            for _ in 0..rays {
+            for k in 0..rays {
                 let Some(p) = point_in(poly, &b, s.eps, &mut r) else {
                     continue;
                 };
-                let pieces = tracer.trace(p, direction(&mut r));
+                // Every other ray aimed at a random point of a random portal (of the level,
+                // not only this cell's): uniform directions rarely thread a narrow opening.
+                let aim = (k % 2 == 1 && !targets.is_empty())
+                    .then(|| {
+                        let t =
+                            &targets[(r.unit() * targets.len() as f64) as usize % targets.len()];
+                        (point_on(t, &mut r) - p).try_normalize()
+                    })
+                    .flatten();
+                let pieces = tracer.trace(p, aim.unwrap_or_else(|| direction(&mut r)));
                 for x in tracer.cells_met(&pieces) {
                     if x != c {
                         found.entry(x).or_insert_with(|| {
