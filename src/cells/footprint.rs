@@ -56,18 +56,7 @@ impl<'a> Context<'a> {
                 .into_iter()
                 .filter(|n| !skip.contains(n))
                 .collect();
-            let tris = node_triangles(scene, &nodes, origin);
-            let verts: Vec<DVec3> = tris.iter().flatten().copied().collect();
-            let idx: Vec<[u32; 3]> = (0..tris.len() as u32)
-                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                .collect();
-            if idx.is_empty() {
-                None
-            } else {
-                std::panic::catch_unwind(move || TriMesh::new(verts, idx).ok())
-                    .ok()
-                    .flatten()
-            }
+            crate::geom::ray_mesh::ray_mesh(&node_triangles(scene, &nodes, origin))
         } else {
             None
         };

@@ -273,13 +273,7 @@ impl Tracer<'_> {
 /// Audits `pvs` (rows for the subject's cells) with `rays` rays per cell; `triangles`: the
 /// level's blocking triangles in world space; `depth`: transformed portals one ray passes.
 pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, depth: usize) -> Audit {
-    let mesh = (!triangles.is_empty()).then(|| {
-        let verts: Vec<DVec3> = triangles.iter().flatten().copied().collect();
-        let idx: Vec<[u32; 3]> = (0..triangles.len() as u32)
-            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-            .collect();
-        TriMesh::new(verts, idx).ok()
-    });
+    let mesh = crate::geom::ray_mesh::ray_mesh(triangles);
     let cells: Vec<Option<(&ConvexPolyhedron, Aabb)>> = s
         .cells
         .iter()
@@ -290,7 +284,7 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         })
         .collect();
     let tracer = Tracer {
-        mesh: mesh.flatten(),
+        mesh,
         gates: gates(s),
         cells,
         far: 4.0 * s.extent.max(s.eps),

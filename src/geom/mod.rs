@@ -10,6 +10,7 @@ pub mod hull;
 pub mod partition;
 pub mod plane;
 pub mod polyhedron;
+pub mod ray_mesh;
 pub mod tolerance;
 pub mod triangulate;
 
