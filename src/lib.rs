@@ -19,6 +19,7 @@ pub mod portals;
 pub mod prt;
 pub mod report;
 pub mod rng;
+pub mod runtime;
 pub mod scc;
 pub mod scene;
 pub mod schema;

@@ -106,6 +106,26 @@ pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> crate::portals::Po
     set
 }
 
+/// `portcullis convert INPUT -o OUTPUT` with the defaults, for library users: cells, portals
+/// and the full PVS, written atomically to a .glb or .gltf. Diagnostics are not checked (run
+/// [`check_level`] for a gate); `Err` only when the level cannot be read or written.
+pub fn convert_file(input: &Path, output: &Path) -> Result<(), Diagnostic> {
+    let format = crate::export::gltf_out::OutFormat::from_path(output).ok_or_else(|| {
+        Diagnostic::new(
+            crate::diag::Code::OUTPUT_FORMAT_UNKNOWN,
+            "the output is neither .glb nor .gltf",
+            crate::diag::Location::file(output),
+        )
+        .hint("name the output file .glb or .gltf")
+    })?;
+    let mut t = load_tagged(input, &LoadOptions::default())?;
+    let cells = build_cells(&mut t);
+    let portals = build_portals(&mut t, &cells);
+    let pvs = full_pvs(&t, &cells, &portals);
+    let method = crate::vis::Method::Full;
+    write_annotated_file(&t, &cells, &portals, Some((&pvs, method)), output, format)
+}
+
 /// The annotated level as the bytes of one glTF file (`out` decides relative URIs).
 pub fn write_annotated(
     tagged: &Tagged,

@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 pub mod bench;
 pub mod check;
 pub mod convert;
+pub mod cull;
 pub mod gen;
 pub mod huge_pages;
 pub mod inspect;
@@ -51,6 +52,10 @@ pub enum Command {
     /// Print the PVS of each level (glTF, OBJ, USD or a Quake .prt), one line per cell as
     /// `c: v1 v2 ...`; `--report` times every method against the sampled lower bound.
     Vis(vis::VisArgs),
+    /// What each camera sees in a converted level, by the runtime an engine would run: the
+    /// camera's cell, the cells reached through the portals in view with their screen
+    /// rectangles, depth and path.
+    Cull(cull::CullArgs),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -117,6 +122,7 @@ pub fn run(cli: Cli) -> i32 {
         Command::Gen(a) => gen::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Schema(a) => schema::run(&a),
+        Command::Cull(a) => cull::run(&a),
         Command::Vis(mut a) => {
             a.files = expand_inputs(&a.files);
             vis::run(

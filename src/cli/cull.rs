@@ -1,0 +1,255 @@
+//! `portcullis cull LEVEL --cameras FILE`: what each camera sees, by the runtime an engine
+//! would run ([`portcullis::runtime`]), so a designer can ask "what is drawn from here".
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use serde::Deserialize;
+use serde_json::{json, Value};
+
+use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
+
+use super::Format;
+
+#[derive(Debug, Args)]
+pub struct CullArgs {
+    /// A level written by `portcullis convert` (.glb or .gltf with the PORTCULLIS_portals
+    /// extension).
+    #[arg(value_name = "LEVEL")]
+    pub level: PathBuf,
+
+    /// Cameras, one JSON object per line: {"eye":[x,y,z], "look":[x,y,z] (a direction),
+    /// "up":[x,y,z], "fov_y":degrees, "aspect":width/height, "near":metres}. `up` defaults to
+    /// [0,1,0], `fov_y` to 60, `aspect` to 16/9, `near` to 0.05; blank lines are skipped.
+    #[arg(long, value_name = "FILE")]
+    pub cameras: PathBuf,
+
+    /// Output format: human, or json (an array, one object per camera in order).
+    #[arg(long, value_enum, default_value = "human")]
+    pub format: Format,
+
+    /// Close a portal (the extension's index) and its partner, as a door at run time. Repeat
+    /// for several.
+    #[arg(long = "closed", value_name = "PORTAL")]
+    pub closed: Vec<usize>,
+
+    /// Open a portal the level starts with closed. Repeat for several.
+    #[arg(long = "open", value_name = "PORTAL")]
+    pub open: Vec<usize>,
+
+    /// Portals one path may cross at most.
+    #[arg(long, value_name = "N", default_value_t = TraceOptions::default().max_depth)]
+    pub max_depth: usize,
+
+    /// Mirrors and teleporters one path may cross at most.
+    #[arg(long, value_name = "N", default_value_t = TraceOptions::default().max_transform_depth)]
+    pub transform_depth: usize,
+
+    /// Walk every portal without the stored PVS as a prefilter (for comparing).
+    #[arg(long)]
+    pub no_pvs: bool,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Camera {
+    eye: [f64; 3],
+    look: [f64; 3],
+    #[serde(default = "default_up")]
+    up: [f64; 3],
+    #[serde(default = "default_fov")]
+    fov_y: f64,
+    #[serde(default = "default_aspect")]
+    aspect: f64,
+    #[serde(default = "default_near")]
+    near: f64,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    60.0
+}
+fn default_aspect() -> f64 {
+    16.0 / 9.0
+}
+fn default_near() -> f64 {
+    0.05
+}
+
+fn fail(what: &str, hint: &str) -> i32 {
+    eprintln!("error: {what}\n  hint: {hint}");
+    2
+}
+
+/// Every camera of `path`, or the first line that is not one.
+fn read_cameras(path: &Path) -> Result<Vec<View>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot be read: {e}", path.display()))?;
+    let mut views = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let at = format!("{}:{}", path.display(), i + 1);
+        let c: Camera =
+            serde_json::from_str(line).map_err(|e| format!("{at}: not a camera: {e}"))?;
+        let v = View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
+            .map_err(|e| format!("{at}: {e}"))?;
+        views.push(v);
+    }
+    Ok(views)
+}
+
+pub fn run(a: &CullArgs) -> i32 {
+    let camera_hint = "one JSON object per line, e.g. {\"eye\":[1,1.6,2],\"look\":[1,0,0],\"up\":[0,1,0],\"fov_y\":70,\"aspect\":1.78,\"near\":0.05}";
+    let views = match read_cameras(&a.cameras) {
+        Ok(v) => v,
+        Err(e) => return fail(&e, camera_hint),
+    };
+    let level = match Level::load(&a.level) {
+        Ok(l) => l,
+        Err(e) => return fail(&format!("{}: {}", e.path.display(), e.message), e.hint),
+    };
+    let mut doors = Doors::new(&level);
+    for (&p, closed) in a
+        .closed
+        .iter()
+        .map(|p| (p, true))
+        .chain(a.open.iter().map(|p| (p, false)))
+    {
+        if p >= level.portals() {
+            return fail(
+                &format!(
+                    "portal {p} does not exist: {} has {} portals",
+                    a.level.display(),
+                    level.portals()
+                ),
+                "portal ids are the extension's indices; `portcullis inspect` lists them",
+            );
+        }
+        doors.set(&level, p, closed);
+    }
+    let opts = TraceOptions {
+        max_depth: a.max_depth,
+        max_transform_depth: a.transform_depth,
+        use_pvs: !a.no_pvs,
+    };
+    let mut trace = Trace::default();
+    let mut results = Vec::with_capacity(views.len());
+    for v in &views {
+        level.trace(v, &doors, &opts, &mut trace);
+        results.push(report(&trace));
+    }
+    let mut out = std::io::stdout().lock();
+    let written = match a.format {
+        Format::Json => serde_json::to_writer_pretty(&mut out, &Value::Array(results))
+            .map_err(std::io::Error::other)
+            .and_then(|_| writeln!(out)),
+        Format::Human => human(&mut out, &level, &results),
+    };
+    match written {
+        Ok(()) => 0,
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => 0,
+        Err(e) => fail(&format!("cannot write the output: {e}"), "check stdout"),
+    }
+}
+
+/// One camera's result as `cull --format json` prints it.
+fn report(t: &Trace) -> Value {
+    let visible: Vec<Value> = t
+        .visible()
+        .iter()
+        .map(|v| {
+            let mut o = json!({
+                "cell": v.cell,
+                "rect": v.rect.map(round),
+                "depth": v.depth,
+                "via": t.via(v),
+            });
+            if let Some(m) = &v.transform {
+                o["transform"] = json!(m.to_cols_array().map(round));
+            }
+            o["mirrored"] = json!(v.mirrored);
+            o
+        })
+        .collect();
+    let mut o = json!({
+        "cell": t.location.cell(),
+        "location": t.location.name(),
+    });
+    if let Location::Outside { nearest } = t.location {
+        o["nearest"] = json!(nearest);
+    }
+    o["visible"] = json!(visible);
+    o["stats"] = json!(t.stats);
+    o
+}
+
+fn round(x: f64) -> f64 {
+    let r = (x * 1e9).round() / 1e9;
+    if r == 0.0 {
+        0.0
+    } else {
+        r
+    }
+}
+
+fn human(out: &mut dyn Write, level: &Level, results: &[Value]) -> std::io::Result<()> {
+    let name = |c: &Value| match c.as_u64() {
+        Some(c) => format!("cell {c} ({})", level.room(c as usize)),
+        None => "the outside".to_string(),
+    };
+    for (i, r) in results.iter().enumerate() {
+        let visible = r["visible"].as_array().map_or(&[][..], |v| v.as_slice());
+        let at = match r["location"].as_str() {
+            Some("outside") => match r["nearest"].as_u64() {
+                Some(n) => format!("outside every cell (nearest: cell {n})"),
+                None => "outside every cell".to_string(),
+            },
+            Some(loc) => format!("{} of {}", loc, name(&r["cell"])),
+            None => String::new(),
+        };
+        writeln!(
+            out,
+            "camera {}: {at}; {} visible, {} portals tested",
+            i + 1,
+            visible.len(),
+            r["stats"]["portals_tested"]
+        )?;
+        for v in visible {
+            let rect: Vec<String> = v["rect"]
+                .as_array()
+                .map(|a| {
+                    a.iter()
+                        .map(|x| format!("{:.3}", x.as_f64().unwrap_or(0.0)))
+                        .collect()
+                })
+                .unwrap_or_default();
+            let via: Vec<String> = v["via"]
+                .as_array()
+                .map(|a| a.iter().map(|x| x.to_string()).collect())
+                .unwrap_or_default();
+            let mut line = format!(
+                "  {}  depth {}  rect [{}]",
+                name(&v["cell"]),
+                v["depth"],
+                rect.join(", ")
+            );
+            if !via.is_empty() {
+                line += &format!("  via {}", via.join(" "));
+            }
+            if v.get("transform").is_some() {
+                line += if v["mirrored"] == json!(true) {
+                    "  (mirrored)"
+                } else {
+                    "  (transformed)"
+                };
+            }
+            writeln!(out, "{line}")?;
+        }
+    }
+    Ok(())
+}

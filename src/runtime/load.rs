@@ -1,0 +1,151 @@
+//! Reading a converted level for the runtime: only the `PORTCULLIS_portals` extension and the
+//! bytes of its PVS, never the meshes, so an engine's loader (or `portcullis cull`) pays for
+//! the culling data alone.
+
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use serde::Deserialize;
+use serde_json::Value;
+
+use crate::export::read::Annotated;
+use crate::vis::Pvs;
+
+/// Why a level cannot be loaded: what, where, and what to do.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadError {
+    pub path: PathBuf,
+    pub message: String,
+    pub hint: &'static str,
+}
+
+impl std::fmt::Display for LoadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {} ({})",
+            self.path.display(),
+            self.message,
+            self.hint
+        )
+    }
+}
+
+impl std::error::Error for LoadError {}
+
+pub(super) const CONVERT_HINT: &str =
+    "run `portcullis convert` on the level and load the file it writes";
+
+#[derive(Deserialize)]
+struct Doc {
+    #[serde(default)]
+    extensions: Option<Extensions>,
+    #[serde(default, rename = "bufferViews")]
+    buffer_views: Vec<Value>,
+    #[serde(default)]
+    buffers: Vec<Value>,
+}
+
+#[derive(Deserialize)]
+struct Extensions {
+    #[serde(default, rename = "PORTCULLIS_portals")]
+    portals: Option<Annotated>,
+}
+
+/// The annotation of the .glb or .gltf at `path` and its decoded PVS (`None` when it stores
+/// none, as a one-cell level does).
+pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
+    let err = |message: String| LoadError {
+        path: path.to_path_buf(),
+        message,
+        hint: CONVERT_HINT,
+    };
+    let bytes = std::fs::read(path).map_err(|e| LoadError {
+        path: path.to_path_buf(),
+        message: format!("cannot be read: {e}"),
+        hint: "check the path and the file's permissions",
+    })?;
+    let (json, bin) = split(&bytes).map_err(err)?;
+    let doc: Doc =
+        serde_json::from_slice(json).map_err(|e| err(format!("is not a glTF document: {e}")))?;
+    let annotated = doc
+        .extensions
+        .and_then(|e| e.portals)
+        .ok_or_else(|| err("has no PORTCULLIS_portals extension".into()))?;
+    let Some(vis) = annotated.visibility.as_ref() else {
+        return Ok((annotated, None));
+    };
+    let blob = match vis.get("bufferView").and_then(Value::as_u64) {
+        None => None,
+        Some(i) => Some(
+            view_bytes(path, &doc.buffer_views, &doc.buffers, bin, i as usize)
+                .map_err(|e| err(format!("visibility: buffer view {i} {e}")))?,
+        ),
+    };
+    let pvs = crate::export::visibility::decode(vis, annotated.cells.len(), blob.as_deref())
+        .map_err(|e| err(format!("visibility: {e}")))?;
+    Ok((annotated, Some(pvs)))
+}
+
+/// The JSON text and the BIN chunk of a .glb, or the whole text of a .gltf.
+fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok((bytes, None));
+    }
+    let word = |at: usize| -> Option<usize> {
+        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?) as usize)
+    };
+    let bad = || "is a truncated or malformed .glb".to_string();
+    let json_len = word(12).ok_or_else(bad)?;
+    let json = bytes.get(20..20 + json_len).ok_or_else(bad)?;
+    let at = 20 + json_len;
+    let bin = match word(at) {
+        Some(len) if word(at + 4) == Some(0x004E_4942) => {
+            Some(bytes.get(at + 8..at + 8 + len).ok_or_else(bad)?)
+        }
+        _ => None,
+    };
+    Ok((json, bin))
+}
+
+/// The bytes of buffer view `i`, reading only its range of an external buffer file.
+fn view_bytes(
+    path: &Path,
+    views: &[Value],
+    buffers: &[Value],
+    bin: Option<&[u8]>,
+    i: usize,
+) -> Result<Vec<u8>, String> {
+    let view = views.get(i).ok_or("does not exist")?;
+    let field = |k: &str| view.get(k).and_then(Value::as_u64).map(|v| v as usize);
+    let b = field("buffer").ok_or("names no buffer")?;
+    let off = field("byteOffset").unwrap_or(0);
+    let len = field("byteLength").ok_or("has no byteLength")?;
+    let buffer = buffers.get(b).ok_or("names a buffer that does not exist")?;
+    let range = |data: &[u8]| -> Result<Vec<u8>, String> {
+        data.get(off..off.checked_add(len).ok_or("is out of range")?)
+            .map(<[u8]>::to_vec)
+            .ok_or_else(|| "lies beyond its buffer".to_string())
+    };
+    match buffer.get("uri").and_then(Value::as_str) {
+        None => range(bin.ok_or("lies in a BIN chunk the file does not have")?),
+        Some(uri) if uri.starts_with("data:") => {
+            let data = uri
+                .split_once(";base64,")
+                .and_then(|(_, d)| base64::engine::general_purpose::STANDARD.decode(d).ok())
+                .ok_or("lies in a data URI that is not base64")?;
+            range(&data)
+        }
+        Some(uri) => {
+            let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+            let mut f = std::fs::File::open(&file)
+                .map_err(|e| format!("lies in {} which cannot be read: {e}", file.display()))?;
+            let mut out = vec![0; len];
+            f.seek(SeekFrom::Start(off as u64))
+                .and_then(|_| f.read_exact(&mut out))
+                .map_err(|e| format!("lies beyond the end of {}: {e}", file.display()))?;
+            Ok(out)
+        }
+    }
+}

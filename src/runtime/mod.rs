@@ -1,0 +1,387 @@
+//! The engine side: a converted level's cells and portals, loaded from the
+//! `PORTCULLIS_portals` extension alone, and the frame-time queries an engine runs on them:
+//! [`Level::locate`] finds the camera's cell, [`Level::trace`] walks the portals it can see
+//! (the traversal of Godot 3's portal tracer and id Tech 4's `FloodViewThroughArea`), and
+//! [`Level::cells_touching`] and [`Trace::box_visible`] place and cull moving objects.
+//!
+//! Numbers are `f64` throughout: the extension stores `f64`, levels far from the origin
+//! (2^20 m) keep sub-millimetre planes, and a trace's cost is its branching, not its
+//! arithmetic. An engine with `f32` cameras converts at the call.
+//!
+//! Nothing here depends on the import or build stages; it reads what `convert` wrote.
+//!
+//! ```
+//! use portcullis::runtime::{Doors, Level, TraceOptions, Trace, View};
+//! # let dir = tempfile::tempdir().unwrap();
+//! # let out = dir.path().join("two_rooms.glb");
+//! # portcullis::pipeline::convert_file(std::path::Path::new("samples/two_rooms.gltf"), &out).unwrap();
+//! let level = Level::load(&out)?;
+//! let doors = Doors::new(&level);
+//! let mut trace = Trace::default();
+//! let view = View::new([1.0, 1.5, 2.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 70.0, 16.0 / 9.0, 0.05)?;
+//! level.trace(&view, &doors, &TraceOptions::default(), &mut trace);
+//! for seen in trace.visible() {
+//!     // draw seen.cell's nodes, scissored to seen.rect
+//!     assert!(seen.rect[0] <= seen.rect[2]);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod clip;
+mod load;
+mod locate;
+mod trace;
+
+use std::ops::Range;
+use std::path::Path;
+
+use glam::{DMat4, DVec3};
+
+pub use load::LoadError;
+pub use locate::Location;
+pub use trace::{Stats, Trace, TraceOptions, View, ViewError, Visible};
+
+use crate::export::read::Annotated;
+use crate::vis::Pvs;
+use clip::Half;
+
+/// What kind of opening a portal is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    Plain,
+    Mirror,
+    Teleporter,
+}
+
+/// A level's culling data, read from its extension.
+pub struct Level {
+    tolerance: f64,
+    cells: Vec<Cell>,
+    /// Every cell's planes, each cell a range.
+    planes: Vec<Half>,
+    /// Every cell's faces (for the nearest cell of a point outside).
+    faces: Vec<Face>,
+    points: Vec<DVec3>,
+    portals: Vec<Portal>,
+    /// Portal polygons, each portal a range.
+    corners: Vec<DVec3>,
+    /// Links out of each region (cells, then the outside), in portal order.
+    links: Vec<Link>,
+    link_start: Vec<u32>,
+    pvs: Option<Pvs>,
+    grid: locate::Grid,
+}
+
+struct Cell {
+    room: String,
+    planes: Range<u32>,
+    faces: Range<u32>,
+    min: DVec3,
+    max: DVec3,
+    /// A point strictly inside (the mean of the corners).
+    inner: DVec3,
+    /// Cells with overlapping bounds (nested rooms) are not accepted from a hint alone.
+    overlapped: bool,
+    volume: f64,
+}
+
+struct Face {
+    points: Range<u32>,
+    plane: Half,
+}
+
+struct Portal {
+    from: u32,
+    to: Option<u32>,
+    corners: Range<u32>,
+    /// The portal's plane, `n` pointing from the source cell into the target.
+    plane: Half,
+    kind: Kind,
+    one_way: bool,
+    closed: bool,
+    /// Source side to target side, and back.
+    transform: Option<(DMat4, DMat4)>,
+    partner: Option<u32>,
+}
+
+/// A way out of a region: a portal crossed forwards, or an exterior opening crossed from the
+/// outside into its cell (`reversed`).
+#[derive(Clone, Copy)]
+struct Link {
+    portal: u32,
+    to: u32,
+    reversed: bool,
+}
+
+impl Level {
+    /// Loads the extension of a converted .glb or .gltf (the meshes are not read).
+    pub fn load(path: &Path) -> Result<Level, LoadError> {
+        let (annotated, pvs) = load::read(path)?;
+        Level::from_annotation(&annotated, pvs).map_err(|message| LoadError {
+            path: path.to_path_buf(),
+            message,
+            hint: load::CONVERT_HINT,
+        })
+    }
+
+    /// Builds the runtime data of an annotation already read. `Err` names the first record
+    /// that cannot be used.
+    pub fn from_annotation(a: &Annotated, pvs: Option<Pvs>) -> Result<Level, String> {
+        if let Some(problem) = crate::export::read::consistency(a, usize::MAX).first() {
+            return Err(problem.clone());
+        }
+        if a.cells.is_empty() {
+            return Err("the annotation has no cells".into());
+        }
+        let tolerance = if a.tolerance.is_finite() && a.tolerance > 0.0 {
+            a.tolerance
+        } else {
+            return Err(format!(
+                "tolerance {} is not a positive number",
+                a.tolerance
+            ));
+        };
+        let mut level = Level {
+            tolerance,
+            cells: Vec::with_capacity(a.cells.len()),
+            planes: Vec::new(),
+            faces: Vec::new(),
+            points: Vec::new(),
+            portals: Vec::with_capacity(a.portals.len()),
+            corners: Vec::new(),
+            links: Vec::new(),
+            link_start: Vec::new(),
+            pvs,
+            grid: locate::Grid::default(),
+        };
+        let mut a_buf = Vec::new();
+        let mut b_buf = Vec::new();
+        for (i, c) in a.cells.iter().enumerate() {
+            let start = level.planes.len() as u32;
+            for p in &c.planes {
+                let n = DVec3::new(p[0], p[1], p[2]);
+                let len = n.length();
+                if !(len.is_finite() && len > 0.5 && p[3].is_finite()) {
+                    return Err(format!("/cells/{i}: plane {p:?} has no unit normal"));
+                }
+                level.planes.push(Half {
+                    n: n / len,
+                    d: p[3] / len,
+                });
+            }
+            let planes = start..level.planes.len() as u32;
+            let (min, max) = (DVec3::from(c.bounds.min), DVec3::from(c.bounds.max));
+            if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+                return Err(format!("/cells/{i}: bounds are not a box"));
+            }
+            // Faces: a square on each plane cut by the others; their corners give a point
+            // inside and the distance from outside.
+            let size = (max - min).length().max(tolerance) * 2.0;
+            let centre = (min + max) / 2.0;
+            let face_start = level.faces.len() as u32;
+            let cell_planes = &level.planes[planes.start as usize..planes.end as usize];
+            let mut sum = DVec3::ZERO;
+            let mut count = 0.0;
+            let mut volume = 0.0;
+            for (k, h) in cell_planes.iter().enumerate() {
+                a_buf.clear();
+                a_buf.extend(clip::plane_square(*h, centre, size));
+                for (j, other) in cell_planes.iter().enumerate() {
+                    if j != k {
+                        clip::clip(&a_buf, *other, tolerance, &mut b_buf);
+                        std::mem::swap(&mut a_buf, &mut b_buf);
+                    }
+                }
+                if a_buf.len() >= 3 {
+                    let from = level.points.len() as u32;
+                    level.points.extend_from_slice(&a_buf);
+                    level.faces.push(Face {
+                        points: from..level.points.len() as u32,
+                        plane: *h,
+                    });
+                    sum += a_buf.iter().copied().sum::<DVec3>();
+                    count += a_buf.len() as f64;
+                    // Divergence theorem: each face adds (area · its plane's offset) / 3.
+                    volume += clip::newell(&a_buf).dot(h.n) / 2.0 * h.d / 3.0;
+                }
+            }
+            if count == 0.0 {
+                return Err(format!("/cells/{i}: its planes enclose nothing"));
+            }
+            level.cells.push(Cell {
+                room: c.room.clone(),
+                planes,
+                faces: face_start..level.faces.len() as u32,
+                min,
+                max,
+                inner: sum / count,
+                overlapped: false,
+                volume: volume.abs(),
+            });
+        }
+        let cells = level.cells.len();
+        for (i, p) in a.portals.iter().enumerate() {
+            let start = level.corners.len() as u32;
+            level
+                .corners
+                .extend(p.polygon.iter().map(|v| DVec3::from(*v)));
+            let poly = &level.corners[start as usize..];
+            if poly.len() < 3 || !poly.iter().all(|v| v.is_finite()) {
+                return Err(format!("/portals/{i}: the polygon is not a polygon"));
+            }
+            let from = p.from();
+            let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
+            let mut plane = Half::through(centre, clip::newell(poly))
+                .ok_or_else(|| format!("/portals/{i}: the polygon has no area"))?;
+            // Orient by the source cell, whatever the winding: the normal leads out of it.
+            if plane.dist(level.cells[from].inner) > 0.0 {
+                plane = plane.flipped();
+            }
+            let transform = match p.transform {
+                None => None,
+                Some(m) => {
+                    let m = DMat4::from_cols_array(&m);
+                    let det = m.determinant();
+                    if !(det.is_finite() && det.abs() > 1e-12) {
+                        return Err(format!("/portals/{i}: the transform cannot be inverted"));
+                    }
+                    Some((m, m.inverse()))
+                }
+            };
+            level.portals.push(Portal {
+                from: from as u32,
+                to: p.to().map(|t| t as u32),
+                corners: start..level.corners.len() as u32,
+                plane,
+                kind: match p.kind.as_deref() {
+                    Some("mirror") => Kind::Mirror,
+                    Some("teleporter") => Kind::Teleporter,
+                    _ => Kind::Plain,
+                },
+                one_way: p.one_way,
+                closed: p.closed,
+                transform,
+                partner: p.partner.map(|q| q as u32),
+            });
+        }
+        // Links per region, in portal order: forward for every portal, and from the outside
+        // back through each exterior opening that sight may cross both ways.
+        let outside = cells as u32;
+        let mut by_region: Vec<Vec<Link>> = vec![Vec::new(); cells + 1];
+        for (i, p) in level.portals.iter().enumerate() {
+            by_region[p.from as usize].push(Link {
+                portal: i as u32,
+                to: p.to.unwrap_or(outside),
+                reversed: false,
+            });
+            if p.to.is_none() && !p.one_way {
+                by_region[cells].push(Link {
+                    portal: i as u32,
+                    to: p.from,
+                    reversed: true,
+                });
+            }
+        }
+        for region in by_region {
+            level.link_start.push(level.links.len() as u32);
+            level.links.extend(region);
+        }
+        level.link_start.push(level.links.len() as u32);
+        if level.pvs.as_ref().is_some_and(|p| p.cells() != cells) {
+            return Err("the visibility does not have one row per cell".into());
+        }
+        level.grid = locate::Grid::build(&level);
+        locate::mark_overlaps(&mut level);
+        Ok(level)
+    }
+
+    /// Number of cells (the extension's `cells`).
+    pub fn cells(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Number of portals (the extension's `portals`).
+    pub fn portals(&self) -> usize {
+        self.portals.len()
+    }
+
+    /// The name of the room cell `c` belongs to.
+    pub fn room(&self, c: usize) -> &str {
+        &self.cells[c].room
+    }
+
+    /// The distance tolerance the level was built with (m): what "on a boundary" means.
+    pub fn tolerance(&self) -> f64 {
+        self.tolerance
+    }
+
+    /// The bounds of cell `c` as `(min, max)`.
+    pub fn bounds(&self, c: usize) -> ([f64; 3], [f64; 3]) {
+        (self.cells[c].min.to_array(), self.cells[c].max.to_array())
+    }
+
+    /// Portal `p`'s `[source, target]` cells (`None`: the outside), kind and flags.
+    pub fn portal_cells(&self, p: usize) -> (usize, Option<usize>) {
+        let q = &self.portals[p];
+        (q.from as usize, q.to.map(|t| t as usize))
+    }
+
+    /// The kind of portal `p`.
+    pub fn portal_kind(&self, p: usize) -> Kind {
+        self.portals[p].kind
+    }
+
+    /// Whether the stored PVS lets cell `from` see cell `to` (true when none is stored).
+    pub fn pvs_sees(&self, from: usize, to: usize) -> bool {
+        self.pvs.as_ref().is_none_or(|p| p.sees(from, to))
+    }
+
+    fn cell_planes(&self, c: usize) -> &[Half] {
+        let r = &self.cells[c].planes;
+        &self.planes[r.start as usize..r.end as usize]
+    }
+
+    fn polygon(&self, p: usize) -> &[DVec3] {
+        let r = &self.portals[p].corners;
+        &self.corners[r.start as usize..r.end as usize]
+    }
+
+    fn links(&self, region: usize) -> &[Link] {
+        &self.links[self.link_start[region] as usize..self.link_start[region + 1] as usize]
+    }
+
+    fn outside(&self) -> usize {
+        self.cells.len()
+    }
+}
+
+/// Which portals are closed: the extension's initially-closed doors, changed at run time. A
+/// door is one opening, so closing a portal closes its partner too.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Doors {
+    closed: Vec<bool>,
+}
+
+impl Doors {
+    /// The doors as the level starts: the portals flagged `closed`.
+    pub fn new(level: &Level) -> Doors {
+        Doors {
+            closed: level.portals.iter().map(|p| p.closed).collect(),
+        }
+    }
+
+    /// Opens or closes portal `p` and its partner. Out-of-range indices are ignored.
+    pub fn set(&mut self, level: &Level, p: usize, closed: bool) {
+        let Some(portal) = level.portals.get(p) else {
+            return;
+        };
+        self.closed[p] = closed;
+        if let Some(q) = portal.partner {
+            self.closed[q as usize] = closed;
+        }
+    }
+
+    pub fn is_closed(&self, p: usize) -> bool {
+        self.closed.get(p).copied().unwrap_or(false)
+    }
+}

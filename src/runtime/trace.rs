@@ -1,0 +1,625 @@
+//! Portal traversal from a camera, as id Tech 4's `FloodViewThroughArea_r` and Godot 3's
+//! `PortalTracer::trace_recursive` do it: each portal facing the eye is clipped to the view
+//! that reached its cell (which includes the near plane, so nothing behind the camera is ever
+//! projected), its screen rectangle is intersected with the parent's, and planes through the
+//! eye and the clipped edges, plus the portal's own plane, bound the view into the next cell.
+//!
+//! Mirrors and teleporters are followed in camera space: a cell seen through them is placed by
+//! its draw transform (the inverse of the crossed portals' transforms), so every plane and
+//! rectangle stays in the camera's frame. Everything a trace needs lives in [`Trace`], reused
+//! from frame to frame: once its buffers have grown, a trace allocates nothing.
+
+use std::ops::Range;
+
+use glam::{DMat4, DVec3};
+
+use super::clip::{self, Half};
+use super::{Doors, Level, Location};
+
+/// A perspective camera. NDC: x right, y up, both -1..1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    tan_x: f64,
+    tan_y: f64,
+    near: f64,
+}
+
+/// Why a camera cannot be used.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ViewError(pub String);
+
+impl std::fmt::Display for ViewError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for ViewError {}
+
+impl View {
+    /// `look`: the direction of view; `up`: any direction not along it; `fov_y_degrees`: the
+    /// vertical field of view; `aspect`: width / height; `near`: the near plane's distance.
+    pub fn new(
+        eye: [f64; 3],
+        look: [f64; 3],
+        up: [f64; 3],
+        fov_y_degrees: f64,
+        aspect: f64,
+        near: f64,
+    ) -> Result<View, ViewError> {
+        let err = |m: &str| Err(ViewError(m.to_string()));
+        let eye = DVec3::from(eye);
+        if !eye.is_finite() {
+            return err("eye is not a finite point");
+        }
+        let Some(forward) = DVec3::from(look).try_normalize() else {
+            return err("look has no direction");
+        };
+        let Some(right) = forward.cross(DVec3::from(up)).try_normalize() else {
+            return err("up has no direction across look (parallel or zero)");
+        };
+        if !(fov_y_degrees > 0.0 && fov_y_degrees < 180.0) {
+            return err("fov_y must lie strictly between 0 and 180 degrees");
+        }
+        if !(aspect.is_finite() && aspect > 0.0) {
+            return err("aspect must be a positive width / height");
+        }
+        if !(near.is_finite() && near > 0.0) {
+            return err("near must be a positive distance");
+        }
+        let tan_y = (fov_y_degrees.to_radians() / 2.0).tan();
+        Ok(View {
+            eye,
+            forward,
+            right,
+            up: right.cross(forward),
+            tan_x: tan_y * aspect,
+            tan_y,
+            near,
+        })
+    }
+
+    pub fn eye(&self) -> DVec3 {
+        self.eye
+    }
+
+    /// The NDC of `p`, or `None` when it lies behind the near plane.
+    pub fn ndc(&self, p: DVec3) -> Option<[f64; 2]> {
+        let v = p - self.eye;
+        let z = v.dot(self.forward);
+        (z >= self.near).then(|| self.ndc_at(v, z))
+    }
+
+    fn ndc_at(&self, v: DVec3, z: f64) -> [f64; 2] {
+        [
+            v.dot(self.right) / (z * self.tan_x),
+            v.dot(self.up) / (z * self.tan_y),
+        ]
+    }
+
+    /// The distance from the eye to the near plane's corners: a portal closer than this may
+    /// cut the near plane, so the camera counts as standing in it.
+    pub fn near_radius(&self) -> f64 {
+        self.near * (1.0 + self.tan_x * self.tan_x + self.tan_y * self.tan_y).sqrt()
+    }
+
+    /// The view's five planes: near, then left, bottom, right, top.
+    fn frustum(&self) -> [Half; 5] {
+        let corner = |sx: f64, sy: f64| {
+            self.forward + self.right * (sx * self.tan_x) + self.up * (sy * self.tan_y)
+        };
+        let side = |a: DVec3, b: DVec3| {
+            let n = a.cross(b).normalize();
+            let h = Half {
+                n,
+                d: n.dot(self.eye),
+            };
+            if h.dist(self.eye + self.forward) > 0.0 {
+                h.flipped()
+            } else {
+                h
+            }
+        };
+        let (bl, br, tr, tl) = (
+            corner(-1., -1.),
+            corner(1., -1.),
+            corner(1., 1.),
+            corner(-1., 1.),
+        );
+        [
+            Half {
+                n: -self.forward,
+                d: -self.forward.dot(self.eye) - self.near,
+            },
+            side(tl, bl),
+            side(bl, br),
+            side(br, tr),
+            side(tr, tl),
+        ]
+    }
+}
+
+/// Limits of a trace.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TraceOptions {
+    /// Portals crossed on one path at most.
+    pub max_depth: usize,
+    /// Mirrors and teleporters crossed on one path at most.
+    pub max_transform_depth: usize,
+    /// Skip cells the stored PVS says the camera's cell cannot see (untransformed paths only).
+    pub use_pvs: bool,
+}
+
+impl Default for TraceOptions {
+    fn default() -> TraceOptions {
+        TraceOptions {
+            max_depth: 32,
+            max_transform_depth: crate::vis::DEFAULT_TRANSFORM_DEPTH,
+            use_pvs: true,
+        }
+    }
+}
+
+/// What one trace did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Stats {
+    /// Cells (and the outside) entered, counting each path.
+    pub entered: u32,
+    /// Portals looked at.
+    pub portals_tested: u32,
+    /// Portals facing away, edge-on, or clipped away by the view.
+    pub portals_culled: u32,
+    /// Portals into cells the stored PVS rules out.
+    pub pvs_skipped: u32,
+    /// Closed doors.
+    pub closed_skipped: u32,
+    /// Portals already on the path.
+    pub on_path_skipped: u32,
+    /// Portals the camera stands in (passed through without narrowing).
+    pub passed_through: u32,
+    /// Portals not crossed because the path was `max_depth` deep.
+    pub depth_limit_hits: u32,
+    /// Mirrors and teleporters not crossed because the path had crossed
+    /// `max_transform_depth` of them.
+    pub transform_limit_hits: u32,
+    /// The deepest path, in portals.
+    pub deepest: u32,
+}
+
+/// One cell (or the outside) as the camera sees it, through one chain of transforms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Visible {
+    /// The cell; `None` for the outside.
+    pub cell: Option<usize>,
+    /// NDC bounds `[xmin, ymin, xmax, ymax]` of every path into it: a scissor rectangle.
+    pub rect: [f64; 4],
+    /// Portals crossed on the shallowest path.
+    pub depth: usize,
+    /// Where the camera sees the cell: the matrix to draw its geometry with (through mirrors
+    /// and teleporters); `None` for the identity.
+    pub transform: Option<DMat4>,
+    /// Seen through an odd number of mirrors: draw with the winding flipped.
+    pub mirrored: bool,
+    via: Range<u32>,
+    first_view: u32,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// The planes of one path into a visible cell, chained per cell.
+#[derive(Debug, Clone)]
+struct ViewRec {
+    planes: Range<u32>,
+    next: u32,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Step {
+    portal: u32,
+    transformed: bool,
+}
+
+/// The result of [`Level::trace`], and the buffers it reuses: keep one per camera.
+#[derive(Debug, Clone, Default)]
+pub struct Trace {
+    /// Where the eye was found.
+    pub location: Location,
+    pub stats: Stats,
+    visible: Vec<Visible>,
+    via: Vec<u32>,
+    views: Vec<ViewRec>,
+    planes: Vec<Half>,
+    path: Vec<Step>,
+    /// Per region: the generation that last visited it untransformed, and its entry.
+    stamp: Vec<u32>,
+    entry: Vec<u32>,
+    generation: u32,
+    poly_a: Vec<DVec3>,
+    poly_b: Vec<DVec3>,
+}
+
+impl Trace {
+    /// The cells seen, in the order first reached (depth first, portals in index order).
+    pub fn visible(&self) -> &[Visible] {
+        &self.visible
+    }
+
+    /// The portals crossed, in order, on the shallowest path to `v`.
+    pub fn via(&self, v: &Visible) -> &[u32] {
+        &self.via[v.via.start as usize..v.via.end as usize]
+    }
+
+    /// Whether a moving object with world bounds `min`..`max`, drawn with visible entry
+    /// `entry`, can be seen: its box against the planes of each path into that cell.
+    pub fn box_visible(&self, entry: usize, min: DVec3, max: DVec3) -> bool {
+        let Some(v) = self.visible.get(entry) else {
+            return false;
+        };
+        let (min, max) = match &v.transform {
+            None => (min, max),
+            Some(m) => {
+                let mut lo = DVec3::splat(f64::INFINITY);
+                let mut hi = DVec3::splat(f64::NEG_INFINITY);
+                for i in 0..8 {
+                    let c = DVec3::select(
+                        glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                        max,
+                        min,
+                    );
+                    let p = m.transform_point3(c);
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+                (lo, hi)
+            }
+        };
+        let mut at = v.first_view;
+        while at != NONE {
+            let view = &self.views[at as usize];
+            let planes = &self.planes[view.planes.start as usize..view.planes.end as usize];
+            if planes.iter().all(|h| {
+                let nearest = DVec3::select(h.n.cmpge(DVec3::ZERO), min, max);
+                h.dist(nearest) <= 0.0
+            }) {
+                return true;
+            }
+            at = view.next;
+        }
+        false
+    }
+
+    fn reset(&mut self, regions: usize) {
+        self.stats = Stats::default();
+        self.visible.clear();
+        self.via.clear();
+        self.views.clear();
+        self.planes.clear();
+        self.path.clear();
+        if self.stamp.len() != regions {
+            self.stamp.clear();
+            self.stamp.resize(regions, 0);
+            self.entry.resize(regions, 0);
+            self.generation = 0;
+        }
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.stamp.fill(0);
+            self.generation = 1;
+        }
+    }
+
+    /// Records a visit: its entry (new, or the one for the same region and transform) takes
+    /// the union of the rectangles and the shallowest path, and the visit's planes.
+    fn visit(&mut self, f: &Frame) {
+        let region = f.region as usize;
+        let found = match &f.draw {
+            None => (self.stamp[region] == self.generation).then(|| self.entry[region] as usize),
+            Some((d, _)) => self.visible.iter().position(|v| {
+                v.cell == f.cell
+                    && v.transform.is_some_and(|t| {
+                        t.abs_diff_eq(*d, 1e-9 * (1.0 + d.w_axis.abs().max_element()))
+                    })
+            }),
+        };
+        let view = self.views.len() as u32;
+        let depth = f.depth as usize;
+        let i = match found {
+            Some(i) => {
+                let v = &mut self.visible[i];
+                v.rect = [
+                    v.rect[0].min(f.rect[0]),
+                    v.rect[1].min(f.rect[1]),
+                    v.rect[2].max(f.rect[2]),
+                    v.rect[3].max(f.rect[3]),
+                ];
+                if depth < v.depth {
+                    v.depth = depth;
+                    let start = self.via.len() as u32;
+                    self.via.extend(self.path.iter().map(|s| s.portal));
+                    self.visible[i].via = start..self.via.len() as u32;
+                }
+                i
+            }
+            None => {
+                let start = self.via.len() as u32;
+                self.via.extend(self.path.iter().map(|s| s.portal));
+                self.visible.push(Visible {
+                    cell: f.cell,
+                    rect: f.rect,
+                    depth,
+                    transform: f.draw.map(|(d, _)| d),
+                    mirrored: f.mirrored,
+                    via: start..self.via.len() as u32,
+                    first_view: NONE,
+                });
+                let i = self.visible.len() - 1;
+                if f.draw.is_none() {
+                    self.stamp[region] = self.generation;
+                    self.entry[region] = i as u32;
+                }
+                i
+            }
+        };
+        self.views.push(ViewRec {
+            planes: f.planes.clone(),
+            next: self.visible[i].first_view,
+        });
+        self.visible[i].first_view = view;
+        self.stats.entered += 1;
+        self.stats.deepest = self.stats.deepest.max(f.depth);
+    }
+
+    fn on_path(&self, portal: u32) -> bool {
+        for s in self.path.iter().rev() {
+            if s.portal == portal {
+                return true;
+            }
+            if s.transformed {
+                return false;
+            }
+        }
+        false
+    }
+}
+
+/// One step of the walk: a region reached through a view.
+struct Frame {
+    region: u32,
+    cell: Option<usize>,
+    planes: Range<u32>,
+    rect: [f64; 4],
+    depth: u32,
+    transforms: u32,
+    /// Cell space to camera space, and back.
+    draw: Option<(DMat4, DMat4)>,
+    mirrored: bool,
+}
+
+struct Ctx<'a> {
+    view: &'a View,
+    doors: &'a Doors,
+    opts: &'a TraceOptions,
+    /// The camera's cell, when its PVS row may prefilter.
+    pvs_row: Option<usize>,
+    near_radius: f64,
+    tol: f64,
+}
+
+impl Level {
+    /// Walks the portals from the camera's cell, into `out` (whose last location is the
+    /// hint for this one). Doors closed in `doors` stop the walk.
+    pub fn trace(&self, view: &View, doors: &Doors, opts: &TraceOptions, out: &mut Trace) {
+        let hint = out.location.cell();
+        out.reset(self.cells.len() + 1);
+        out.location = self.locate(view.eye, hint);
+        let (region, cell) = match out.location {
+            Location::Inside(c) | Location::Boundary(c) => (c, Some(c)),
+            Location::Outside { .. } => (self.outside(), None),
+        };
+        let pvs_row = match out.location {
+            Location::Inside(c) if opts.use_pvs && self.pvs.is_some() => Some(c),
+            _ => None,
+        };
+        out.planes.extend(view.frustum());
+        let ctx = Ctx {
+            view,
+            doors,
+            opts,
+            pvs_row,
+            near_radius: view.near_radius(),
+            tol: self.tolerance,
+        };
+        let root = Frame {
+            region: region as u32,
+            cell,
+            planes: 0..out.planes.len() as u32,
+            rect: [-1.0, -1.0, 1.0, 1.0],
+            depth: 0,
+            transforms: 0,
+            draw: None,
+            mirrored: false,
+        };
+        self.walk(&ctx, root, out);
+    }
+
+    fn walk(&self, ctx: &Ctx, frame: Frame, out: &mut Trace) {
+        out.visit(&frame);
+        let eye = ctx.view.eye;
+        let eye_here = frame.draw.map_or(eye, |(_, inv)| inv.transform_point3(eye));
+        for link in self.links(frame.region as usize) {
+            out.stats.portals_tested += 1;
+            let p = &self.portals[link.portal as usize];
+            if ctx.doors.is_closed(link.portal as usize) {
+                out.stats.closed_skipped += 1;
+                continue;
+            }
+            let transform = if link.reversed { None } else { p.transform };
+            if transform.is_none() && out.on_path(link.portal) {
+                out.stats.on_path_skipped += 1;
+                continue;
+            }
+            let plane = if link.reversed {
+                p.plane.flipped()
+            } else {
+                p.plane
+            };
+            // Positive on the side sight enters from.
+            let dist = -plane.dist(eye_here);
+            if dist < -ctx.tol {
+                out.stats.portals_culled += 1;
+                continue;
+            }
+            let target = link.to as usize;
+            if let Some(row) = ctx.pvs_row {
+                let untransformed = frame.draw.is_none() && transform.is_none();
+                if untransformed && target < self.cells.len() && !self.pvs_sees(row, target) {
+                    out.stats.pvs_skipped += 1;
+                    continue;
+                }
+            }
+            if frame.depth as usize >= ctx.opts.max_depth {
+                out.stats.depth_limit_hits += 1;
+                continue;
+            }
+            if transform.is_some() && frame.transforms as usize >= ctx.opts.max_transform_depth {
+                out.stats.transform_limit_hits += 1;
+                continue;
+            }
+            let poly = self.polygon(link.portal as usize);
+            let reach = ctx.near_radius + ctx.tol;
+            let standing_in =
+                dist <= reach && clip::distance_to_polygon(eye_here, poly, plane.n) <= reach;
+            let (planes, rect) = if standing_in {
+                out.stats.passed_through += 1;
+                (frame.planes.clone(), frame.rect)
+            } else if dist <= ctx.tol {
+                out.stats.portals_culled += 1;
+                continue;
+            } else {
+                match self.narrow(ctx, &frame, poly, out) {
+                    Some(v) => v,
+                    None => {
+                        out.stats.portals_culled += 1;
+                        continue;
+                    }
+                }
+            };
+            let (draw, mirrored, transforms) = match transform {
+                None => (frame.draw, frame.mirrored, frame.transforms),
+                Some((m, inv)) => {
+                    let (d, d_inv) = frame.draw.unwrap_or((DMat4::IDENTITY, DMat4::IDENTITY));
+                    (
+                        Some((d * inv, m * d_inv)),
+                        frame.mirrored ^ (m.determinant() < 0.0),
+                        frame.transforms + 1,
+                    )
+                }
+            };
+            out.path.push(Step {
+                portal: link.portal,
+                transformed: transform.is_some(),
+            });
+            let child = Frame {
+                region: link.to,
+                cell: (target < self.cells.len()).then_some(target),
+                planes,
+                rect,
+                depth: frame.depth + 1,
+                transforms,
+                draw,
+                mirrored,
+            };
+            self.walk(ctx, child, out);
+            out.path.pop();
+        }
+    }
+
+    /// The view through portal polygon `poly` (in the frame's cell space): clipped to the
+    /// frame's planes, its screen rectangle within the frame's, and the planes through the eye
+    /// and the clipped edges plus the portal's own plane. `None` when nothing of it is seen.
+    fn narrow(
+        &self,
+        ctx: &Ctx,
+        frame: &Frame,
+        poly: &[DVec3],
+        out: &mut Trace,
+    ) -> Option<(Range<u32>, [f64; 4])> {
+        let eye = ctx.view.eye;
+        let mut a = std::mem::take(&mut out.poly_a);
+        let mut b = std::mem::take(&mut out.poly_b);
+        a.clear();
+        match &frame.draw {
+            None => a.extend_from_slice(poly),
+            Some((d, _)) => a.extend(poly.iter().map(|v| d.transform_point3(*v))),
+        }
+        let centre = a.iter().copied().sum::<DVec3>() / a.len() as f64;
+        let mut portal_plane = Half::through(centre, clip::newell(&a));
+        if let Some(h) = &mut portal_plane {
+            if h.dist(eye) < 0.0 {
+                *h = h.flipped();
+            }
+        }
+        for i in frame.planes.clone() {
+            let h = out.planes[i as usize];
+            clip::clip(&a, h, ctx.tol, &mut b);
+            std::mem::swap(&mut a, &mut b);
+            if a.len() < 3 {
+                break;
+            }
+        }
+        let mut result = None;
+        if a.len() >= 3 {
+            let view = ctx.view;
+            let mut r = [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ];
+            for &v in &a {
+                let rel = v - eye;
+                let z = rel.dot(view.forward).max(view.near * 0.5);
+                let [x, y] = view.ndc_at(rel, z);
+                r = [r[0].min(x), r[1].min(y), r[2].max(x), r[3].max(y)];
+            }
+            let p = frame.rect;
+            let r = [
+                r[0].max(p[0]),
+                r[1].max(p[1]),
+                r[2].min(p[2]),
+                r[3].min(p[3]),
+            ];
+            if r[0] <= r[2] && r[1] <= r[3] {
+                let start = out.planes.len() as u32;
+                let inner = a.iter().copied().sum::<DVec3>() / a.len() as f64;
+                for (i, &p0) in a.iter().enumerate() {
+                    let p1 = a[(i + 1) % a.len()];
+                    let (u, w) = (p0 - eye, p1 - eye);
+                    let n = u.cross(w);
+                    // A degenerate edge (seen end-on) bounds nothing: leaving it out only
+                    // widens the view.
+                    if n.length() <= 1e-12 * u.length() * w.length() {
+                        continue;
+                    }
+                    if let Some(h) = Half::through(eye, n) {
+                        out.planes
+                            .push(if h.dist(inner) > 0.0 { h.flipped() } else { h });
+                    }
+                }
+                // Nothing between the eye and the portal: what a mirror or teleporter shows
+                // starts at its surface.
+                if let Some(h) = portal_plane {
+                    out.planes.push(h);
+                }
+                result = Some((start..out.planes.len() as u32, r));
+            }
+        }
+        out.poly_a = a;
+        out.poly_b = b;
+        result
+    }
+}
