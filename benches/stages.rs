@@ -168,3 +168,60 @@ fn sightlines(b: Bencher, level: &str) {
     let pvs = pipeline::full_pvs(&t, &cells, &portals);
     b.bench(|| pipeline::audit_sightlines(&t, &cells, &portals, &pvs, 200));
 }
+
+/// The converted level a `cull` benchmark traces: a Doom map of tests/fixtures, or the
+/// generated building of `building_N` (converted once, kept in the target folder).
+fn converted(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench_levels");
+    let out = dir.join(format!("cull_{name}.glb"));
+    if !out.is_file() {
+        let input = match name.strip_prefix("building_") {
+            Some(n) => level(n.parse().unwrap()),
+            None => PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/fixtures/third_party")
+                .join(name),
+        };
+        std::fs::create_dir_all(&dir).unwrap();
+        pipeline::convert_file(&input, &out).unwrap();
+    }
+    out
+}
+
+/// One runtime trace per iteration (`Level::trace`), cameras cycling through 512 random views
+/// from cell centres, looking level in a random direction (75° vertical, 16:9, near 0.05 m).
+/// The targets of the runtime issue: median at most 20 µs per view on a 400-cell level
+/// (MAP01, 479 cells) and at most 100 µs on the 10 000-room building.
+#[divan::bench(args = ["MAP01_godot.glb", "E1M2_godot.glb", "building_10000"], sample_count = 2000, sample_size = 1)]
+fn cull(b: Bencher, level: &str) {
+    use portcullis::runtime::{Doors, Level, Trace, TraceOptions, View};
+    let lvl = Level::load(&converted(level)).unwrap();
+    let mut rng = portcullis::rng::SplitMix64::new(27);
+    let views: Vec<View> = (0..512)
+        .map(|_| {
+            let (lo, hi) = lvl.bounds(rng.below(lvl.cells()));
+            let eye = [0, 1, 2].map(|k| (lo[k] + hi[k]) / 2.0);
+            let a = rng.unit() * std::f64::consts::TAU;
+            View::new(
+                eye,
+                [a.cos(), 0.0, a.sin()],
+                [0.0, 1.0, 0.0],
+                75.0,
+                16.0 / 9.0,
+                0.05,
+            )
+            .unwrap()
+        })
+        .collect();
+    let doors = Doors::new(&lvl);
+    let opts = TraceOptions::default();
+    let mut trace = Trace::default();
+    for v in &views {
+        lvl.trace(v, &doors, &opts, &mut trace);
+    }
+    let mut i = 0;
+    b.bench_local(|| {
+        lvl.trace(&views[i % views.len()], &doors, &opts, &mut trace);
+        i += 1;
+        trace.visible().len()
+    });
+}

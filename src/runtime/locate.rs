@@ -163,7 +163,7 @@ impl Level {
             }
         }
         let mut inside: Option<usize> = None;
-        let mut boundary: Option<(usize, f64)> = None;
+        let mut boundary: Option<usize> = None;
         if p.is_finite() {
             for &c in self.grid.items(self.grid.bucket(p)) {
                 let c = c as usize;
@@ -177,11 +177,12 @@ impl Level {
                         inside = Some(c);
                     }
                 } else if m >= -tol {
-                    let better = boundary.is_none_or(|(b, bm)| {
-                        Some(b) != hint && (Some(c) == hint || m > bm || (m == bm && c < b))
-                    });
+                    // Within the tolerance the distances say nothing (they move with the
+                    // level's position): the hint, else the lowest index.
+                    let better =
+                        boundary.is_none_or(|b| Some(b) != hint && (Some(c) == hint || c < b));
                     if better {
-                        boundary = Some((c, m));
+                        boundary = Some(c);
                     }
                 }
             }
@@ -189,16 +190,17 @@ impl Level {
         if let Some(c) = inside {
             return Location::Inside(c);
         }
-        if let Some((c, _)) = boundary {
+        if let Some(c) = boundary {
             return Location::Boundary(c);
         }
         Location::Outside {
-            nearest: self.nearest(p),
+            nearest: self.nearest(p).map(|(c, _)| c),
         }
     }
 
-    /// The cell nearest to `p` (exact distance to its faces), ties to the lower index.
-    fn nearest(&self, p: DVec3) -> Option<usize> {
+    /// The cell nearest to `p` (exact distance to its faces) and that distance, ties to the
+    /// lower index.
+    pub(super) fn nearest(&self, p: DVec3) -> Option<(usize, f64)> {
         if !p.is_finite() {
             return None;
         }
@@ -222,7 +224,7 @@ impl Level {
                 best = Some((i, d));
             }
         }
-        best.map(|(i, _)| i)
+        best
     }
 
     /// The cells an object with bounds `min`..`max` may reach into (to draw it from each), in

@@ -65,6 +65,7 @@ pub struct Level {
     portals: Vec<Portal>,
     /// Portal polygons, each portal a range.
     corners: Vec<DVec3>,
+    transforms: Vec<(DMat4, DMat4)>,
     /// Links out of each region (cells, then the outside), in portal order.
     links: Vec<Link>,
     link_start: Vec<u32>,
@@ -78,8 +79,6 @@ struct Cell {
     faces: Range<u32>,
     min: DVec3,
     max: DVec3,
-    /// A point strictly inside (the mean of the corners).
-    inner: DVec3,
     /// Cells with overlapping bounds (nested rooms) are not accepted from a hint alone.
     overlapped: bool,
     volume: f64,
@@ -96,11 +95,15 @@ struct Portal {
     corners: Range<u32>,
     /// The portal's plane, `n` pointing from the source cell into the target.
     plane: Half,
+    /// A sphere around the polygon: a view it lies outside of sees nothing through it.
+    centre: DVec3,
+    radius: f64,
     kind: Kind,
     one_way: bool,
     closed: bool,
-    /// Source side to target side, and back.
-    transform: Option<(DMat4, DMat4)>,
+    /// Index into `Level::transforms`: source side to target side, and back (kept apart so
+    /// the portals the walk reads stay small).
+    transform: Option<u32>,
     partner: Option<u32>,
 }
 
@@ -149,6 +152,7 @@ impl Level {
             points: Vec::new(),
             portals: Vec::with_capacity(a.portals.len()),
             corners: Vec::new(),
+            transforms: Vec::new(),
             links: Vec::new(),
             link_start: Vec::new(),
             pvs,
@@ -201,12 +205,17 @@ impl Level {
                     });
                     sum += a_buf.iter().copied().sum::<DVec3>();
                     count += a_buf.len() as f64;
-                    // Divergence theorem: each face adds (area · its plane's offset) / 3.
-                    volume += clip::newell(&a_buf).dot(h.n) / 2.0 * h.d / 3.0;
                 }
             }
             if count == 0.0 {
                 return Err(format!("/cells/{i}: its planes enclose nothing"));
+            }
+            let inner = sum / count;
+            // Divergence theorem about the inner point (so a level far from the origin keeps
+            // its digits): each face adds its area times its plane's distance, over three.
+            for f in &level.faces[face_start as usize..] {
+                let pts = &level.points[f.points.start as usize..f.points.end as usize];
+                volume += clip::newell(pts).dot(f.plane.n).abs() / 2.0 * -f.plane.dist(inner) / 3.0;
             }
             level.cells.push(Cell {
                 room: c.room.clone(),
@@ -214,7 +223,6 @@ impl Level {
                 faces: face_start..level.faces.len() as u32,
                 min,
                 max,
-                inner: sum / count,
                 overlapped: false,
                 volume: volume.abs(),
             });
@@ -231,12 +239,11 @@ impl Level {
             }
             let from = p.from();
             let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
-            let mut plane = Half::through(centre, clip::newell(poly))
+            // Counter-clockwise seen from the source: the Newell normal points back into the
+            // source, so sight travels against it. A mirror standing free in its room faces
+            // away from the room's middle, so the winding, not the cell, says which way.
+            let plane = Half::through(centre, -clip::newell(poly))
                 .ok_or_else(|| format!("/portals/{i}: the polygon has no area"))?;
-            // Orient by the source cell, whatever the winding: the normal leads out of it.
-            if plane.dist(level.cells[from].inner) > 0.0 {
-                plane = plane.flipped();
-            }
             let transform = match p.transform {
                 None => None,
                 Some(m) => {
@@ -245,7 +252,8 @@ impl Level {
                     if !(det.is_finite() && det.abs() > 1e-12) {
                         return Err(format!("/portals/{i}: the transform cannot be inverted"));
                     }
-                    Some((m, m.inverse()))
+                    level.transforms.push((m, m.inverse()));
+                    Some(level.transforms.len() as u32 - 1)
                 }
             };
             level.portals.push(Portal {
@@ -253,6 +261,8 @@ impl Level {
                 to: p.to().map(|t| t as u32),
                 corners: start..level.corners.len() as u32,
                 plane,
+                centre,
+                radius: poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max),
                 kind: match p.kind.as_deref() {
                     Some("mirror") => Kind::Mirror,
                     Some("teleporter") => Kind::Teleporter,

@@ -386,6 +386,14 @@ impl Trace {
     }
 }
 
+/// What a portal leaves of a view.
+enum Narrowed {
+    /// The planes into the next region and its screen rectangle.
+    Seen(Range<u32>, [f64; 4]),
+    /// Nothing of the portal is in view.
+    Culled,
+}
+
 /// One step of the walk: a region reached through a view.
 struct Frame {
     region: u32,
@@ -444,6 +452,61 @@ impl Level {
             mirrored: false,
         };
         self.walk(&ctx, root, out);
+        if let Location::Outside { nearest } = out.location {
+            self.walk_from_nearby_cells(&ctx, nearest, out);
+        }
+    }
+
+    /// An eye in no cell may still see into cells without crossing their portals: standing in
+    /// a thick wall's doorway (between a bridged pair of portals), or closer to a cell than the
+    /// near plane's corners (clipping into a wall). Those cells are walked too, each with the
+    /// whole view, as id Tech 4 draws everything from solid. Rare, so a scan of the portals.
+    fn walk_from_nearby_cells(&self, ctx: &Ctx, nearest: Option<usize>, out: &mut Trace) {
+        let eye = ctx.view.eye;
+        let reach = ctx.near_radius + ctx.tol;
+        let root = |c: usize| Frame {
+            region: c as u32,
+            cell: Some(c),
+            planes: 0..5,
+            rect: [-1.0, -1.0, 1.0, 1.0],
+            depth: 0,
+            transforms: 0,
+            draw: None,
+            mirrored: false,
+        };
+        if let Some((c, d)) = nearest.and_then(|_| self.nearest(eye)) {
+            if d <= reach {
+                self.walk(ctx, root(c), out);
+            }
+        }
+        for (i, p) in self.portals.iter().enumerate() {
+            let Some(to) = p.to else { continue };
+            if p.transform.is_some() || ctx.doors.is_closed(i) {
+                continue;
+            }
+            let back = p.partner.map_or(p, |q| &self.portals[q as usize]);
+            // Beyond both faces of the pair (they face each other across the doorway), and no
+            // deeper than the doorway is.
+            let depth = back.plane.dist(eye);
+            let here = p.plane.dist(eye);
+            let doorway = if p.partner.is_some() {
+                (p.plane.d + back.plane.d).abs()
+            } else {
+                0.0
+            };
+            let across = here >= -reach && depth >= -reach && here.max(depth) <= doorway + reach;
+            if across
+                && clip::distance_to_polygon(eye - p.plane.n * here, self.polygon(i), p.plane.n)
+                    <= reach
+            {
+                for c in [p.from as usize, to as usize] {
+                    let walked = out.stamp[c] == out.generation;
+                    if !walked {
+                        self.walk(ctx, root(c), out);
+                    }
+                }
+            }
+        }
     }
 
     fn walk(&self, ctx: &Ctx, frame: Frame, out: &mut Trace) {
@@ -457,11 +520,6 @@ impl Level {
                 out.stats.closed_skipped += 1;
                 continue;
             }
-            let transform = if link.reversed { None } else { p.transform };
-            if transform.is_none() && out.on_path(link.portal) {
-                out.stats.on_path_skipped += 1;
-                continue;
-            }
             let plane = if link.reversed {
                 p.plane.flipped()
             } else {
@@ -469,8 +527,26 @@ impl Level {
             };
             // Positive on the side sight enters from.
             let dist = -plane.dist(eye_here);
-            if dist < -ctx.tol {
+            let reach = ctx.near_radius + ctx.tol;
+            if dist < -reach {
                 out.stats.portals_culled += 1;
+                continue;
+            }
+            let poly = self.polygon(link.portal as usize);
+            // A camera in the doorway (or between a portal a hair off its wall and the wall)
+            // sees through it whichever side of its plane the eye is on.
+            let standing_in =
+                dist <= reach && clip::distance_to_polygon(eye_here, poly, plane.n) <= reach;
+            if dist < -ctx.tol && !standing_in {
+                out.stats.portals_culled += 1;
+                continue;
+            }
+            let transform = match p.transform {
+                Some(t) if !link.reversed => Some(&self.transforms[t as usize]),
+                _ => None,
+            };
+            if transform.is_none() && out.on_path(link.portal) {
+                out.stats.on_path_skipped += 1;
                 continue;
             }
             let target = link.to as usize;
@@ -489,10 +565,6 @@ impl Level {
                 out.stats.transform_limit_hits += 1;
                 continue;
             }
-            let poly = self.polygon(link.portal as usize);
-            let reach = ctx.near_radius + ctx.tol;
-            let standing_in =
-                dist <= reach && clip::distance_to_polygon(eye_here, poly, plane.n) <= reach;
             let (planes, rect) = if standing_in {
                 out.stats.passed_through += 1;
                 (frame.planes.clone(), frame.rect)
@@ -500,9 +572,17 @@ impl Level {
                 out.stats.portals_culled += 1;
                 continue;
             } else {
+                let outside_view = frame.draw.is_none()
+                    && out.planes[frame.planes.start as usize..frame.planes.end as usize]
+                        .iter()
+                        .any(|h| h.dist(p.centre) > p.radius + ctx.tol);
+                if outside_view {
+                    out.stats.portals_culled += 1;
+                    continue;
+                }
                 match self.narrow(ctx, &frame, poly, out) {
-                    Some(v) => v,
-                    None => {
+                    Narrowed::Seen(planes, rect) => (planes, rect),
+                    Narrowed::Culled => {
                         out.stats.portals_culled += 1;
                         continue;
                     }
@@ -510,7 +590,7 @@ impl Level {
             };
             let (draw, mirrored, transforms) = match transform {
                 None => (frame.draw, frame.mirrored, frame.transforms),
-                Some((m, inv)) => {
+                Some(&(m, inv)) => {
                     let (d, d_inv) = frame.draw.unwrap_or((DMat4::IDENTITY, DMat4::IDENTITY));
                     (
                         Some((d * inv, m * d_inv)),
@@ -541,13 +621,7 @@ impl Level {
     /// The view through portal polygon `poly` (in the frame's cell space): clipped to the
     /// frame's planes, its screen rectangle within the frame's, and the planes through the eye
     /// and the clipped edges plus the portal's own plane. `None` when nothing of it is seen.
-    fn narrow(
-        &self,
-        ctx: &Ctx,
-        frame: &Frame,
-        poly: &[DVec3],
-        out: &mut Trace,
-    ) -> Option<(Range<u32>, [f64; 4])> {
+    fn narrow(&self, ctx: &Ctx, frame: &Frame, poly: &[DVec3], out: &mut Trace) -> Narrowed {
         let eye = ctx.view.eye;
         let mut a = std::mem::take(&mut out.poly_a);
         let mut b = std::mem::take(&mut out.poly_b);
@@ -556,22 +630,19 @@ impl Level {
             None => a.extend_from_slice(poly),
             Some((d, _)) => a.extend(poly.iter().map(|v| d.transform_point3(*v))),
         }
-        let centre = a.iter().copied().sum::<DVec3>() / a.len() as f64;
-        let mut portal_plane = Half::through(centre, clip::newell(&a));
-        if let Some(h) = &mut portal_plane {
-            if h.dist(eye) < 0.0 {
-                *h = h.flipped();
-            }
-        }
         for i in frame.planes.clone() {
             let h = out.planes[i as usize];
+            // Most planes cut nothing: only a plane with a corner beyond it copies.
+            if a.iter().all(|&v| h.dist(v) <= ctx.tol) {
+                continue;
+            }
             clip::clip(&a, h, ctx.tol, &mut b);
             std::mem::swap(&mut a, &mut b);
             if a.len() < 3 {
                 break;
             }
         }
-        let mut result = None;
+        let mut result = Narrowed::Culled;
         if a.len() >= 3 {
             let view = ctx.view;
             let mut r = [
@@ -582,8 +653,7 @@ impl Level {
             ];
             for &v in &a {
                 let rel = v - eye;
-                let z = rel.dot(view.forward).max(view.near * 0.5);
-                let [x, y] = view.ndc_at(rel, z);
+                let [x, y] = view.ndc_at(rel, rel.dot(view.forward).max(view.near * 0.5));
                 r = [r[0].min(x), r[1].min(y), r[2].max(x), r[3].max(y)];
             }
             let p = frame.rect;
@@ -600,9 +670,9 @@ impl Level {
                     let p1 = a[(i + 1) % a.len()];
                     let (u, w) = (p0 - eye, p1 - eye);
                     let n = u.cross(w);
-                    // A degenerate edge (seen end-on) bounds nothing: leaving it out only
-                    // widens the view.
-                    if n.length() <= 1e-12 * u.length() * w.length() {
+                    // An edge seen end-on or under 1e-7 rad (clipping leaves such stubs by a
+                    // corner) bounds nothing reliably: leaving it out only widens the view.
+                    if n.length() <= 1e-7 * u.length() * w.length() {
                         continue;
                     }
                     if let Some(h) = Half::through(eye, n) {
@@ -612,10 +682,11 @@ impl Level {
                 }
                 // Nothing between the eye and the portal: what a mirror or teleporter shows
                 // starts at its surface.
-                if let Some(h) = portal_plane {
-                    out.planes.push(h);
+                if let Some(h) = Half::through(inner, clip::newell(&a)) {
+                    out.planes
+                        .push(if h.dist(eye) < 0.0 { h.flipped() } else { h });
                 }
-                result = Some((start..out.planes.len() as u32, r));
+                result = Narrowed::Seen(start..out.planes.len() as u32, r);
             }
         }
         out.poly_a = a;

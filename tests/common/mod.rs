@@ -2,6 +2,8 @@
 //! exactly which names, extras and materials it is about.
 #![allow(dead_code)]
 
+pub mod rays;
+
 use std::path::{Path, PathBuf};
 
 use base64::Engine;

@@ -1,0 +1,845 @@
+//! The runtime (issue 27) against oracles that share no code with it: per-pixel rays cast by
+//! brute force through the level's own triangles (parry's BVH), carried on through mirrors and
+//! teleporters by the portal's transform, and cells found by clipping each ray to the planes as
+//! the test reads them from the JSON; the camera's cell against ray parity on its room's
+//! triangles. Then the metamorphic properties: a closed door or a narrower view only removes
+//! cells, moving level and camera together changes nothing, and without transformed portals a
+//! trace stays inside the camera cell's stored PVS.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use glam::{DMat4, DVec3};
+use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::shape::TriMesh;
+use portcullis::rng::SplitMix64 as Rng;
+use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
+use serde_json::Value;
+
+/// The extension as this test reads it (its own parsing).
+struct Ext {
+    tol: f64,
+    cells: Vec<CellJ>,
+    portals: Vec<PortalJ>,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+struct CellJ {
+    room: String,
+    planes: Vec<(DVec3, f64)>,
+    min: DVec3,
+    max: DVec3,
+}
+
+struct PortalJ {
+    poly: Vec<DVec3>,
+    centre: DVec3,
+    /// Unit normal from the source cell into the target.
+    n: DVec3,
+    to: Option<usize>,
+    transform: Option<DMat4>,
+    one_way: bool,
+    closed: bool,
+}
+
+fn v3(v: &Value) -> DVec3 {
+    DVec3::new(
+        v[0].as_f64().unwrap(),
+        v[1].as_f64().unwrap(),
+        v[2].as_f64().unwrap(),
+    )
+}
+
+fn margin(c: &CellJ, p: DVec3) -> f64 {
+    c.planes
+        .iter()
+        .map(|(n, d)| d - n.dot(p))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn read_ext(path: &Path) -> Ext {
+    let (doc, _) = common::read_gltf(&std::fs::read(path).unwrap());
+    let e = &doc["extensions"]["PORTCULLIS_portals"];
+    let tol = e["tolerance"].as_f64().unwrap();
+    let cells: Vec<CellJ> = e["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| CellJ {
+            room: c["room"].as_str().unwrap().to_string(),
+            planes: c["planes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| (v3(p), p[3].as_f64().unwrap()))
+                .collect(),
+            min: v3(&c["bounds"]["min"]),
+            max: v3(&c["bounds"]["max"]),
+        })
+        .collect();
+    let empty = Vec::new();
+    let portals = e["portals"]
+        .as_array()
+        .unwrap_or(&empty)
+        .iter()
+        .map(|p| {
+            let poly: Vec<DVec3> = p["polygon"].as_array().unwrap().iter().map(v3).collect();
+            let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
+            let mut n = DVec3::ZERO;
+            for i in 0..poly.len() {
+                n += (poly[i] - centre).cross(poly[(i + 1) % poly.len()] - centre);
+            }
+            let mut n = n.normalize();
+            let from = p["cells"][0].as_u64().unwrap() as usize;
+            let size = poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max);
+            // The side of the source cell: step back a little from the centre.
+            if margin(&cells[from], centre - n * size * 1e-3)
+                < margin(&cells[from], centre + n * size * 1e-3)
+            {
+                n = -n;
+            }
+            PortalJ {
+                poly,
+                centre,
+                n,
+                to: p["cells"]
+                    .get(1)
+                    .and_then(Value::as_u64)
+                    .map(|t| t as usize),
+                transform: p["transform"].as_array().map(|m| {
+                    let a: Vec<f64> = m.iter().map(|x| x.as_f64().unwrap()).collect();
+                    DMat4::from_cols_slice(&a)
+                }),
+                one_way: p["oneWay"] == Value::Bool(true),
+                closed: p["closed"] == Value::Bool(true),
+            }
+        })
+        .collect();
+    let lo = cells
+        .iter()
+        .fold(DVec3::splat(f64::INFINITY), |a, c| a.min(c.min));
+    let hi = cells
+        .iter()
+        .fold(DVec3::splat(f64::NEG_INFINITY), |a, c| a.max(c.max));
+    Ext {
+        tol,
+        cells,
+        portals,
+        lo,
+        hi,
+    }
+}
+
+fn in_polygon(poly: &[DVec3], n: DVec3, p: DVec3) -> bool {
+    let mut sign = 0.0;
+    for i in 0..poly.len() {
+        let s = (poly[(i + 1) % poly.len()] - poly[i])
+            .cross(p - poly[i])
+            .dot(n);
+        if s != 0.0 {
+            if sign != 0.0 && s.signum() != sign {
+                return false;
+            }
+            sign = s.signum();
+        }
+    }
+    true
+}
+
+/// The parameter interval of `o + t d` inside cell `c`, within `t0..t1`.
+fn interval(c: &CellJ, o: DVec3, d: DVec3, t0: f64, t1: f64) -> Option<(f64, f64)> {
+    let (mut a, mut b) = (t0, t1);
+    for (n, off) in &c.planes {
+        let (nd, no) = (n.dot(d), n.dot(o));
+        if nd.abs() < 1e-300 {
+            if no > *off {
+                return None;
+            }
+            continue;
+        }
+        let t = (off - no) / nd;
+        if nd > 0.0 {
+            b = b.min(t);
+        } else {
+            a = a.max(t);
+        }
+        if a >= b {
+            return None;
+        }
+    }
+    Some((a, b))
+}
+
+fn slab_hit(c: &CellJ, o: DVec3, d: DVec3, t0: f64, t1: f64) -> bool {
+    let inv = d.recip();
+    let ta = (c.min - o) * inv;
+    let tb = (c.max - o) * inv;
+    let lo = ta.min(tb).max_element().max(t0);
+    let hi = ta.max(tb).min_element().min(t1);
+    lo <= hi + 1e-9
+}
+
+/// One region a pixel's ray reaches: the cell (`None` the outside) and the draw transform of
+/// the space it is reached in.
+type Reached = (Option<usize>, DMat4);
+
+/// Every region the ray from `eye` along `dir` passes through for more than `min_len`
+/// beyond the near plane, until the level's triangles stop it.
+fn ray_regions(
+    ext: &Ext,
+    mesh: &TriMesh,
+    eye: DVec3,
+    dir: DVec3,
+    near_t: f64,
+    max_transforms: usize,
+    min_len: f64,
+) -> Vec<Reached> {
+    let far = (ext.hi - ext.lo).length() * 4.0 + 1.0;
+    let (mut o, mut d) = (eye, dir);
+    let mut draw = DMat4::IDENTITY;
+    let mut travelled = 0.0;
+    let mut transforms = 0;
+    let mut out: Vec<Reached> = Vec::new();
+    loop {
+        let t_hit = mesh
+            .cast_local_ray(&Ray::new(o, d), far, false)
+            .unwrap_or(far);
+        // The first portal that stops or redirects the ray before the triangles do.
+        let mut stop: Option<(f64, usize, bool)> = None;
+        for (i, p) in ext.portals.iter().enumerate() {
+            let nd = p.n.dot(d);
+            if nd.abs() < 1e-12 {
+                continue;
+            }
+            let t = p.n.dot(p.centre - o) / nd;
+            if t <= 1e-9 || t >= t_hit || stop.is_some_and(|(s, _, _)| t >= s) {
+                continue;
+            }
+            if !in_polygon(&p.poly, p.n, o + d * t) {
+                continue;
+            }
+            let onward = nd > 0.0;
+            if p.closed || (p.one_way && !onward) {
+                stop = Some((t, i, false));
+            } else if p.transform.is_some() && onward {
+                stop = Some((t, i, true));
+            }
+        }
+        let end = stop.map_or(t_hit, |(t, _, _)| t);
+        let start = (near_t - travelled).max(0.0);
+        if end - start > min_len {
+            let mut covered: Vec<(f64, f64)> = Vec::new();
+            for (c, cell) in ext.cells.iter().enumerate() {
+                if !slab_hit(cell, o, d, start, end) {
+                    continue;
+                }
+                if let Some((a, b)) = interval(cell, o, d, start, end) {
+                    covered.push((a, b));
+                    if b - a > min_len {
+                        out.push((Some(c), draw));
+                    }
+                }
+            }
+            // The outside: a stretch in no cell that the ray entered through an opening to
+            // the exterior. A stretch entered through a portal between cells is the depth of
+            // a thick wall's doorway, and one at the ray's start an eye in no cell: neither is
+            // claimed to be the outside.
+            covered.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let mut at = start;
+            let mut gaps = Vec::new();
+            for (a, b) in covered {
+                if a - at > min_len {
+                    gaps.push((at, a));
+                }
+                at = at.max(b);
+            }
+            if end - at > min_len {
+                gaps.push((at, end));
+            }
+            let exterior = |t: f64| {
+                let p = o + d * t;
+                ext.portals.iter().any(|q| {
+                    q.to.is_none()
+                        && q.n.dot(p - q.centre).abs() <= min_len
+                        && in_polygon(&q.poly, q.n, p - q.n * q.n.dot(p - q.centre))
+                })
+            };
+            if gaps.iter().any(|&(a, _)| a > start && exterior(a)) {
+                out.push((None, draw));
+            }
+        }
+        match stop {
+            Some((t, i, true)) if transforms < max_transforms => {
+                let m = ext.portals[i].transform.unwrap();
+                o = m.transform_point3(o + d * t);
+                d = m.transform_vector3(d).normalize();
+                draw *= m.inverse();
+                travelled += t;
+                transforms += 1;
+            }
+            _ => return out,
+        }
+    }
+}
+
+fn same_transform(a: &DMat4, b: &DMat4) -> bool {
+    a.abs_diff_eq(*b, 1e-6 * (1.0 + a.w_axis.abs().max_element()))
+}
+
+/// Converts `level` (with its preset) into `dir`, returning the .glb.
+fn convert(level: &Path, preset: Option<&str>, dir: &Path) -> PathBuf {
+    let out = dir.join(format!(
+        "{}.glb",
+        level.file_name().unwrap().to_string_lossy()
+    ));
+    let mut cmd = assert_cmd::Command::cargo_bin("portcullis").unwrap();
+    cmd.arg("convert").arg(level).arg("-o").arg(&out);
+    if let Some(p) = preset {
+        cmd.args(["--tags", p]);
+    }
+    // Levels with warnings still convert (exit 0 or 1 with the output written).
+    let o = cmd.output().unwrap();
+    assert!(out.exists(), "{}", String::from_utf8_lossy(&o.stderr));
+    out
+}
+
+fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
+    let mut v = common::levels_with_rooms();
+    let mut samples: Vec<PathBuf> = std::fs::read_dir(common::sample(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "obj"))
+        .collect();
+    samples.sort();
+    for s in samples {
+        if !v.iter().any(|(l, _)| *l == s) {
+            v.push((s, None));
+        }
+    }
+    v.push((common::fixture("MAP01_godot.glb"), None));
+    v.push((common::fixture("E1M2_godot.glb"), None));
+    v
+}
+
+/// A random point at least `keep` inside cell `c`, if one is found.
+fn point_in(ext: &Ext, c: usize, keep: f64, rng: &mut Rng) -> Option<DVec3> {
+    let cell = &ext.cells[c];
+    for _ in 0..200 {
+        let p = cell.min + (cell.max - cell.min) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+        if margin(cell, p) > keep {
+            return Some(p);
+        }
+    }
+    None
+}
+
+fn random_dir(rng: &mut Rng) -> DVec3 {
+    loop {
+        let v = DVec3::new(
+            rng.unit() * 2.0 - 1.0,
+            rng.unit() * 2.0 - 1.0,
+            rng.unit() * 2.0 - 1.0,
+        );
+        let l = v.length();
+        if l > 0.1 && l <= 1.0 && (v.y / l).abs() < 0.95 {
+            return v / l;
+        }
+    }
+}
+
+struct Camera {
+    eye: DVec3,
+    look: DVec3,
+    fov: f64,
+    aspect: f64,
+    near: f64,
+}
+
+impl Camera {
+    fn view(&self) -> View {
+        View::new(
+            self.eye.to_array(),
+            self.look.to_array(),
+            [0.0, 1.0, 0.0],
+            self.fov,
+            self.aspect,
+            self.near,
+        )
+        .unwrap()
+    }
+
+    /// The unit ray through NDC (x, y), and the distance along it to the near plane.
+    fn ray(&self, x: f64, y: f64) -> (DVec3, f64) {
+        let f = self.look.normalize();
+        let r = f.cross(DVec3::Y).normalize();
+        let u = r.cross(f);
+        let ty = (self.fov.to_radians() / 2.0).tan();
+        let d = (f + r * (x * ty * self.aspect) + u * (y * ty)).normalize();
+        (d, self.near / d.dot(f))
+    }
+}
+
+/// Random cameras inside random cells, and cameras on the axis of random portals at the
+/// distances the anchors' trackers report trouble at: -1e-3, 0, +1e-3, near/2, 2 near.
+fn cameras(ext: &Ext, count: usize, rng: &mut Rng) -> Vec<Camera> {
+    let scale = (ext.hi - ext.lo).length();
+    let near = (scale * 1e-3).clamp(0.01, 0.1);
+    let mut out = Vec::new();
+    for _ in 0..count {
+        let c = (rng.unit() * ext.cells.len() as f64) as usize % ext.cells.len();
+        if let Some(eye) = point_in(ext, c, near * 2.0, rng) {
+            out.push(Camera {
+                eye,
+                look: random_dir(rng),
+                fov: 40.0 + rng.unit() * 60.0,
+                aspect: 1.0 + rng.unit(),
+                near,
+            });
+        }
+    }
+    let plain: Vec<&PortalJ> = ext
+        .portals
+        .iter()
+        .filter(|p| p.transform.is_none() && p.n.y.abs() < 0.9)
+        .collect();
+    for k in 0..(count / 4).min(plain.len()) {
+        let p = plain[(rng.unit() * plain.len() as f64) as usize % plain.len()];
+        let s = [-1e-3, 0.0, 1e-3, near / 2.0, 2.0 * near][k % 5];
+        out.push(Camera {
+            eye: p.centre - p.n * s,
+            look: (p.n + random_dir(rng) * 0.3).normalize(),
+            fov: 70.0,
+            aspect: 16.0 / 9.0,
+            near,
+        });
+    }
+    out
+}
+
+#[test]
+fn every_pixel_ray_lands_in_a_traced_cell_and_its_rectangle() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(27);
+    let (mut rays, mut checked, mut outside_checked) = (0usize, 0usize, 0usize);
+    let mut transformed_checked = 0usize;
+    let mut report = Vec::new();
+    for (path, preset) in levels() {
+        let glb = convert(&path, preset, dir.path());
+        let level = Level::load(&glb).unwrap();
+        let ext = read_ext(&glb);
+        let (t, _, _) = common::load_level(&path, preset);
+        let mesh = common::opaque_mesh(&t);
+        let min_len = (ext.hi - ext.lo).length() * 1e-4;
+        let opts = TraceOptions {
+            max_depth: 10_000,
+            ..Default::default()
+        };
+        let doors = Doors::new(&level);
+        let mut trace = Trace::default();
+        let (w, h) = (24, 14);
+        let mut failures = Vec::new();
+        for cam in cameras(&ext, 16, &mut rng) {
+            level.trace(&cam.view(), &doors, &opts, &mut trace);
+            for j in 0..h {
+                for i in 0..w {
+                    let x = (i as f64 + 0.5) / w as f64 * 2.0 - 1.0;
+                    let y = (j as f64 + 0.5) / h as f64 * 2.0 - 1.0;
+                    let (d, near_t) = cam.ray(x, y);
+                    rays += 1;
+                    let reached = ray_regions(
+                        &ext,
+                        &mesh,
+                        cam.eye,
+                        d,
+                        near_t,
+                        opts.max_transform_depth,
+                        min_len,
+                    );
+                    for (cell, draw) in reached {
+                        let identity = same_transform(&draw, &DMat4::IDENTITY);
+                        let entry = trace.visible().iter().find(|v| {
+                            v.cell == cell
+                                && match &v.transform {
+                                    None => identity,
+                                    Some(m) => same_transform(m, &draw),
+                                }
+                        });
+                        checked += 1;
+                        if cell.is_none() {
+                            outside_checked += 1;
+                        }
+                        if !identity {
+                            transformed_checked += 1;
+                        }
+                        let e = 1e-6;
+                        let ok = entry.is_some_and(|v| {
+                            v.rect[0] - e <= x
+                                && x <= v.rect[2] + e
+                                && v.rect[1] - e <= y
+                                && y <= v.rect[3] + e
+                        });
+                        if !ok {
+                            // A ray that slips between two triangles' shared edge is not a
+                            // sightline: it counts only if rays a hair beside it agree.
+                            let robust = [(1e-6, 0.0), (-1e-6, 0.0), (0.0, 1e-6), (0.0, -1e-6)]
+                                .iter()
+                                .all(|(dx, dy)| {
+                                    let (d2, n2) = cam.ray(x + dx, y + dy);
+                                    ray_regions(
+                                        &ext,
+                                        &mesh,
+                                        cam.eye,
+                                        d2,
+                                        n2,
+                                        opts.max_transform_depth,
+                                        min_len,
+                                    )
+                                    .iter()
+                                    .any(|(c2, m2)| *c2 == cell && same_transform(m2, &draw))
+                                });
+                            if robust {
+                                failures.push(format!(
+                                    "eye {:?} look {:?} pixel ({x:.3}, {y:.3}): ray reaches {:?} ({}), trace {}",
+                                    cam.eye,
+                                    cam.look,
+                                    cell,
+                                    if identity { "direct" } else { "transformed" },
+                                    match entry {
+                                        None => "lacks it".to_string(),
+                                        Some(v) => format!("has rect {:?}", v.rect),
+                                    }
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if !failures.is_empty() {
+            report.push(format!(
+                "{}: {} misses, first: {}",
+                path.display(),
+                failures.len(),
+                failures[..failures.len().min(3)].join("\n  ")
+            ));
+        }
+    }
+    assert!(report.is_empty(), "{}", report.join("\n"));
+    assert!(rays > 50_000, "{rays} rays");
+    assert!(checked > rays / 2, "{checked} region hits of {rays} rays");
+    assert!(outside_checked > 0, "some rays reach the outside");
+    assert!(
+        transformed_checked > 0,
+        "some rays pass mirrors or teleporters"
+    );
+    eprintln!("{rays} rays, {checked} regions reached ({outside_checked} outside, {transformed_checked} through transforms)");
+}
+
+#[test]
+fn the_camera_cell_agrees_with_ray_parity_on_its_room() {
+    use common::rays::{
+        classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(2701);
+    let (mut inside_judged, mut outside_judged) = (0, 0);
+    for (path, preset) in levels() {
+        let glb = convert(&path, preset, dir.path());
+        let level = Level::load(&glb).unwrap();
+        let ext = read_ext(&glb);
+        let (t, c, _) = common::load_level(&path, preset);
+        for (r, room) in t.tagging.rooms.iter().enumerate() {
+            let cells: Vec<usize> = (0..ext.cells.len())
+                .filter(|&i| ext.cells[i].room == room.name)
+                .collect();
+            let from_surface = c.room_cells[r].iter().all(|&i| {
+                !matches!(
+                    c.cells[i].source,
+                    portcullis::cells::CellSource::Bound | portcullis::cells::CellSource::Footprint
+                )
+            });
+            if cells.is_empty() || !from_surface {
+                continue;
+            }
+            let tris = room_triangles(&t, &c, r);
+            if tris.is_empty() {
+                continue;
+            }
+            // Parity reads a closed shell that faces in; other rooms by the nearest hit's side.
+            let closed = is_closed(&tris) && signed_volume(&tris) < 0.0;
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for p in tris.iter().flatten() {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+            let size = hi - lo;
+            let edge = 1e-6 * size.max_element() + 10.0 * ext.tol;
+            let rims = if closed {
+                Vec::new()
+            } else {
+                open_edges(&tris)
+            };
+            let away = 0.05 * size.max_element();
+            for _ in 0..60 {
+                let p = lo + size * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+                if rims.iter().any(|&(a, b)| segment_distance(p, a, b) < away) {
+                    continue;
+                }
+                // Within the margin of a cell's boundary the answer is the tolerance's.
+                if ext.cells.iter().any(|x| margin(x, p).abs() <= edge) {
+                    continue;
+                }
+                let Some(inside) = classify(&tris, closed, p) else {
+                    continue;
+                };
+                let found = level.locate(p, None);
+                if inside {
+                    inside_judged += 1;
+                    let ok = found.cell().is_some_and(|f| cells.contains(&f));
+                    // A nested room's cell may hold a point of the room around it.
+                    let nested = found.cell().is_some_and(|f| {
+                        ext.cells[f].room != room.name && margin(&ext.cells[f], p) > 0.0
+                    });
+                    assert!(
+                        ok || nested,
+                        "{}: {p:?} is inside room {} by ray parity, located {found:?}",
+                        path.display(),
+                        room.name
+                    );
+                } else {
+                    outside_judged += 1;
+                    let Some(f) = found.cell() else { continue };
+                    assert!(
+                        !cells.contains(&f),
+                        "{}: {p:?} is outside room {} by ray parity, located in its cell {f}",
+                        path.display(),
+                        room.name
+                    );
+                }
+            }
+        }
+    }
+    assert!(inside_judged > 200, "{inside_judged} inside points judged");
+    assert!(
+        outside_judged > 20,
+        "{outside_judged} outside points judged"
+    );
+}
+
+/// The visible (cell, transformed?) set of a trace.
+fn seen(t: &Trace) -> BTreeSet<(Option<usize>, bool)> {
+    t.visible()
+        .iter()
+        .map(|v| (v.cell, v.transform.is_some()))
+        .collect()
+}
+
+#[test]
+fn closing_a_door_or_narrowing_the_view_only_removes_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(99);
+    let mut shrank = 0;
+    for (path, preset) in levels() {
+        let glb = convert(&path, preset, dir.path());
+        let level = Level::load(&glb).unwrap();
+        let ext = read_ext(&glb);
+        let opts = TraceOptions::default();
+        let open = Doors::new(&level);
+        let (mut a, mut b) = (Trace::default(), Trace::default());
+        for cam in cameras(&ext, 12, &mut rng) {
+            level.trace(&cam.view(), &open, &opts, &mut a);
+            let wide = seen(&a);
+            let narrow = Camera {
+                fov: cam.fov * 0.6,
+                ..cam
+            };
+            level.trace(&narrow.view(), &open, &opts, &mut b);
+            assert!(
+                seen(&b).is_subset(&wide),
+                "{}: narrower view saw more",
+                path.display()
+            );
+            shrank += usize::from(seen(&b).len() < wide.len());
+            if level.portals() == 0 {
+                continue;
+            }
+            let p = (rng.unit() * level.portals() as f64) as usize % level.portals();
+            let mut doors = open.clone();
+            doors.set(&level, p, true);
+            level.trace(&cam.view(), &doors, &opts, &mut b);
+            assert!(
+                seen(&b).is_subset(&wide),
+                "{}: closing portal {p} saw more",
+                path.display()
+            );
+        }
+    }
+    assert!(
+        shrank > 0,
+        "no narrower view ever saw less: the test proves nothing"
+    );
+}
+
+#[test]
+fn without_transformed_portals_a_trace_stays_in_the_camera_cells_pvs() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(5);
+    let mut compared = 0;
+    for (path, preset) in levels() {
+        let glb = convert(&path, preset, dir.path());
+        let level = Level::load(&glb).unwrap();
+        let ext = read_ext(&glb);
+        if ext.portals.iter().any(|p| p.transform.is_some()) {
+            continue;
+        }
+        let opts = TraceOptions {
+            use_pvs: false,
+            max_depth: 10_000,
+            ..Default::default()
+        };
+        let doors = Doors::new(&level);
+        let mut t = Trace::default();
+        for cam in cameras(&ext, 12, &mut rng) {
+            level.trace(&cam.view(), &doors, &opts, &mut t);
+            let Location::Inside(c) = t.location else {
+                continue;
+            };
+            for v in t.visible() {
+                if let Some(x) = v.cell {
+                    compared += 1;
+                    assert!(
+                        level.pvs_sees(c, x),
+                        "{}: from cell {c} the trace reaches cell {x}, which its stored PVS lacks",
+                        path.display()
+                    );
+                }
+            }
+        }
+    }
+    assert!(compared > 100, "{compared}");
+}
+
+/// The extension moved by `m` (a rigid motion), as JSON.
+fn moved(doc: &Value, m: DMat4) -> Value {
+    let mut e = doc.clone();
+    let pt = |v: &Value| -> Value {
+        let p = m.transform_point3(v3(v));
+        serde_json::json!([p.x, p.y, p.z])
+    };
+    for c in e["cells"].as_array_mut().unwrap() {
+        for p in c["planes"].as_array_mut().unwrap() {
+            let n = v3(p);
+            let on = n * p[3].as_f64().unwrap();
+            let (n2, on2) = (m.transform_vector3(n), m.transform_point3(on));
+            *p = serde_json::json!([n2.x, n2.y, n2.z, n2.dot(on2)]);
+        }
+        let (lo, hi) = (v3(&c["bounds"]["min"]), v3(&c["bounds"]["max"]));
+        let mut a = DVec3::splat(f64::INFINITY);
+        let mut b = DVec3::splat(f64::NEG_INFINITY);
+        for i in 0..8 {
+            let corner =
+                DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+            let q = m.transform_point3(corner);
+            a = a.min(q);
+            b = b.max(q);
+        }
+        c["bounds"] = serde_json::json!({"min": [a.x, a.y, a.z], "max": [b.x, b.y, b.z]});
+    }
+    if let Some(ps) = e.get_mut("portals").and_then(Value::as_array_mut) {
+        for p in ps {
+            let poly: Vec<Value> = p["polygon"].as_array().unwrap().iter().map(pt).collect();
+            p["polygon"] = Value::Array(poly);
+            if let Some(t) = p["transform"].as_array() {
+                let a: Vec<f64> = t.iter().map(|x| x.as_f64().unwrap()).collect();
+                let conj = m * DMat4::from_cols_slice(&a) * m.inverse();
+                p["transform"] = serde_json::json!(conj.to_cols_array());
+            }
+        }
+    }
+    e
+}
+
+#[test]
+fn moving_the_level_and_the_camera_together_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Rng::new(11);
+    let motions = [
+        DMat4::from_translation(DVec3::new(1e5, -3e4, 2e5)),
+        DMat4::from_translation(DVec3::new(1048576.0, 0.0, 0.0)),
+        DMat4::from_rotation_y(30f64.to_radians()),
+        DMat4::from_rotation_y(137f64.to_radians())
+            * DMat4::from_translation(DVec3::new(3.0, 0.0, -7.0)),
+    ];
+    let mut traces = 0;
+    for (path, preset) in levels() {
+        let glb = convert(&path, preset, dir.path());
+        let (doc, bin) = common::read_gltf(&std::fs::read(&glb).unwrap());
+        let ext_json = &doc["extensions"]["PORTCULLIS_portals"];
+        let base: portcullis::export::read::Annotated =
+            serde_json::from_value(ext_json.clone()).unwrap();
+        let bufs: Vec<Vec<u8>> = bin.into_iter().collect();
+        let pvs = portcullis::export::read::visibility(&base, &doc, &bufs).map(|r| r.unwrap());
+        let level = Level::from_annotation(&base, pvs.clone()).unwrap();
+        let ext = read_ext(&glb);
+        let opts = TraceOptions::default();
+        let cams = cameras(&ext, 8, &mut rng);
+        for m in motions {
+            let a: portcullis::export::read::Annotated =
+                serde_json::from_value(moved(ext_json, m)).unwrap();
+            let there = Level::from_annotation(&a, pvs.clone()).unwrap();
+            let (mut t0, mut t1) = (Trace::default(), Trace::default());
+            for cam in &cams {
+                let v0 = cam.view();
+                let up = m.transform_vector3(DVec3::Y);
+                let v1 = View::new(
+                    m.transform_point3(cam.eye).to_array(),
+                    m.transform_vector3(cam.look).to_array(),
+                    up.to_array(),
+                    cam.fov,
+                    cam.aspect,
+                    cam.near,
+                )
+                .unwrap();
+                level.trace(&v0, &Doors::new(&level), &opts, &mut t0);
+                there.trace(&v1, &Doors::new(&there), &opts, &mut t1);
+                traces += 1;
+                assert_eq!(
+                    t0.location,
+                    t1.location,
+                    "{}: {m:?} eye {:?}",
+                    path.display(),
+                    cam.eye
+                );
+                assert_eq!(
+                    seen(&t0),
+                    seen(&t1),
+                    "{}: eye {:?} moved by {m:?}",
+                    path.display(),
+                    cam.eye
+                );
+                for v in t0.visible() {
+                    let w = t1
+                        .visible()
+                        .iter()
+                        .find(|w| {
+                            w.cell == v.cell && w.transform.is_some() == v.transform.is_some()
+                        })
+                        .unwrap();
+                    for k in 0..4 {
+                        assert!(
+                            (v.rect[k] - w.rect[k]).abs() < 1e-6,
+                            "{}: rect {:?} became {:?} when moved by {m:?}",
+                            path.display(),
+                            v.rect,
+                            w.rect
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(traces > 100);
+}
