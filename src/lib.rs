@@ -25,3 +25,8 @@ pub mod scene;
 pub mod schema;
 pub mod tags;
 pub mod vis;
+
+/// The README's examples, compiled and run as doctests (its engine example above all).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

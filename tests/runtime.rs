@@ -843,3 +843,146 @@ fn moving_the_level_and_the_camera_together_changes_nothing() {
     }
     assert!(traces > 100);
 }
+
+fn cull_cmd() -> assert_cmd::Command {
+    assert_cmd::Command::cargo_bin("portcullis").unwrap()
+}
+
+#[test]
+fn cull_reports_each_camera_as_json_and_as_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = convert(&common::sample("teleporter.gltf"), None, dir.path());
+    let cams = dir.path().join("cams.jsonl");
+    std::fs::write(
+        &cams,
+        concat!(
+            "{\"eye\":[2,1.5,2],\"look\":[1,0,0],\"up\":[0,1,0],\"fov_y\":70,\"aspect\":1.78,\"near\":0.05}\n",
+            "\n",
+            "{\"eye\":[2,1.5,2],\"look\":[-1,0,0]}\n",
+            "{\"eye\":[50,50,50],\"look\":[1,0,0]}\n",
+        ),
+    )
+    .unwrap();
+    let o = common::succeeds(
+        cull_cmd()
+            .arg("cull")
+            .arg(&glb)
+            .arg("--cameras")
+            .arg(&cams)
+            .args(["--format", "json"]),
+    );
+    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = r.as_array().unwrap();
+    assert_eq!(r.len(), 3, "one result per camera, blank lines skipped");
+    assert_eq!(r[0]["cell"], 0);
+    assert_eq!(r[0]["location"], "inside");
+    let vis = r[0]["visible"].as_array().unwrap();
+    assert_eq!(vis.len(), 2, "{vis:?}");
+    assert_eq!(vis[0]["cell"], 0);
+    assert_eq!(vis[0]["depth"], 0);
+    assert!(vis[0].get("transform").is_none());
+    assert_eq!(vis[1]["cell"], 1);
+    assert_eq!(vis[1]["via"], serde_json::json!([0]));
+    assert_eq!(vis[1]["mirrored"], false);
+    // Cell b (x 10..14) drawn where the teleporter shows it: 6 m back towards the camera.
+    assert_eq!(vis[1]["transform"][12], -6.0);
+    let rect: Vec<f64> = vis[1]["rect"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        rect[0] < 0.0 && rect[2] > 0.0 && rect[0] > -1.0 && rect[2] < 1.0,
+        "{rect:?}"
+    );
+    assert_eq!(r[1]["visible"].as_array().unwrap().len(), 1, "looking away");
+    assert_eq!(r[2]["cell"], Value::Null);
+    assert_eq!(r[2]["location"], "outside");
+    assert!(r[2]["nearest"].is_u64());
+    assert!(r[0]["stats"]["portals_tested"].as_u64().unwrap() >= 1);
+    // Closing the teleporter (and its partner) leaves the camera's own cell.
+    let o = common::succeeds(
+        cull_cmd()
+            .arg("cull")
+            .arg(&glb)
+            .arg("--cameras")
+            .arg(&cams)
+            .args(["--format", "json", "--closed", "1"]),
+    );
+    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r[0]["visible"].as_array().unwrap().len(), 1);
+    let o = common::succeeds(cull_cmd().arg("cull").arg(&glb).arg("--cameras").arg(&cams));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        text.contains("camera 1: inside of cell 0 (a); 2 visible"),
+        "{text}"
+    );
+    assert!(
+        text.contains("cell 1 (b)  depth 1") && text.contains("via 0  (transformed)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("camera 3: outside every cell (nearest: cell"),
+        "{text}"
+    );
+}
+
+#[test]
+fn cull_refuses_bad_input_with_what_where_and_how() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = convert(&common::sample("two_rooms.gltf"), None, dir.path());
+    let cams = dir.path().join("cams.jsonl");
+    let run = |level: &Path, cams_text: &str, extra: &[&str]| {
+        std::fs::write(&cams, cams_text).unwrap();
+        let o = cull_cmd()
+            .arg("cull")
+            .arg(level)
+            .arg("--cameras")
+            .arg(&cams)
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+            o.stdout,
+        )
+    };
+    let good = "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n";
+    let (code, err, out) = run(
+        &glb,
+        "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n{\"eye\":[1,1],\"look\":[1,0,0]}\n",
+        &[],
+    );
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("cams.jsonl:2") && err.contains("hint:"),
+        "{err}"
+    );
+    assert!(out.is_empty());
+    let (code, err, _) = run(
+        &glb,
+        "{\"eye\":[1,1,1],\"look\":[0,1,0],\"up\":[0,2,0]}\n",
+        &[],
+    );
+    assert_eq!(code, Some(2));
+    assert!(err.contains("cams.jsonl:1") && err.contains("up"), "{err}");
+    let (code, err, _) = run(&glb, "{\"eye\":[1,1,1],\"look\":[1,0,0],\"fov\":60}\n", &[]);
+    assert_eq!(code, Some(2), "unknown fields are typos: {err}");
+    let (code, err, _) = run(&glb, good, &["--closed", "7"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("portal 7 does not exist") && err.contains("2 portals"),
+        "{err}"
+    );
+    let (code, err, _) = run(&common::sample("two_rooms.gltf"), good, &[]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("no PORTCULLIS_portals extension") && err.contains("portcullis convert"),
+        "{err}"
+    );
+    let (code, err, _) = run(&dir.path().join("missing.glb"), good, &[]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("cannot be read"), "{err}");
+}

@@ -143,13 +143,14 @@ pub fn run(a: &CullArgs) -> i32 {
         level.trace(v, &doors, &opts, &mut trace);
         results.push(report(&trace));
     }
-    let mut out = std::io::stdout().lock();
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     let written = match a.format {
         Format::Json => serde_json::to_writer_pretty(&mut out, &Value::Array(results))
             .map_err(std::io::Error::other)
             .and_then(|_| writeln!(out)),
         Format::Human => human(&mut out, &level, &results),
-    };
+    }
+    .and_then(|_| out.flush());
     match written {
         Ok(()) => 0,
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => 0,

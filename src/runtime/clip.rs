@@ -55,6 +55,46 @@ pub fn clip(input: &[DVec3], h: Half, eps: f64, out: &mut Vec<DVec3>) {
     }
 }
 
+/// [`clip`] that also keeps, per vertex, a label for the edge leaving it: the input's labels
+/// for what remains of the input's edges, and `cut` for the new edge along `h`. The walk
+/// labels edges with the view plane they lie on, and reuses that plane instead of building a
+/// new one through the eye.
+pub fn clip_labelled(
+    input: &[DVec3],
+    labels: &[u32],
+    h: Half,
+    cut: u32,
+    eps: f64,
+    out: &mut Vec<DVec3>,
+    out_labels: &mut Vec<u32>,
+) {
+    out.clear();
+    out_labels.clear();
+    let (Some(&last), Some(&last_label)) = (input.last(), labels.last()) else {
+        return;
+    };
+    let (mut a, mut la) = (last, last_label);
+    let mut da = h.dist(a);
+    for (&b, &lb) in input.iter().zip(labels) {
+        let db = h.dist(b);
+        let (a_in, b_in) = (da <= eps, db <= eps);
+        if a_in {
+            out.push(a);
+            out_labels.push(la);
+        }
+        if a_in != b_in {
+            let t = ((da - eps) / (da - db)).clamp(0.0, 1.0);
+            out.push(a + (b - a) * t);
+            // Leaving: the edge to the next kept point runs along `h`. Entering: what is left
+            // of the edge a-b.
+            out_labels.push(if a_in { cut } else { la });
+        }
+        a = b;
+        la = lb;
+        da = db;
+    }
+}
+
 /// The Newell normal of a polygon (not normalised; zero for a degenerate one).
 pub fn newell(poly: &[DVec3]) -> DVec3 {
     let Some(&first) = poly.first() else {

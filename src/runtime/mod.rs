@@ -356,10 +356,6 @@ impl Level {
         &self.corners[r.start as usize..r.end as usize]
     }
 
-    fn links(&self, region: usize) -> &[Link] {
-        &self.links[self.link_start[region] as usize..self.link_start[region + 1] as usize]
-    }
-
     fn outside(&self) -> usize {
         self.cells.len()
     }

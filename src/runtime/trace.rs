@@ -240,6 +240,11 @@ pub struct Trace {
     generation: u32,
     poly_a: Vec<DVec3>,
     poly_b: Vec<DVec3>,
+    /// Per vertex of `poly_a`/`poly_b`: the view plane the edge leaving it lies on, if any.
+    labels_a: Vec<u32>,
+    labels_b: Vec<u32>,
+    /// The outside's links whose openings face the eye (indices into the level's links).
+    outside_links: Vec<u32>,
 }
 
 impl Trace {
@@ -433,6 +438,23 @@ impl Level {
             _ => None,
         };
         out.planes.extend(view.frustum());
+        let reach = view.near_radius() + self.tolerance;
+        out.outside_links.clear();
+        let (from, to) = (
+            self.link_start[self.outside()] as usize,
+            self.link_start[self.outside() + 1] as usize,
+        );
+        for (i, link) in self.links[from..to].iter().enumerate() {
+            let p = &self.portals[link.portal as usize];
+            let plane = if link.reversed {
+                p.plane.flipped()
+            } else {
+                p.plane
+            };
+            if -plane.dist(view.eye) >= -reach {
+                out.outside_links.push((from + i) as u32);
+            }
+        }
         let ctx = Ctx {
             view,
             doors,
@@ -513,7 +535,23 @@ impl Level {
         out.visit(&frame);
         let eye = ctx.view.eye;
         let eye_here = frame.draw.map_or(eye, |(_, inv)| inv.transform_point3(eye));
-        for link in self.links(frame.region as usize) {
+        // The outside holds every exterior opening of the level, and most face away from the
+        // eye: untransformed, it walks the list `trace` kept of those facing it.
+        let region = frame.region as usize;
+        let kept = frame.draw.is_none() && region == self.outside();
+        let (first, count) = match kept {
+            true => (0, out.outside_links.len()),
+            false => {
+                let r = self.link_start[region] as usize;
+                (r, self.link_start[region + 1] as usize - r)
+            }
+        };
+        for k in 0..count {
+            let link = &self.links[if kept {
+                out.outside_links[k] as usize
+            } else {
+                first + k
+            }];
             out.stats.portals_tested += 1;
             let p = &self.portals[link.portal as usize];
             if ctx.doors.is_closed(link.portal as usize) {
@@ -625,19 +663,24 @@ impl Level {
         let eye = ctx.view.eye;
         let mut a = std::mem::take(&mut out.poly_a);
         let mut b = std::mem::take(&mut out.poly_b);
+        let mut la = std::mem::take(&mut out.labels_a);
+        let mut lb = std::mem::take(&mut out.labels_b);
         a.clear();
         match &frame.draw {
             None => a.extend_from_slice(poly),
             Some((d, _)) => a.extend(poly.iter().map(|v| d.transform_point3(*v))),
         }
+        la.clear();
+        la.resize(a.len(), NONE);
         for i in frame.planes.clone() {
             let h = out.planes[i as usize];
             // Most planes cut nothing: only a plane with a corner beyond it copies.
             if a.iter().all(|&v| h.dist(v) <= ctx.tol) {
                 continue;
             }
-            clip::clip(&a, h, ctx.tol, &mut b);
+            clip::clip_labelled(&a, &la, h, i, ctx.tol, &mut b, &mut lb);
             std::mem::swap(&mut a, &mut b);
+            std::mem::swap(&mut la, &mut lb);
             if a.len() < 3 {
                 break;
             }
@@ -666,7 +709,18 @@ impl Level {
             if r[0] <= r[2] && r[1] <= r[3] {
                 let start = out.planes.len() as u32;
                 let inner = a.iter().copied().sum::<DVec3>() / a.len() as f64;
+                let through_eye = 1e-9 * (1.0 + eye.length());
                 for (i, &p0) in a.iter().enumerate() {
+                    // An edge the clipping made lies on a plane of the view through the eye:
+                    // that plane bounds the new view too, exactly as it is.
+                    if let Some(&h) = out.planes.get(la[i] as usize) {
+                        if h.dist(eye).abs() <= through_eye {
+                            if out.planes.last() != Some(&h) || out.planes.len() == start as usize {
+                                out.planes.push(h);
+                            }
+                            continue;
+                        }
+                    }
                     let p1 = a[(i + 1) % a.len()];
                     let (u, w) = (p0 - eye, p1 - eye);
                     let n = u.cross(w);
@@ -691,6 +745,8 @@ impl Level {
         }
         out.poly_a = a;
         out.poly_b = b;
+        out.labels_a = la;
+        out.labels_b = lb;
         result
     }
 }
