@@ -173,7 +173,7 @@ fn sightlines(b: Bencher, level: &str) {
 /// generated building of `building_N` (converted once, kept in the target folder).
 fn converted(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("bench_levels");
-    let out = dir.join(format!("cull_{name}.glb"));
+    let out = dir.join(format!("cull_{}.glb", name.trim_end_matches(".glb")));
     if !out.is_file() {
         let input = match name.strip_prefix("building_") {
             Some(n) => level(n.parse().unwrap()),
