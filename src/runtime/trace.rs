@@ -245,6 +245,8 @@ pub struct Trace {
     labels_b: Vec<u32>,
     /// The outside's links whose openings face the eye (indices into the level's links).
     outside_links: Vec<u32>,
+    /// Per region: how often it is on the current untransformed path.
+    on_path_cells: Vec<u16>,
 }
 
 impl Trace {
@@ -304,6 +306,11 @@ impl Trace {
         self.views.clear();
         self.planes.clear();
         self.path.clear();
+        // Every walk undoes its own counts, so they are all zero again between traces.
+        if self.on_path_cells.len() != regions {
+            self.on_path_cells.clear();
+            self.on_path_cells.resize(regions, 0);
+        }
         if self.stamp.len() != regions {
             self.stamp.clear();
             self.stamp.resize(regions, 0);
@@ -533,6 +540,12 @@ impl Level {
 
     fn walk(&self, ctx: &Ctx, frame: Frame, out: &mut Trace) {
         out.visit(&frame);
+        // A straight sightline meets a convex cell in one segment: along one untransformed
+        // path no cell comes twice (the outside is not convex, and may).
+        let convex = frame.draw.is_none() && frame.cell.is_some();
+        if convex {
+            out.on_path_cells[frame.region as usize] += 1;
+        }
         let eye = ctx.view.eye;
         let eye_here = frame.draw.map_or(eye, |(_, inv)| inv.transform_point3(eye));
         // The outside holds every exterior opening of the level, and most face away from the
@@ -583,7 +596,13 @@ impl Level {
                 Some(t) if !link.reversed => Some(&self.transforms[t as usize]),
                 _ => None,
             };
-            if transform.is_none() && out.on_path(link.portal) {
+            let again = frame.draw.is_none()
+                && transform.is_none()
+                && out
+                    .on_path_cells
+                    .get(link.to as usize)
+                    .is_some_and(|&n| n > 0);
+            if transform.is_none() && (again || out.on_path(link.portal)) {
                 out.stats.on_path_skipped += 1;
                 continue;
             }
@@ -653,6 +672,9 @@ impl Level {
             };
             self.walk(ctx, child, out);
             out.path.pop();
+        }
+        if convex {
+            out.on_path_cells[frame.region as usize] -= 1;
         }
     }
 
