@@ -55,43 +55,44 @@ pub fn clip(input: &[DVec3], h: Half, eps: f64, out: &mut Vec<DVec3>) {
     }
 }
 
-/// [`clip`] that also keeps, per vertex, a label for the edge leaving it: the input's labels
-/// for what remains of the input's edges, and `cut` for the new edge along `h`. The walk
-/// labels edges with the view plane they lie on, and reuses that plane instead of building a
-/// new one through the eye.
-pub fn clip_labelled(
-    input: &[DVec3],
-    labels: &[u32],
-    h: Half,
-    cut: u32,
-    eps: f64,
-    out: &mut Vec<DVec3>,
-    out_labels: &mut Vec<u32>,
-) {
+/// Twice the signed area of `o`, `a`, `b` (positive counter-clockwise): which side of the
+/// line `o`-`a` the point `b` lies on.
+#[inline]
+pub fn cross2(o: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+}
+
+/// Twice the signed area of a polygon on the screen (positive counter-clockwise).
+pub fn area2(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (p, q) = (poly[i], poly[(i + 1) % n]);
+            p[0] * q[1] - p[1] * q[0]
+        })
+        .sum()
+}
+
+/// Clips a screen polygon to the left of the directed line `a`-`b` (counter-clockwise inside),
+/// keeping what lies within `eps` of it, into `out` (cleared first).
+pub fn clip2(input: &[[f64; 2]], a: [f64; 2], b: [f64; 2], eps: f64, out: &mut Vec<[f64; 2]>) {
     out.clear();
-    out_labels.clear();
-    let (Some(&last), Some(&last_label)) = (input.last(), labels.last()) else {
-        return;
-    };
-    let (mut a, mut la) = (last, last_label);
-    let mut da = h.dist(a);
-    for (&b, &lb) in input.iter().zip(labels) {
-        let db = h.dist(b);
-        let (a_in, b_in) = (da <= eps, db <= eps);
-        if a_in {
-            out.push(a);
-            out_labels.push(la);
+    let Some(&last) = input.last() else { return };
+    let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+    let slack = eps * len;
+    let side = |p: [f64; 2]| cross2(a, b, p) + slack;
+    let (mut p, mut sp) = (last, side(last));
+    for &q in input {
+        let sq = side(q);
+        if sp >= 0.0 {
+            out.push(p);
         }
-        if a_in != b_in {
-            let t = ((da - eps) / (da - db)).clamp(0.0, 1.0);
-            out.push(a + (b - a) * t);
-            // Leaving: the edge to the next kept point runs along `h`. Entering: what is left
-            // of the edge a-b.
-            out_labels.push(if a_in { cut } else { la });
+        if (sp >= 0.0) != (sq >= 0.0) {
+            let t = (sp / (sp - sq)).clamp(0.0, 1.0);
+            out.push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t]);
         }
-        a = b;
-        la = lb;
-        da = db;
+        p = q;
+        sp = sq;
     }
 }
 

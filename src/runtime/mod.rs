@@ -95,9 +95,6 @@ struct Portal {
     corners: Range<u32>,
     /// The portal's plane, `n` pointing from the source cell into the target.
     plane: Half,
-    /// A sphere around the polygon: a view it lies outside of sees nothing through it.
-    centre: DVec3,
-    radius: f64,
     kind: Kind,
     one_way: bool,
     closed: bool,
@@ -261,8 +258,6 @@ impl Level {
                 to: p.to().map(|t| t as u32),
                 corners: start..level.corners.len() as u32,
                 plane,
-                centre,
-                radius: poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max),
                 kind: match p.kind.as_deref() {
                     Some("mirror") => Kind::Mirror,
                     Some("teleporter") => Kind::Teleporter,

@@ -1,8 +1,11 @@
 //! Portal traversal from a camera, as id Tech 4's `FloodViewThroughArea_r` and Godot 3's
-//! `PortalTracer::trace_recursive` do it: each portal facing the eye is clipped to the view
-//! that reached its cell (which includes the near plane, so nothing behind the camera is ever
-//! projected), its screen rectangle is intersected with the parent's, and planes through the
-//! eye and the clipped edges, plus the portal's own plane, bound the view into the next cell.
+//! `PortalTracer::trace_recursive` do it: each portal facing the eye is clipped to the near
+//! plane (so nothing behind the camera is ever projected) and to the planes of the mirrors
+//! and teleporters on its path, projected, and clipped to the view that reached its cell; what
+//! is left bounds the view into the next cell, and its bounds are the cell's screen rectangle.
+//! A view is kept as its convex polygon on the screen: the planes through the eye and its
+//! edges are the 3D view, but clipping in 2D against the polygon costs half as much as
+//! building and clipping against those planes, and is the same cut.
 //!
 //! Mirrors and teleporters are followed in camera space: a cell seen through them is placed by
 //! its draw transform (the inverse of the crossed portals' transforms), so every plane and
@@ -107,39 +110,12 @@ impl View {
         self.near * (1.0 + self.tan_x * self.tan_x + self.tan_y * self.tan_y).sqrt()
     }
 
-    /// The view's five planes: near, then left, bottom, right, top.
-    fn frustum(&self) -> [Half; 5] {
-        let corner = |sx: f64, sy: f64| {
-            self.forward + self.right * (sx * self.tan_x) + self.up * (sy * self.tan_y)
-        };
-        let side = |a: DVec3, b: DVec3| {
-            let n = a.cross(b).normalize();
-            let h = Half {
-                n,
-                d: n.dot(self.eye),
-            };
-            if h.dist(self.eye + self.forward) > 0.0 {
-                h.flipped()
-            } else {
-                h
-            }
-        };
-        let (bl, br, tr, tl) = (
-            corner(-1., -1.),
-            corner(1., -1.),
-            corner(1., 1.),
-            corner(-1., 1.),
-        );
-        [
-            Half {
-                n: -self.forward,
-                d: -self.forward.dot(self.eye) - self.near,
-            },
-            side(tl, bl),
-            side(bl, br),
-            side(br, tr),
-            side(tr, tl),
-        ]
+    /// The near plane, inside beyond it.
+    fn near_plane(&self) -> Half {
+        Half {
+            n: -self.forward,
+            d: -self.forward.dot(self.eye) - self.near,
+        }
     }
 }
 
@@ -210,10 +186,12 @@ pub struct Visible {
 
 const NONE: u32 = u32::MAX;
 
-/// The planes of one path into a visible cell, chained per cell.
+/// The view of one path into a visible cell (its screen polygon and 3D clip planes),
+/// chained per cell.
 #[derive(Debug, Clone)]
 struct ViewRec {
-    planes: Range<u32>,
+    view: Range<u32>,
+    clips: Range<u32>,
     next: u32,
 }
 
@@ -232,7 +210,11 @@ pub struct Trace {
     visible: Vec<Visible>,
     via: Vec<u32>,
     views: Vec<ViewRec>,
+    /// Clip planes: the near plane first, then those of transformed portals.
     planes: Vec<Half>,
+    /// Screen polygons of the views, counter-clockwise.
+    screen: Vec<[f64; 2]>,
+    camera: Option<View>,
     path: Vec<Step>,
     /// Per region: the generation that last visited it untransformed, and its entry.
     stamp: Vec<u32>,
@@ -240,9 +222,8 @@ pub struct Trace {
     generation: u32,
     poly_a: Vec<DVec3>,
     poly_b: Vec<DVec3>,
-    /// Per vertex of `poly_a`/`poly_b`: the view plane the edge leaving it lies on, if any.
-    labels_a: Vec<u32>,
-    labels_b: Vec<u32>,
+    flat_a: Vec<[f64; 2]>,
+    flat_b: Vec<[f64; 2]>,
     /// The outside's links whose openings face the eye (indices into the level's links).
     outside_links: Vec<u32>,
     /// Per region: how often it is on the current untransformed path.
@@ -261,40 +242,47 @@ impl Trace {
     }
 
     /// Whether a moving object with world bounds `min`..`max`, drawn with visible entry
-    /// `entry`, can be seen: its box against the planes of each path into that cell.
+    /// `entry`, can be seen: its box against the view of each path into that cell (the clip
+    /// planes, then its corners on the screen against the view's polygon). Conservative: a
+    /// box reaching behind the near plane counts as seen.
     pub fn box_visible(&self, entry: usize, min: DVec3, max: DVec3) -> bool {
-        let Some(v) = self.visible.get(entry) else {
+        let (Some(v), Some(camera)) = (self.visible.get(entry), self.camera.as_ref()) else {
             return false;
         };
-        let (min, max) = match &v.transform {
-            None => (min, max),
-            Some(m) => {
-                let mut lo = DVec3::splat(f64::INFINITY);
-                let mut hi = DVec3::splat(f64::NEG_INFINITY);
-                for i in 0..8 {
-                    let c = DVec3::select(
-                        glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
-                        max,
-                        min,
-                    );
-                    let p = m.transform_point3(c);
-                    lo = lo.min(p);
-                    hi = hi.max(p);
-                }
-                (lo, hi)
-            }
-        };
+        let corners: [DVec3; 8] = std::array::from_fn(|i| {
+            let c = DVec3::select(
+                glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0),
+                max,
+                min,
+            );
+            v.transform.map_or(c, |m| m.transform_point3(c))
+        });
         let mut at = v.first_view;
         while at != NONE {
             let view = &self.views[at as usize];
-            let planes = &self.planes[view.planes.start as usize..view.planes.end as usize];
-            if planes.iter().all(|h| {
-                let nearest = DVec3::select(h.n.cmpge(DVec3::ZERO), min, max);
-                h.dist(nearest) <= 0.0
-            }) {
+            at = view.next;
+            let clips = &self.planes[view.clips.start as usize..view.clips.end as usize];
+            if clips
+                .iter()
+                .any(|h| corners.iter().all(|&c| h.dist(c) > 0.0))
+            {
+                continue;
+            }
+            let mut flat = [[0.0; 2]; 8];
+            for (k, &c) in corners.iter().enumerate() {
+                match camera.ndc(c) {
+                    Some(q) => flat[k] = q,
+                    None => return true,
+                }
+            }
+            let poly = &self.screen[view.view.start as usize..view.view.end as usize];
+            let apart = (0..poly.len()).any(|k| {
+                let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+                flat.iter().all(|&q| clip::cross2(a, b, q) < 0.0)
+            });
+            if !apart {
                 return true;
             }
-            at = view.next;
         }
         false
     }
@@ -305,6 +293,7 @@ impl Trace {
         self.via.clear();
         self.views.clear();
         self.planes.clear();
+        self.screen.clear();
         self.path.clear();
         // Every walk undoes its own counts, so they are all zero again between traces.
         if self.on_path_cells.len() != regions {
@@ -377,7 +366,8 @@ impl Trace {
             }
         };
         self.views.push(ViewRec {
-            planes: f.planes.clone(),
+            view: f.view.clone(),
+            clips: f.clips.clone(),
             next: self.visible[i].first_view,
         });
         self.visible[i].first_view = view;
@@ -400,8 +390,8 @@ impl Trace {
 
 /// What a portal leaves of a view.
 enum Narrowed {
-    /// The planes into the next region and its screen rectangle.
-    Seen(Range<u32>, [f64; 4]),
+    /// The view into the next region (screen polygon, clip planes) and its rectangle.
+    Seen(Range<u32>, Range<u32>, [f64; 4]),
     /// Nothing of the portal is in view.
     Culled,
 }
@@ -410,7 +400,9 @@ enum Narrowed {
 struct Frame {
     region: u32,
     cell: Option<usize>,
-    planes: Range<u32>,
+    /// The view's screen polygon (in `Trace::screen`) and 3D clip planes (`Trace::planes`).
+    view: Range<u32>,
+    clips: Range<u32>,
     rect: [f64; 4],
     depth: u32,
     transforms: u32,
@@ -444,7 +436,10 @@ impl Level {
             Location::Inside(c) if opts.use_pvs && self.pvs.is_some() => Some(c),
             _ => None,
         };
-        out.planes.extend(view.frustum());
+        out.camera = Some(*view);
+        out.planes.push(view.near_plane());
+        out.screen
+            .extend([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]);
         let reach = view.near_radius() + self.tolerance;
         out.outside_links.clear();
         let (from, to) = (
@@ -473,7 +468,8 @@ impl Level {
         let root = Frame {
             region: region as u32,
             cell,
-            planes: 0..out.planes.len() as u32,
+            view: 0..4,
+            clips: 0..1,
             rect: [-1.0, -1.0, 1.0, 1.0],
             depth: 0,
             transforms: 0,
@@ -496,7 +492,8 @@ impl Level {
         let root = |c: usize| Frame {
             region: c as u32,
             cell: Some(c),
-            planes: 0..5,
+            view: 0..4,
+            clips: 0..1,
             rect: [-1.0, -1.0, 1.0, 1.0],
             depth: 0,
             transforms: 0,
@@ -622,23 +619,15 @@ impl Level {
                 out.stats.transform_limit_hits += 1;
                 continue;
             }
-            let (planes, rect) = if standing_in {
+            let (view, clips, rect) = if standing_in {
                 out.stats.passed_through += 1;
-                (frame.planes.clone(), frame.rect)
+                (frame.view.clone(), frame.clips.clone(), frame.rect)
             } else if dist <= ctx.tol {
                 out.stats.portals_culled += 1;
                 continue;
             } else {
-                let outside_view = frame.draw.is_none()
-                    && out.planes[frame.planes.start as usize..frame.planes.end as usize]
-                        .iter()
-                        .any(|h| h.dist(p.centre) > p.radius + ctx.tol);
-                if outside_view {
-                    out.stats.portals_culled += 1;
-                    continue;
-                }
-                match self.narrow(ctx, &frame, poly, out) {
-                    Narrowed::Seen(planes, rect) => (planes, rect),
+                match self.narrow(ctx, &frame, poly, transform.is_some(), out) {
+                    Narrowed::Seen(view, clips, rect) => (view, clips, rect),
                     Narrowed::Culled => {
                         out.stats.portals_culled += 1;
                         continue;
@@ -663,7 +652,8 @@ impl Level {
             let child = Frame {
                 region: link.to,
                 cell: (target < self.cells.len()).then_some(target),
-                planes,
+                view,
+                clips,
                 rect,
                 depth: frame.depth + 1,
                 transforms,
@@ -679,96 +669,135 @@ impl Level {
     }
 
     /// The view through portal polygon `poly` (in the frame's cell space): clipped to the
-    /// frame's planes, its screen rectangle within the frame's, and the planes through the eye
-    /// and the clipped edges plus the portal's own plane. `None` when nothing of it is seen.
-    fn narrow(&self, ctx: &Ctx, frame: &Frame, poly: &[DVec3], out: &mut Trace) -> Narrowed {
-        let eye = ctx.view.eye;
+    /// frame's clip planes, projected, and clipped to the frame's screen polygon; for a mirror
+    /// or teleporter, its own plane joins the clip planes (what it shows starts at its
+    /// surface). `Culled` when nothing of it is seen.
+    fn narrow(
+        &self,
+        ctx: &Ctx,
+        frame: &Frame,
+        poly: &[DVec3],
+        transformed: bool,
+        out: &mut Trace,
+    ) -> Narrowed {
+        let view = ctx.view;
+        let eye = view.eye;
         let mut a = std::mem::take(&mut out.poly_a);
         let mut b = std::mem::take(&mut out.poly_b);
-        let mut la = std::mem::take(&mut out.labels_a);
-        let mut lb = std::mem::take(&mut out.labels_b);
         a.clear();
         match &frame.draw {
             None => a.extend_from_slice(poly),
             Some((d, _)) => a.extend(poly.iter().map(|v| d.transform_point3(*v))),
         }
-        la.clear();
-        la.resize(a.len(), NONE);
-        for i in frame.planes.clone() {
+        let surface = match transformed {
+            false => None,
+            true => {
+                let centre = a.iter().copied().sum::<DVec3>() / a.len() as f64;
+                Half::through(centre, clip::newell(&a)).map(|h| {
+                    if h.dist(eye) < 0.0 {
+                        h.flipped()
+                    } else {
+                        h
+                    }
+                })
+            }
+        };
+        for i in frame.clips.clone() {
             let h = out.planes[i as usize];
             // Most planes cut nothing: only a plane with a corner beyond it copies.
             if a.iter().all(|&v| h.dist(v) <= ctx.tol) {
                 continue;
             }
-            clip::clip_labelled(&a, &la, h, i, ctx.tol, &mut b, &mut lb);
+            clip::clip(&a, h, ctx.tol, &mut b);
             std::mem::swap(&mut a, &mut b);
-            std::mem::swap(&mut la, &mut lb);
             if a.len() < 3 {
                 break;
             }
         }
         let mut result = Narrowed::Culled;
         if a.len() >= 3 {
-            let view = ctx.view;
-            let mut r = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for &v in &a {
+            let mut f = std::mem::take(&mut out.flat_a);
+            let mut g = std::mem::take(&mut out.flat_b);
+            f.clear();
+            f.extend(a.iter().map(|&v| {
                 let rel = v - eye;
-                let [x, y] = view.ndc_at(rel, rel.dot(view.forward).max(view.near * 0.5));
-                r = [r[0].min(x), r[1].min(y), r[2].max(x), r[3].max(y)];
+                view.ndc_at(rel, rel.dot(view.forward).max(view.near * 0.5))
+            }));
+            if let Some((view_poly, rect)) = self.clip_screen(frame, &mut f, &mut g, out) {
+                let start = out.screen.len() as u32;
+                out.screen.extend_from_slice(view_poly);
+                let view_range = start..out.screen.len() as u32;
+                let clips = match surface {
+                    None => frame.clips.clone(),
+                    Some(h) => {
+                        let from = out.planes.len() as u32;
+                        out.planes.extend_from_within(
+                            frame.clips.start as usize..frame.clips.end as usize,
+                        );
+                        out.planes.push(h);
+                        from..out.planes.len() as u32
+                    }
+                };
+                result = Narrowed::Seen(view_range, clips, rect);
             }
-            let p = frame.rect;
-            let r = [
-                r[0].max(p[0]),
-                r[1].max(p[1]),
-                r[2].min(p[2]),
-                r[3].min(p[3]),
-            ];
-            if r[0] <= r[2] && r[1] <= r[3] {
-                let start = out.planes.len() as u32;
-                let inner = a.iter().copied().sum::<DVec3>() / a.len() as f64;
-                let through_eye = 1e-9 * (1.0 + eye.length());
-                for (i, &p0) in a.iter().enumerate() {
-                    // An edge the clipping made lies on a plane of the view through the eye:
-                    // that plane bounds the new view too, exactly as it is.
-                    if let Some(&h) = out.planes.get(la[i] as usize) {
-                        if h.dist(eye).abs() <= through_eye {
-                            if out.planes.last() != Some(&h) || out.planes.len() == start as usize {
-                                out.planes.push(h);
-                            }
-                            continue;
-                        }
-                    }
-                    let p1 = a[(i + 1) % a.len()];
-                    let (u, w) = (p0 - eye, p1 - eye);
-                    let n = u.cross(w);
-                    // An edge seen end-on or under 1e-7 rad (clipping leaves such stubs by a
-                    // corner) bounds nothing reliably: leaving it out only widens the view.
-                    if n.length() <= 1e-7 * u.length() * w.length() {
-                        continue;
-                    }
-                    if let Some(h) = Half::through(eye, n) {
-                        out.planes
-                            .push(if h.dist(inner) > 0.0 { h.flipped() } else { h });
-                    }
-                }
-                // Nothing between the eye and the portal: what a mirror or teleporter shows
-                // starts at its surface.
-                if let Some(h) = Half::through(inner, clip::newell(&a)) {
-                    out.planes
-                        .push(if h.dist(eye) < 0.0 { h.flipped() } else { h });
-                }
-                result = Narrowed::Seen(start..out.planes.len() as u32, r);
-            }
+            out.flat_a = f;
+            out.flat_b = g;
         }
         out.poly_a = a;
         out.poly_b = b;
-        out.labels_a = la;
-        out.labels_b = lb;
         result
+    }
+
+    /// The projected portal `f` (scratch `g`) cut to the frame's screen polygon,
+    /// counter-clockwise, with its rectangle; `None` when nothing is left. Points within a
+    /// hair (1e-9 of the screen) of the view count as in it.
+    fn clip_screen<'s>(
+        &self,
+        frame: &Frame,
+        f: &'s mut Vec<[f64; 2]>,
+        g: &'s mut Vec<[f64; 2]>,
+        out: &Trace,
+    ) -> Option<(&'s [[f64; 2]], [f64; 4])> {
+        const EPS: f64 = 1e-9;
+        let p = frame.rect;
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for q in f.iter() {
+            lo = [lo[0].min(q[0]), lo[1].min(q[1])];
+            hi = [hi[0].max(q[0]), hi[1].max(q[1])];
+        }
+        if lo[0] > p[2] + EPS || hi[0] < p[0] - EPS || lo[1] > p[3] + EPS || hi[1] < p[1] - EPS {
+            return None;
+        }
+        if clip::area2(f) < 0.0 {
+            f.reverse();
+        }
+        let parent = &out.screen[frame.view.start as usize..frame.view.end as usize];
+        for k in 0..parent.len() {
+            let (a, b) = (parent[k], parent[(k + 1) % parent.len()]);
+            if f.iter().all(|&q| clip::cross2(a, b, q) >= -EPS) {
+                continue;
+            }
+            clip::clip2(f, a, b, EPS, g);
+            std::mem::swap(f, g);
+            if f.len() < 3 {
+                return None;
+            }
+        }
+        // A view pinched to a line or a point sees nothing.
+        if clip::area2(f) <= 0.0 {
+            return None;
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for q in f.iter() {
+            lo = [lo[0].min(q[0]), lo[1].min(q[1])];
+            hi = [hi[0].max(q[0]), hi[1].max(q[1])];
+        }
+        let rect = [
+            lo[0].max(p[0]),
+            lo[1].max(p[1]),
+            hi[0].min(p[2]),
+            hi[1].min(p[3]),
+        ];
+        (rect[0] <= rect[2] && rect[1] <= rect[3]).then_some((&f[..], rect))
     }
 }
