@@ -8,7 +8,7 @@
 mod common;
 
 use common::rays::{
-    classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
+    bounds, classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
 };
 use common::{fixture, levels_with_rooms, sample};
 use glam::{DMat4, DQuat, DVec3};
@@ -275,11 +275,7 @@ fn oracle_with(
         }
         // Parity only reads a single closed shell around the air: one that faces in.
         let closed = is_closed(&tris) && signed_volume(&tris) < 0.0;
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for p in tris.iter().flatten() {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
+        let (lo, hi) = bounds(&tris);
         let size = hi - lo;
         let margin = 1e-6 * size.max_element() + 10.0 * c.tolerance.distance;
         let name = &t.tagging.rooms[r].name;

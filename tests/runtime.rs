@@ -307,18 +307,7 @@ fn convert(level: &Path, preset: Option<&str>, dir: &Path) -> PathBuf {
 }
 
 fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
-    let mut v = common::levels_with_rooms();
-    let mut samples: Vec<PathBuf> = std::fs::read_dir(common::sample(""))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "obj"))
-        .collect();
-    samples.sort();
-    for s in samples {
-        if !v.iter().any(|(l, _)| *l == s) {
-            v.push((s, None));
-        }
-    }
+    let mut v = common::levels_and_samples();
     v.push((common::fixture("MAP01_godot.glb"), None));
     v.push((common::fixture("E1M2_godot.glb"), None));
     v
@@ -541,7 +530,7 @@ fn every_pixel_ray_lands_in_a_traced_cell_and_its_rectangle() {
 #[test]
 fn the_camera_cell_agrees_with_ray_parity_on_its_room() {
     use common::rays::{
-        classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
+        bounds, classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
     };
     let dir = tempfile::tempdir().unwrap();
     let mut rng = Rng::new(2701);
@@ -570,11 +559,7 @@ fn the_camera_cell_agrees_with_ray_parity_on_its_room() {
             }
             // Parity reads a closed shell that faces in; other rooms by the nearest hit's side.
             let closed = is_closed(&tris) && signed_volume(&tris) < 0.0;
-            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            for p in tris.iter().flatten() {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-            }
+            let (lo, hi) = bounds(&tris);
             let size = hi - lo;
             let edge = 1e-6 * size.max_element() + 10.0 * ext.tol;
             let rims = if closed {

@@ -481,6 +481,26 @@ const LOOKS: [[f64; 3]; 10] = [
     [-0.2, 0.1, -1.0], // mostly along the wall
 ];
 
+/// A visible point `p` (at NDC `xy`) of entry `i`: inside its scissor rectangle, and a tiny
+/// box at it passes `box_visible`.
+fn check_point_drawn(label: &str, t: &Trace, i: usize, v: &Visible, p: DVec3, xy: [f64; 2]) {
+    let eps = 1e-9;
+    let [x, y] = xy;
+    assert!(
+        x >= v.rect[0] - eps
+            && x <= v.rect[2] + eps
+            && y >= v.rect[1] - eps
+            && y <= v.rect[3] + eps,
+        "{label}: point {p} at NDC {xy:?} outside the rect {:?} of entry {i}",
+        v.rect
+    );
+    let h = DVec3::splat(1e-6);
+    assert!(
+        t.box_visible(i, p - h, p + h),
+        "{label}: a tiny box at visible point {p} is culled in entry {i}"
+    );
+}
+
 /// Checks one camera of the two-room level against sample points of the other room: when a
 /// point of it lies in the frustum and the segment from the eye reaches it through the
 /// doorway, the other room is traced, its rectangle holds the point's NDC, and a tiny box at
@@ -539,21 +559,7 @@ fn check_other_room(level: &Level, eye: [f64; 3], look: [f64; 3], own_expected: 
         );
     };
     for &(p, [x, y]) in &visible_points {
-        let eps = 1e-9;
-        assert!(
-            x >= v.rect[0] - eps
-                && x <= v.rect[2] + eps
-                && y >= v.rect[1] - eps
-                && y <= v.rect[3] + eps,
-            "{label}: point {p} at NDC {:?} outside the scissor rect {:?}",
-            [x, y],
-            v.rect
-        );
-        let h = DVec3::splat(1e-6);
-        assert!(
-            t.box_visible(i, p - h, p + h),
-            "{label}: a tiny box at visible point {p} is culled"
-        );
+        check_point_drawn(&label, &t, i, v, p, [x, y]);
     }
 }
 
@@ -736,21 +742,7 @@ fn check_seen(
                 t.visible()
             );
         };
-        let eps = 1e-9;
-        assert!(
-            x >= v.rect[0] - eps
-                && x <= v.rect[2] + eps
-                && y >= v.rect[1] - eps
-                && y <= v.rect[3] + eps,
-            "{label}: {p} at NDC {:?} outside the rect {:?} of entry {i}",
-            [x, y],
-            v.rect
-        );
-        let h = DVec3::splat(1e-6);
-        assert!(
-            t.box_visible(i, p - h, p + h),
-            "{label}: a box at {p} is culled in entry {i}"
-        );
+        check_point_drawn(label, t, i, v, p, [x, y]);
     }
     count
 }

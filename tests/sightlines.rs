@@ -30,19 +30,8 @@ fn missed(a: &portcullis::check::sightlines::Audit) -> Vec<String> {
 #[test]
 fn no_level_has_a_sightline_its_pvs_misses() {
     let dir = tempfile::tempdir().unwrap();
-    let mut levels = common::levels_with_rooms();
     // Every sample, whether or not the other tests take it.
-    let mut samples: Vec<std::path::PathBuf> = std::fs::read_dir(sample(""))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "obj"))
-        .collect();
-    samples.sort();
-    for s in samples {
-        if !levels.iter().any(|(l, _)| *l == s) {
-            levels.push((s, None));
-        }
-    }
+    let mut levels = common::levels_and_samples();
     levels.push((fixture("MAP01_godot.glb"), None));
     levels.push((fixture("E1M2_godot.glb"), None));
     levels.push((common::generated_building(dir.path(), 100, 7), None));

@@ -411,6 +411,24 @@ struct Frame {
     mirrored: bool,
 }
 
+impl Frame {
+    /// Where a walk starts: the whole screen (`Trace::screen` 0..4) and the near plane
+    /// (`Trace::planes` 0).
+    fn root(region: usize, cell: Option<usize>) -> Frame {
+        Frame {
+            region: region as u32,
+            cell,
+            view: 0..4,
+            clips: 0..1,
+            rect: [-1.0, -1.0, 1.0, 1.0],
+            depth: 0,
+            transforms: 0,
+            draw: None,
+            mirrored: false,
+        }
+    }
+}
+
 struct Ctx<'a> {
     view: &'a View,
     doors: &'a Doors,
@@ -465,18 +483,7 @@ impl Level {
             near_radius: view.near_radius(),
             tol: self.tolerance,
         };
-        let root = Frame {
-            region: region as u32,
-            cell,
-            view: 0..4,
-            clips: 0..1,
-            rect: [-1.0, -1.0, 1.0, 1.0],
-            depth: 0,
-            transforms: 0,
-            draw: None,
-            mirrored: false,
-        };
-        self.walk(&ctx, root, out);
+        self.walk(&ctx, Frame::root(region, cell), out);
         if let Location::Outside { nearest } = out.location {
             self.walk_from_nearby_cells(&ctx, nearest, out);
         }
@@ -489,17 +496,7 @@ impl Level {
     fn walk_from_nearby_cells(&self, ctx: &Ctx, nearest: Option<usize>, out: &mut Trace) {
         let eye = ctx.view.eye;
         let reach = ctx.near_radius + ctx.tol;
-        let root = |c: usize| Frame {
-            region: c as u32,
-            cell: Some(c),
-            view: 0..4,
-            clips: 0..1,
-            rect: [-1.0, -1.0, 1.0, 1.0],
-            depth: 0,
-            transforms: 0,
-            draw: None,
-            mirrored: false,
-        };
+        let root = |c: usize| Frame::root(c, Some(c));
         if let Some((c, d)) = nearest.and_then(|_| self.nearest(eye)) {
             if d <= reach {
                 self.walk(ctx, root(c), out);

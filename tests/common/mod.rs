@@ -326,6 +326,23 @@ pub fn levels_with_rooms() -> Vec<(PathBuf, Option<&'static str>)> {
     v
 }
 
+/// [`levels_with_rooms`] and every other sample (.gltf, .obj) besides.
+pub fn levels_and_samples() -> Vec<(PathBuf, Option<&'static str>)> {
+    let mut levels = levels_with_rooms();
+    let mut samples: Vec<PathBuf> = std::fs::read_dir(sample(""))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf" || e == "obj"))
+        .collect();
+    samples.sort();
+    for s in samples {
+        if !levels.iter().any(|(l, _)| *l == s) {
+            levels.push((s, None));
+        }
+    }
+    levels
+}
+
 /// Runs a portcullis command that must succeed (exit 0), showing its stderr if it does not.
 pub fn succeeds(cmd: &mut assert_cmd::Command) -> std::process::Output {
     let o = cmd.output().unwrap();

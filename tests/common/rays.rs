@@ -152,3 +152,13 @@ pub fn room_triangles(t: &Tagged, c: &CellSet, r: usize) -> Vec<[DVec3; 3]> {
     }
     out
 }
+
+/// The bounds of the triangles' corners.
+pub fn bounds(tris: &[[DVec3; 3]]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in tris.iter().flatten() {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
+}
