@@ -313,6 +313,15 @@ fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
     v
 }
 
+/// Every level of [`levels`], converted into `dir` and loaded both ways: by the runtime, and
+/// by this test's own reading of the extension.
+fn converted(dir: &Path) -> impl Iterator<Item = (PathBuf, Level, Ext)> + '_ {
+    levels().into_iter().map(move |(path, preset)| {
+        let glb = convert(&path, preset, dir);
+        (path, Level::load(&glb).unwrap(), read_ext(&glb))
+    })
+}
+
 /// A random point at least `keep` inside cell `c`, if one is found.
 fn point_in(ext: &Ext, c: usize, keep: f64, rng: &mut Rng) -> Option<DVec3> {
     let cell = &ext.cells[c];
@@ -627,10 +636,7 @@ fn closing_a_door_or_narrowing_the_view_only_removes_cells() {
     let dir = tempfile::tempdir().unwrap();
     let mut rng = Rng::new(99);
     let mut shrank = 0;
-    for (path, preset) in levels() {
-        let glb = convert(&path, preset, dir.path());
-        let level = Level::load(&glb).unwrap();
-        let ext = read_ext(&glb);
+    for (path, level, ext) in converted(dir.path()) {
         let opts = TraceOptions::default();
         let open = Doors::new(&level);
         let (mut a, mut b) = (Trace::default(), Trace::default());
@@ -673,10 +679,7 @@ fn without_transformed_portals_a_trace_stays_in_the_camera_cells_pvs() {
     let dir = tempfile::tempdir().unwrap();
     let mut rng = Rng::new(5);
     let mut compared = 0;
-    for (path, preset) in levels() {
-        let glb = convert(&path, preset, dir.path());
-        let level = Level::load(&glb).unwrap();
-        let ext = read_ext(&glb);
+    for (path, level, ext) in converted(dir.path()) {
         if ext.portals.iter().any(|p| p.transform.is_some()) {
             continue;
         }

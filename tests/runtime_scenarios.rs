@@ -1425,40 +1425,17 @@ fn one_way_portal_is_seen_only_from_its_source() {
     assert_eq!(t.location, Location::Outside { nearest: Some(1) });
     let cam = Cam::with([10.0, 1.5, 1.0], [-1.0, 0.0, 0.0], 20.0, 1.0);
     assert!(cam.sees_any(&one_way_window) && !cam.sees_any(&two_way_window));
-    let narrow = View::new(
-        [10.0, 1.5, 1.0],
-        [-1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        20.0,
-        1.0,
-        NEAR,
-    )
-    .unwrap();
-    let t = trace_with(
-        &level,
-        &Doors::new(&level),
-        &TraceOptions::default(),
-        &narrow,
-    );
+    // A 20-degree square view from `eye`, looking along -x.
+    let narrow = |eye: [f64; 3]| {
+        let v = View::new(eye, [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 20.0, 1.0, NEAR).unwrap();
+        trace_with(&level, &Doors::new(&level), &TraceOptions::default(), &v)
+    };
+    let t = narrow([10.0, 1.5, 1.0]);
     assert_eq!(seen(&t), [None], "the one-way window hides B from outside");
     // ...while the two-way window shows it.
     let cam = Cam::with([10.0, 1.5, 3.0], [-1.0, 0.0, 0.0], 20.0, 1.0);
     assert!(!cam.sees_any(&one_way_window) && cam.sees_any(&two_way_window));
-    let narrow = View::new(
-        [10.0, 1.5, 3.0],
-        [-1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        20.0,
-        1.0,
-        NEAR,
-    )
-    .unwrap();
-    let t = trace_with(
-        &level,
-        &Doors::new(&level),
-        &TraceOptions::default(),
-        &narrow,
-    );
+    let t = narrow([10.0, 1.5, 3.0]);
     assert_eq!(seen(&t), [None, Some(1)]);
     let (_, e) = entry(&t, Some(1)).unwrap();
     assert_eq!(t.via(e), [2]);
