@@ -974,3 +974,71 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
     assert_eq!(code, Some(2));
     assert!(err.contains("cannot be read"), "{err}");
 }
+
+#[test]
+fn a_level_without_rooms_loads_and_everything_is_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["occlusion_room.glb", "gi_zdm2.glb", "living_room.glb"] {
+        let glb = convert(&common::fixture(name), None, dir.path());
+        let level = Level::load(&glb).unwrap();
+        assert_eq!((level.cells(), level.portals()), (0, 0), "{name}");
+        let v = View::new(
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            60.0,
+            1.5,
+            0.05,
+        )
+        .unwrap();
+        let mut t = Trace::default();
+        level.trace(&v, &Doors::new(&level), &TraceOptions::default(), &mut t);
+        assert_eq!(t.location, Location::Outside { nearest: None }, "{name}");
+        assert_eq!(seen(&t), BTreeSet::from([(None, false)]), "{name}");
+        let mut touching = vec![7];
+        level.cells_touching(DVec3::splat(-1.0), DVec3::splat(1.0), &mut touching);
+        assert!(touching.is_empty());
+    }
+}
+
+#[test]
+fn a_gltf_and_a_glb_of_one_level_give_the_same_traces() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = common::fixture("MAP01_godot.glb");
+    let glb = convert(&input, None, dir.path());
+    let gltf = dir.path().join("map01.gltf");
+    let o = cull_cmd()
+        .arg("convert")
+        .arg(&input)
+        .arg("-o")
+        .arg(&gltf)
+        .output()
+        .unwrap();
+    assert!(gltf.exists(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (doc, _) = common::read_gltf(&std::fs::read(&gltf).unwrap());
+    let vis = &doc["extensions"]["PORTCULLIS_portals"]["visibility"];
+    assert!(
+        vis.get("bufferView").is_some(),
+        "the PVS lies in a buffer: {vis}"
+    );
+    let (a, b) = (Level::load(&glb).unwrap(), Level::load(&gltf).unwrap());
+    let ext = read_ext(&glb);
+    let mut rng = Rng::new(8);
+    let (mut ta, mut tb) = (Trace::default(), Trace::default());
+    for cam in cameras(&ext, 40, &mut rng) {
+        a.trace(
+            &cam.view(),
+            &Doors::new(&a),
+            &TraceOptions::default(),
+            &mut ta,
+        );
+        b.trace(
+            &cam.view(),
+            &Doors::new(&b),
+            &TraceOptions::default(),
+            &mut tb,
+        );
+        assert_eq!(ta.visible(), tb.visible());
+        assert_eq!(ta.stats, tb.stats, "the same PVS prefiltered both");
+    }
+}

@@ -54,6 +54,16 @@ impl Grid {
     /// About one bucket per cell, shaped like the level's bounds.
     pub(super) fn build(level: &Level) -> Grid {
         let tol = level.tolerance;
+        if level.cells.is_empty() {
+            // A level without rooms: one empty bucket, and every point outside.
+            return Grid {
+                min: DVec3::ZERO,
+                size: DVec3::ONE,
+                dims: [1, 1, 1],
+                start: vec![0, 0],
+                items: Vec::new(),
+            };
+        }
         let mut min = DVec3::splat(f64::INFINITY);
         let mut max = DVec3::splat(f64::NEG_INFINITY);
         for c in &level.cells {

@@ -130,9 +130,6 @@ impl Level {
         if let Some(problem) = crate::export::read::consistency(a, usize::MAX).first() {
             return Err(problem.clone());
         }
-        if a.cells.is_empty() {
-            return Err("the annotation has no cells".into());
-        }
         let tolerance = if a.tolerance.is_finite() && a.tolerance > 0.0 {
             a.tolerance
         } else {
