@@ -39,6 +39,7 @@ struct PortalJ {
     centre: DVec3,
     /// Unit normal from the source cell into the target.
     n: DVec3,
+    from: usize,
     to: Option<usize>,
     transform: Option<DMat4>,
     one_way: bool,
@@ -105,6 +106,7 @@ fn read_ext(path: &Path) -> Ext {
                 poly,
                 centre,
                 n,
+                from,
                 to: p["cells"]
                     .get(1)
                     .and_then(Value::as_u64)
@@ -396,6 +398,23 @@ fn cameras(ext: &Ext, count: usize, rng: &mut Rng) -> Vec<Camera> {
                 aspect: 1.0 + rng.unit(),
                 near,
             });
+        }
+    }
+    // Mirrors and teleporters, looked at from random points of the room they are in.
+    for p in ext.portals.iter().filter(|p| p.transform.is_some()) {
+        for _ in 0..3 {
+            let c = p.from;
+            if let Some(eye) = point_in(ext, c, near * 2.0, rng) {
+                if (p.centre - eye).dot(p.n) > near * 4.0 {
+                    out.push(Camera {
+                        eye,
+                        look: (p.centre - eye).normalize(),
+                        fov: 50.0 + rng.unit() * 40.0,
+                        aspect: 16.0 / 9.0,
+                        near,
+                    });
+                }
+            }
         }
     }
     let plain: Vec<&PortalJ> = ext
