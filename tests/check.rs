@@ -627,3 +627,28 @@ fn every_file_under_samples_and_tests_checks_without_a_panic() {
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["files"].as_array().unwrap().len(), files.len());
 }
+
+/// Issue 29, item 6: under `--sealed`, a level where no room was recognised is an error (it
+/// was exit 0: nothing closes it, so it cannot be sealed).
+#[test]
+fn a_sealed_level_without_rooms_is_a_leak() {
+    let level = fixture("occlusion_room.glb");
+    let (exit, report) = check_json(std::slice::from_ref(&level), &["--sealed"]);
+    assert_eq!(exit, 1);
+    let codes = codes_of(&report["files"][0]);
+    assert_eq!(codes.get("LEAK"), Some(&1), "{codes:?}");
+    let leak = report["files"][0]["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["code"] == "LEAK")
+        .unwrap();
+    assert!(leak["message"]
+        .as_str()
+        .unwrap()
+        .contains("no room was recognised"));
+    assert!(leak["hint"].as_str().unwrap().contains("--sealed"));
+    // Not sealed: an open level without rooms is fine.
+    let (exit, _) = check_json(&[level], &[]);
+    assert_eq!(exit, 0);
+}

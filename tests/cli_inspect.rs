@@ -206,3 +206,24 @@ fn malformed_inputs_fail_cleanly() {
     }
     assert!(seen >= 15, "the malformed set has {seen} files");
 }
+
+/// Issue 29, item 11: counts agree with their nouns ("renders 1 nodes" before).
+#[test]
+fn a_cell_rendering_one_node_says_node() {
+    let o = portcullis()
+        .arg("inspect")
+        .arg(sample("bound_boxes.gltf"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("renders 1 node"), "{text}");
+    assert!(!text.contains("renders 1 nodes"), "{text}");
+    let o = portcullis()
+        .arg("inspect")
+        .arg(sample("two_rooms.gltf"))
+        .output()
+        .unwrap();
+    assert!(String::from_utf8(o.stdout)
+        .unwrap()
+        .contains("renders 4 nodes"));
+}

@@ -10,6 +10,18 @@ use super::{centroid, edges, Findings, Options, Subject};
 use crate::diag::{Code, Diagnostic};
 
 pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], opts: &Options, f: &mut Findings) {
+    if opts.sealed && s.cells.is_empty() {
+        // No room, so nothing closes the level: a sealed level cannot be open everywhere.
+        f.diagnostics.push(
+            Diagnostic::new(
+                Code::LEAK,
+                "leak: the level is declared sealed but no room was recognised, so nothing closes it",
+                crate::diag::Location::file(&s.file),
+            )
+            .hint("tag the level's rooms (see `portcullis inspect` for near misses and `--tags` for presets), or drop --sealed / [check] sealed for an open level"),
+        );
+        return;
+    }
     let ps = &s.portals.portals;
     // Exterior portals by cell, largest first.
     let mut by_cell: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();

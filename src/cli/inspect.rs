@@ -646,14 +646,17 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                     .split_triangles
                     .map(|n| format!(", {n} split triangles"))
                     .unwrap_or_default();
+                let renders = match c.nodes.len() {
+                    1 => "renders 1 node".to_string(),
+                    n => format!("renders {n} nodes"),
+                };
                 format!(
-                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, renders {} nodes{split}",
+                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, {renders}{split}",
                     c.room,
                     c.volume,
                     c.planes,
                     fmt3(c.bounds.min),
                     fmt3(c.bounds.max),
-                    c.nodes.len()
                 )
             })
             .collect();
