@@ -23,7 +23,11 @@ pub const TAGS: &str = include_str!("../schemas/tags.schema.json");
 pub const PORTALS: &str = include_str!("../schemas/PORTCULLIS_portals.schema.json");
 
 /// (file name, text) of every shipped schema, for `portcullis schema`.
-pub const FILES: &[(&str, &str)] = &[("config.schema.json", CONFIG), ("tags.schema.json", TAGS)];
+pub const FILES: &[(&str, &str)] = &[
+    ("config.schema.json", CONFIG),
+    ("tags.schema.json", TAGS),
+    ("PORTCULLIS_portals.schema.json", PORTALS),
+];
 
 fn schema_value(s: Schema) -> Value {
     // The embedded schemas are ours and parsed by tests; failure is a build defect.

@@ -227,3 +227,34 @@ fn a_cell_rendering_one_node_says_node() {
         .unwrap()
         .contains("renders 4 nodes"));
 }
+
+/// Issue 29, item 10: `portcullis schema` lists and prints the extension's schema too.
+#[test]
+fn schema_lists_and_prints_the_extension_schema() {
+    let o = portcullis().arg("schema").output().unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    let list = String::from_utf8(o.stdout).unwrap();
+    for name in [
+        "config.schema.json",
+        "tags.schema.json",
+        "PORTCULLIS_portals.schema.json",
+    ] {
+        assert!(list.contains(name), "{list}");
+    }
+    let shipped: Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("schemas/PORTCULLIS_portals.schema.json")).unwrap(),
+    )
+    .unwrap();
+    for name in [
+        "PORTCULLIS_portals.schema.json",
+        "PORTCULLIS_portals",
+        "portcullis_portals",
+    ] {
+        let o = portcullis().args(["schema", name]).output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{name}");
+        let printed: Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(printed, shipped, "{name}");
+    }
+    let o = portcullis().args(["schema", "nope"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}

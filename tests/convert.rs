@@ -853,3 +853,16 @@ fn the_system_allocator_converts_the_same() {
     assert!(outputs[0].0 == outputs[1].0, "the outputs differ");
     assert_eq!(outputs[0].1, outputs[1].1);
 }
+
+/// Issue 29, item 11: a file that failed while being written is not reported as unreadable.
+#[test]
+fn a_failed_output_is_not_called_unreadable() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("no/such/dir/out.glb");
+    let o = convert(&sample("two_rooms.gltf"), &out, &[]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("1 could not be processed"), "{err}");
+    assert!(!err.contains("could not be read"), "{err}");
+    assert!(!out.exists());
+}

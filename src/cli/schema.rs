@@ -8,8 +8,9 @@ use portcullis::tags::presets::PRESETS;
 
 #[derive(Debug, Args)]
 pub struct SchemaArgs {
-    /// A schema file name (e.g. config.schema.json) or `preset:NAME` (e.g. preset:godot).
-    /// Without it, lists what is available.
+    /// A schema file name (config.schema.json, tags.schema.json, PORTCULLIS_portals.schema.json
+    /// for the extension `convert` writes; the name without `.schema.json` also works) or
+    /// `preset:NAME` (e.g. preset:godot). Without it, lists what is available.
     pub name: Option<String>,
 }
 
@@ -32,7 +33,11 @@ pub fn run(a: &SchemaArgs) -> i32 {
             .map(|(_, t)| *t),
         None => FILES
             .iter()
-            .find(|(n, _)| *n == name || n.trim_end_matches(".schema.json") == name)
+            .find(|(n, _)| {
+                n.eq_ignore_ascii_case(name)
+                    || n.trim_end_matches(".schema.json")
+                        .eq_ignore_ascii_case(name)
+            })
             .map(|(_, t)| *t),
     };
     match text {

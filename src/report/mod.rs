@@ -53,8 +53,9 @@ impl Totals {
             plural(self.errors, "error"),
             plural(self.warnings, "warning")
         );
+        // Reading, building or writing: any of them may be what failed.
         if self.failed > 0 {
-            s.push_str(&format!(", {} could not be read", self.failed));
+            s.push_str(&format!(", {} could not be processed", self.failed));
         }
         s
     }
