@@ -41,6 +41,9 @@ const NOT_FROM_A_FILE: &[&str] = &[
     "PRT_EXPORT_DROPPED",
     "PVS_MISSES_SIGHTLINE",
     "SIGHTLINES_CONFIRMED",
+    "CULL_NOT_CONVERTED",
+    "CULL_CAMERA_INVALID",
+    "CULL_PORTAL_UNKNOWN",
 ];
 
 /// Whether this binary reads USD (built with the `usd` feature): the sample named after the

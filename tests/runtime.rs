@@ -964,7 +964,9 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
     );
     assert_eq!(code, Some(2));
     assert!(
-        err.contains("cams.jsonl:2") && err.contains("hint:"),
+        err.contains("error[CULL_CAMERA_INVALID]")
+            && err.contains("cams.jsonl:2")
+            && err.contains("hint:"),
         "{err}"
     );
     assert!(out.is_empty());
@@ -974,24 +976,41 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
         &[],
     );
     assert_eq!(code, Some(2));
-    assert!(err.contains("cams.jsonl:1") && err.contains("up"), "{err}");
+    assert!(
+        err.contains("error[CULL_CAMERA_INVALID]")
+            && err.contains("cams.jsonl:1")
+            && err.contains("up"),
+        "{err}"
+    );
     let (code, err, _) = run(&glb, "{\"eye\":[1,1,1],\"look\":[1,0,0],\"fov\":60}\n", &[]);
     assert_eq!(code, Some(2), "unknown fields are typos: {err}");
+    assert!(err.contains("error[CULL_CAMERA_INVALID]"), "{err}");
     let (code, err, _) = run(&glb, good, &["--closed", "7"]);
     assert_eq!(code, Some(2));
     assert!(
-        err.contains("portal 7 does not exist") && err.contains("2 portals"),
+        err.contains("error[CULL_PORTAL_UNKNOWN]")
+            && err.contains("portal 7 does not exist")
+            && err.contains("2 portals"),
+        "{err}"
+    );
+    assert!(
+        err.contains("#/extensions/PORTCULLIS_portals/portals"),
         "{err}"
     );
     let (code, err, _) = run(&common::sample("two_rooms.gltf"), good, &[]);
     assert_eq!(code, Some(2));
     assert!(
-        err.contains("no PORTCULLIS_portals extension") && err.contains("portcullis convert"),
+        err.contains("error[CULL_NOT_CONVERTED]")
+            && err.contains("no PORTCULLIS_portals extension")
+            && err.contains("portcullis convert"),
         "{err}"
     );
     let (code, err, _) = run(&dir.path().join("missing.glb"), good, &[]);
     assert_eq!(code, Some(2));
-    assert!(err.contains("cannot be read"), "{err}");
+    assert!(
+        err.contains("error[IO_READ_FAILED]") && err.contains("cannot be read"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -857,20 +857,25 @@ fn camera_between_an_off_wall_portal_and_the_wall_still_sees_the_neighbour() {
 // ---------------------------------------------------------------------------------------------
 // 4. Two facing mirrors
 
-/// One cell [0,4]x[0,3]x[0,4] with a mirror on each of its x walls (portal 0 at x = 0,
-/// portal 1 at x = 4), each its own partner.
-fn mirror_room() -> Level {
+/// One cell [0,w]x[0,3]x[0,d] named `room` with a mirror on each of its x walls (portal 0 at
+/// x = 0, portal 1 at x = w), each its own partner.
+fn mirrored_box(room: &str, w: f64, d: f64) -> Level {
     let mut b = Builder::default();
-    b.room("hall", [0.0, 0.0, 0.0], [4.0, 3.0, 4.0]);
+    b.room(room, [0.0, 0.0, 0.0], [w, 3.0, d]);
     b.portal(json!({
-        "polygon": rect(0, 0.0, [0.0, 0.0], [3.0, 4.0]), "cells": [0, 0], "kind": "mirror",
+        "polygon": rect(0, 0.0, [0.0, 0.0], [3.0, d]), "cells": [0, 0], "kind": "mirror",
         "transform": cols(reflection_x(0.0)), "partner": 0,
     }));
     b.portal(json!({
-        "polygon": reversed(&rect(0, 4.0, [0.0, 0.0], [3.0, 4.0])), "cells": [0, 0],
-        "kind": "mirror", "transform": cols(reflection_x(4.0)), "partner": 1,
+        "polygon": reversed(&rect(0, w, [0.0, 0.0], [3.0, d])), "cells": [0, 0],
+        "kind": "mirror", "transform": cols(reflection_x(w)), "partner": 1,
     }));
     b.level()
+}
+
+/// One cell [0,4]x[0,3]x[0,4] with facing mirrors on its x walls.
+fn mirror_room() -> Level {
+    mirrored_box("hall", 4.0, 4.0)
 }
 
 /// Where the hall is drawn after `i` mirrors, starting with the one at x = 4 and alternating:
@@ -958,17 +963,7 @@ fn facing_mirrors_stop_at_the_transform_depth() {
 /// A corridor [0,2]x[0,3]x[0,20] lined with mirrors along its length: portal 0 on x = 0,
 /// portal 1 on x = 2, each its own partner.
 fn mirror_corridor() -> Level {
-    let mut b = Builder::default();
-    b.room("gallery", [0.0, 0.0, 0.0], [2.0, 3.0, 20.0]);
-    b.portal(json!({
-        "polygon": rect(0, 0.0, [0.0, 0.0], [3.0, 20.0]), "cells": [0, 0], "kind": "mirror",
-        "transform": cols(reflection_x(0.0)), "partner": 0,
-    }));
-    b.portal(json!({
-        "polygon": reversed(&rect(0, 2.0, [0.0, 0.0], [3.0, 20.0])), "cells": [0, 0],
-        "kind": "mirror", "transform": cols(reflection_x(2.0)), "partner": 1,
-    }));
-    b.level()
+    mirrored_box("gallery", 2.0, 20.0)
 }
 
 #[test]

@@ -8,6 +8,8 @@ use clap::Args;
 use serde::Deserialize;
 use serde_json::{json, Value};
 
+use portcullis::diag::{Code, Diagnostic, Location as At};
+use portcullis::report::{human, style::Style};
 use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
 
 use super::Format;
@@ -79,39 +81,69 @@ fn default_near() -> f64 {
     0.05
 }
 
-fn fail(what: &str, hint: &str) -> i32 {
-    eprintln!("error: {what}\n  hint: {hint}");
+/// Prints `d` as every subcommand prints a diagnostic; `cull` stops with exit 2.
+fn fail(d: Diagnostic, style: &Style) -> i32 {
+    eprintln!("{}", human::diagnostic(&d, style));
     2
 }
 
-/// Every camera of `path`, or the first line that is not one.
-fn read_cameras(path: &Path) -> Result<Vec<View>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot be read: {e}", path.display()))?;
+const CAMERA_HINT: &str = "one JSON object per line, e.g. {\"eye\":[1,1.6,2],\"look\":[1,0,0],\"up\":[0,1,0],\"fov_y\":70,\"aspect\":1.78,\"near\":0.05}";
+
+/// Every camera of `path`, or what is wrong with the file or its first bad line.
+fn read_cameras(path: &Path) -> Result<Vec<View>, Diagnostic> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        Diagnostic::new(
+            Code::IO_READ_FAILED,
+            format!("the cameras file cannot be read: {e}"),
+            At::file(path),
+        )
+        .hint("check the path given with --cameras")
+    })?;
     let mut views = Vec::new();
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
             continue;
         }
-        let at = format!("{}:{}", path.display(), i + 1);
+        let bad = |m: String| {
+            Diagnostic::new(
+                Code::CULL_CAMERA_INVALID,
+                m,
+                At::file(path).with_line(i + 1),
+            )
+            .hint(CAMERA_HINT)
+        };
         let c: Camera =
-            serde_json::from_str(line).map_err(|e| format!("{at}: not a camera: {e}"))?;
+            serde_json::from_str(line).map_err(|e| bad(format!("not a camera: {e}")))?;
         let v = View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
-            .map_err(|e| format!("{at}: {e}"))?;
+            .map_err(|e| bad(format!("not a usable camera: {e}")))?;
         views.push(v);
     }
     Ok(views)
 }
 
-pub fn run(a: &CullArgs) -> i32 {
-    let camera_hint = "one JSON object per line, e.g. {\"eye\":[1,1.6,2],\"look\":[1,0,0],\"up\":[0,1,0],\"fov_y\":70,\"aspect\":1.78,\"near\":0.05}";
+pub fn run(a: &CullArgs, style: &Style) -> i32 {
     let views = match read_cameras(&a.cameras) {
         Ok(v) => v,
-        Err(e) => return fail(&e, camera_hint),
+        Err(d) => return fail(d, style),
     };
     let level = match Level::load(&a.level) {
         Ok(l) => l,
-        Err(e) => return fail(&format!("{}: {}", e.path.display(), e.message), e.hint),
+        Err(e) => {
+            let d = if e.unreadable {
+                Diagnostic::new(
+                    Code::IO_READ_FAILED,
+                    format!("the level {}", e.message),
+                    At::file(&e.path),
+                )
+            } else {
+                Diagnostic::new(
+                    Code::CULL_NOT_CONVERTED,
+                    format!("the level {}", e.message),
+                    At::file(&e.path).with_pointer("/extensions/PORTCULLIS_portals"),
+                )
+            };
+            return fail(d.hint(e.hint), style);
+        }
     };
     let mut doors = Doors::new(&level);
     for (&p, closed) in a
@@ -121,14 +153,16 @@ pub fn run(a: &CullArgs) -> i32 {
         .chain(a.open.iter().map(|p| (p, false)))
     {
         if p >= level.portals() {
-            return fail(
-                &format!(
-                    "portal {p} does not exist: {} has {} portals",
-                    a.level.display(),
+            let d = Diagnostic::new(
+                Code::CULL_PORTAL_UNKNOWN,
+                format!(
+                    "portal {p} does not exist: the level has {} portals",
                     level.portals()
                 ),
-                "portal ids are the extension's indices; `portcullis inspect` lists them",
-            );
+                At::file(&a.level).with_pointer("/extensions/PORTCULLIS_portals/portals"),
+            )
+            .hint("portal ids are the extension's indices; `portcullis inspect` lists them");
+            return fail(d, style);
         }
         doors.set(&level, p, closed);
     }
@@ -154,7 +188,15 @@ pub fn run(a: &CullArgs) -> i32 {
     match written {
         Ok(()) => 0,
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => 0,
-        Err(e) => fail(&format!("cannot write the output: {e}"), "check stdout"),
+        Err(e) => fail(
+            Diagnostic::new(
+                Code::OUTPUT_FAILED,
+                format!("the results cannot be written: {e}"),
+                At::file(&a.level),
+            )
+            .hint("check where stdout goes (a full disk, a closed pipe)"),
+            style,
+        ),
     }
 }
 

@@ -122,7 +122,10 @@ pub fn run(cli: Cli) -> i32 {
         Command::Gen(a) => gen::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::Schema(a) => schema::run(&a),
-        Command::Cull(a) => cull::run(&a),
+        Command::Cull(a) => cull::run(
+            &a,
+            &portcullis::report::style::Style::for_stderr(&cli.color),
+        ),
         Command::Vis(mut a) => {
             a.files = expand_inputs(&a.files);
             vis::run(

@@ -159,6 +159,11 @@ codes! {
     PRT_TRAILING_DATA = Warning, "the .prt file has text after its last record";
     PRT_PORTAL_DEGENERATE = Warning, "a .prt portal has no area or joins a cell to itself; it was skipped";
     PRT_EXPORT_DROPPED = Warning, "one-way, closed, mirror or teleporter portals cannot be written to a .prt file";
+
+    // --- runtime (`cull`) ---
+    CULL_NOT_CONVERTED = Error, "the level given to `cull` has no usable PORTCULLIS_portals extension";
+    CULL_CAMERA_INVALID = Error, "a line of the cameras file is not a usable camera";
+    CULL_PORTAL_UNKNOWN = Error, "a portal given with --closed or --open does not exist in the level";
 }
 
 impl fmt::Display for Code {

@@ -18,6 +18,8 @@ pub struct LoadError {
     pub path: PathBuf,
     pub message: String,
     pub hint: &'static str,
+    /// The file itself could not be read (as opposed to read and found unusable).
+    pub unreadable: bool,
 }
 
 impl std::fmt::Display for LoadError {
@@ -60,11 +62,13 @@ pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
         path: path.to_path_buf(),
         message,
         hint: CONVERT_HINT,
+        unreadable: false,
     };
     let bytes = std::fs::read(path).map_err(|e| LoadError {
         path: path.to_path_buf(),
         message: format!("cannot be read: {e}"),
         hint: "check the path and the file's permissions",
+        unreadable: true,
     })?;
     let (json, bin) = split(&bytes).map_err(err)?;
     let doc: Doc =

@@ -121,6 +121,7 @@ impl Level {
             path: path.to_path_buf(),
             message,
             hint: load::CONVERT_HINT,
+            unreadable: false,
         })
     }
 
