@@ -312,7 +312,7 @@ fn round_trip_keeps_animations_skins_textures_and_extensions() {
         "scene": 0,
         "scenes": [{"nodes": [0, 1, 2, 3]}],
         "nodes": [
-            {"name": "skinned", "mesh": 0, "skin": 0, "extras": {"room": "hall"}},
+            {"name": "skinned", "mesh": 0, "skin": 0, "extras": {"note": "a prop: one triangle is no room"}},
             {"name": "joint", "translation": [0, 0, 0]},
             {"name": "cam", "camera": 0, "extensions": {"VENDOR_custom": {"x": 1}}},
             {"name": "lamp", "extensions": {"KHR_lights_punctual": {"light": 0}}}
@@ -858,11 +858,15 @@ fn the_system_allocator_converts_the_same() {
 #[test]
 fn a_failed_output_is_not_called_unreadable() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("no/such/dir/out.glb");
+    // A folder where the file should go: the arguments check out, the write fails.
+    let out = dir.path().join("out.glb");
+    std::fs::create_dir(&out).unwrap();
     let o = convert(&sample("two_rooms.gltf"), &out, &[]);
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("OUTPUT_FAILED"), "{err}");
     assert!(err.contains("1 could not be processed"), "{err}");
     assert!(!err.contains("could not be read"), "{err}");
-    assert!(!out.exists());
+    assert!(out.is_dir());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }

@@ -83,6 +83,12 @@ fn changes(up: DVec3) -> Vec<(&'static str, Change)> {
             "scale 1e3",
             Change::Move(DMat4::from_scale(DVec3::splat(1e3))),
         ),
+        // A mirrored instance (scale -1 on one axis, as DCC tools mirror): the mirror image of
+        // every cell and portal (issue 29, item 2).
+        (
+            "mirror x",
+            Change::Move(DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0))),
+        ),
         ("shuffle nodes", Change::ShuffleNodes),
         ("shuffle triangles", Change::ShuffleTriangles),
         ("flip prop winding", Change::FlipProps),
@@ -506,6 +512,13 @@ fn check_level_file(path: &Path, preset: Option<&str>) -> Vec<String> {
         let out = run(scene, &t, m);
         let mut e = compare(&base, &out, m, &format!("{file} ({label})"));
         show_all(&e);
+        let known = MIRROR_KNOWN
+            .iter()
+            .find(|(f, _)| label == "mirror x" && *f == file)
+            .map_or(usize::MAX, |(_, n)| *n);
+        if e.len() == known {
+            continue;
+        }
         // One level's many differences under one change are one finding: show a few.
         let more = e.len().saturating_sub(SHOW);
         e.truncate(SHOW);
@@ -579,6 +592,13 @@ fn a_real_change_is_seen() {
 /// its own cells (a stair's side 1e-5 m short of a cell's edge), inside the range the factors
 /// sweep (6e-3 to 9e-2 mm for the f32 .glb, 0.2 to 3 mm for the six-digit OBJ). Slivers of
 /// 1e-5 to 8e-3 m² open or close.
+/// Mirror differences pinned by count (a change either way fails): E1M2 has sectors whose plan
+/// is symmetric, where the plan partition's tie between the plan's own symmetries goes by the
+/// symmetry's index rather than by input order, so the mirrored level gets the partition's
+/// reflected twin (same shapes, swapped); sector_117's 3D decomposition breaks a tie the same
+/// way.
+const MIRROR_KNOWN: &[(&str, usize)] = &[("E1M2_godot.glb", 9)];
+
 const TOLERANCE_KNOWN: &[(&str, usize)] =
     &[("panda3d_culling.glb", 10), ("panda3d_culling.obj", 13)];
 

@@ -515,3 +515,40 @@ fn an_authored_portal_over_two_rooms_is_ambiguous() {
         .count();
     assert!(linked >= 2);
 }
+
+/// Issue 29, item 2: the two-room sample under a node that mirrors it (scale -1 on x, as DCC
+/// tools mirror an instance) has the mirror image's cells and portals, with no portal said
+/// to face the wrong way: a negative determinant turns every winding round.
+#[test]
+fn a_mirrored_instance_is_the_mirror_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(sample("two_rooms.gltf")).unwrap()).unwrap();
+    let scene = doc["scene"].as_u64().unwrap_or(0) as usize;
+    let roots = doc["scenes"][scene]["nodes"].take();
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({"name": "mirror", "scale": [-1, 1, 1], "children": roots}));
+    doc["scenes"][scene]["nodes"] = serde_json::json!([nodes.len() - 1]);
+    let path = dir.path().join("mirrored.gltf");
+    std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+
+    let (t0, c0, p0) = load(&sample("two_rooms.gltf"), None);
+    let (t1, c1, p1) = load(&path, None);
+    let codes = |t: &Tagged| t.diagnostics.iter().map(|d| d.code).collect::<Vec<_>>();
+    assert!(
+        !codes(&t1).contains(&Code::PORTAL_AUTHORED_WRONG_WAY),
+        "{:?}",
+        codes(&t1)
+    );
+    assert_eq!(codes(&t0), codes(&t1));
+    assert_eq!(c0.cells.len(), c1.cells.len());
+    assert_eq!(p0.portals.len(), p1.portals.len());
+    let mirror = |v: DVec3| DVec3::new(-v.x, v.y, v.z);
+    let centre = |poly: &[DVec3]| poly.iter().sum::<DVec3>() / poly.len() as f64;
+    for (a, b) in p0.portals.iter().zip(&p1.portals) {
+        let (ca, cb) = (mirror(centre(&a.polygon)), centre(&b.polygon));
+        assert!(ca.distance(cb) < 1e-9, "{ca} vs {cb}");
+        assert!(mirror(a.normal).distance(b.normal) < 1e-9);
+        assert_eq!((a.from, a.to), (b.from, b.to));
+    }
+}

@@ -113,7 +113,8 @@ pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> 
             .iter()
             .map(|p| node.world.transform_point3(*p) - origin)
             .collect();
-        for t in &mesh.triangles {
+        for &t in &mesh.triangles {
+            let t = scene.world_order(n, t);
             if let (Some(a), Some(b), Some(c)) = (
                 world.get(t[0] as usize),
                 world.get(t[1] as usize),
@@ -160,9 +161,11 @@ pub(crate) fn canonical_triangles(
                 [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
             })
             .collect();
+        // Sorted as stored, then turned for a mirroring node: a mirrored instance lists its
+        // triangles in the same order as the original, so its cells are the mirror image.
         tris.sort_unstable();
         out.extend(
-            tris.into_iter().map(|t| {
+            tris.into_iter().map(|t| scene.world_order(n, t)).map(|t| {
                 t.map(|i| node.world.transform_point3(mesh.positions[i as usize]) - origin)
             }),
         );
@@ -628,9 +631,10 @@ impl Frame {
 ///
 /// Everything is done in a frame fixed to the triangles themselves, so a level that was moved,
 /// turned or scaled gets the same pieces: origin at their area centroid, first axis along
-/// their longest edge (ties within 1e-9 to the earliest, by input order). The union snaps to
+/// their longest edge (ties within 1e-9 to the earliest, by input order, a triangle's edge
+/// opposite its first corner before the other two). The union snaps to
 /// the grid of that frame, where a turned rectangle's corners are exactly cocircular again.
-/// Each polygon of the union is then written in the one of its four quarter turns on that
+/// Each polygon of the union is then written in the one of its eight symmetries (quarter turns, mirrored or not) on that
 /// grid whose rings, read from their least point, come first: a canonical form (exact, on
 /// integers) that the same shape has whichever of its edges of equal length was picked and
 /// wherever the union's rings started, so the partition sees the same input and breaks every
@@ -652,8 +656,10 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
         let a = (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
         area += a;
         acc += a * ((t[0] - first) + (t[1] - first) + (t[2] - first)) / 3.0;
-        for k in 0..3 {
-            let e = t[(k + 1) % 3] - t[k];
+        // The edge opposite the first corner first: it is the same edge when a mirroring
+        // node has turned the triangle's corners round (see `Scene::world_order`).
+        for (i, j) in [(1, 2), (0, 1), (2, 0)] {
+            let e = t[j] - t[i];
             let len = e.length();
             if len > 0.0 && longest.is_none_or(|(l, _)| len > l * (1.0 + 1e-9)) {
                 longest = Some((len, e / len));
@@ -718,14 +724,19 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
                 .collect(),
         };
         let back = |c: DVec2| {
-            let c = quarter_turns(c, 4 - turn) * grid;
+            let c = symmetry_back(c, turn) * grid;
             o + dir * c.x + perp * c.y
         };
         let ps = convex_partition(&local).map_err(|e| format!("cannot partition it: {e}"))?;
         let mut keyed: Vec<(Vec<usize>, Vec<DVec2>)> = ps
             .into_iter()
             .map(|p| {
-                let piece = exact.restore(p.into_iter().map(back).collect());
+                let mut piece: Vec<DVec2> = p.into_iter().map(back).collect();
+                if turn >= 4 {
+                    // Mapped back through a reflection: turned the input's way again.
+                    piece.reverse();
+                }
+                let piece = exact.restore(piece);
                 let mut key: Vec<usize> = piece
                     .iter()
                     .map(|q| exact.index_of(*q).unwrap_or(usize::MAX))
@@ -807,14 +818,36 @@ fn quarter_turns(q: DVec2, n: usize) -> DVec2 {
     (0..n % 4).fold(q, |q, _| DVec2::new(-q.y, q.x))
 }
 
-/// The quarter turn (0 to 3) of a polygon on the grid whose rings, each read from its least
+/// One of the grid's eight symmetries: `n` quarter turns (`n % 4`), after a reflection in
+/// the first axis when `n >= 4`. With the reflections, a mirrored room's plan has the same
+/// canonical form as the original's, so it is cut into the mirror image of the same pieces.
+fn symmetry(q: DVec2, n: usize) -> DVec2 {
+    let q = if n >= 4 { DVec2::new(q.x, -q.y) } else { q };
+    quarter_turns(q, n)
+}
+
+/// The inverse of [`symmetry`].
+fn symmetry_back(q: DVec2, n: usize) -> DVec2 {
+    let q = quarter_turns(q, 4 - n % 4);
+    if n >= 4 {
+        DVec2::new(q.x, -q.y)
+    } else {
+        q
+    }
+}
+
+/// The symmetry (0 to 7, see [`symmetry`]) of a polygon on the grid whose rings, each read from its least
 /// point (by x, then y) and the holes sorted by theirs, come first, and the polygon so turned,
 /// in grid steps (integers, exact in f64): the partition then sees the same numbers for a
 /// level scaled by any factor, and no tie between float areas can go another way.
 fn canonical_turn(p: &Polygon2, grid: f64) -> (usize, Polygon2) {
     let steps = |q: &DVec2| ((q.x / grid).round() as i64, (q.y / grid).round() as i64);
     let ring = |r: &[DVec2], n: usize| -> Vec<(i64, i64)> {
-        let mut r: Vec<(i64, i64)> = r.iter().map(|q| steps(&quarter_turns(*q, n))).collect();
+        let mut r: Vec<(i64, i64)> = r.iter().map(|q| steps(&symmetry(*q, n))).collect();
+        if n >= 4 {
+            // A reflection reverses the ring's turn: read it the other way to keep it.
+            r.reverse();
+        }
         if let Some(at) = (0..r.len()).min_by_key(|&i| r[i]) {
             r.rotate_left(at);
         }
@@ -826,7 +859,7 @@ fn canonical_turn(p: &Polygon2, grid: f64) -> (usize, Polygon2) {
         holes.sort();
         (ring(&p.outer, n), holes)
     };
-    let turn = (0..4).min_by_key(|&n| form(n)).unwrap_or(0);
+    let turn = (0..8).min_by_key(|&n| form(n)).unwrap_or(0);
     let (outer, holes) = form(turn);
     let back = |r: Ring| -> Vec<DVec2> {
         r.into_iter()

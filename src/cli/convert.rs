@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rayon::prelude::*;
 
-use portcullis::diag::{Code, Diagnostic, Location};
+use portcullis::diag::{Code, Diagnostic, Location, Severity};
 use portcullis::export::gltf_out::OutFormat;
 use portcullis::pipeline;
 use portcullis::report::{human, style::Style, Totals};
@@ -169,6 +169,14 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         .hint("fix the code or severity name in portcullis.toml")
     })?;
     let cells = pipeline::build_cells(&mut t);
+    if let Some(c) = a.pvs_of.filter(|&c| c >= cells.cells.len()) {
+        return Err(Diagnostic::new(
+            Code::OUTPUT_FAILED,
+            format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
+            Location::file(input),
+        )
+        .hint("give a cell index from `portcullis inspect`"));
+    }
     let portals = pipeline::build_portals(&mut t, &cells);
     pipeline::release_free_memory();
     let method = portcullis::vis::Method::parse(&a.vis_method);
@@ -217,26 +225,14 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         t.diagnostics.extend(audit.diagnostics);
         sightlines = audit.lines;
     }
-    let written = if usda || to_stdout {
-        let bytes = if usda {
-            portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, &cells, &portals, stored)
-                .into_bytes()
-        } else {
-            pipeline::write_annotated_with_pvs(&t, &cells, &portals, stored, &out, format)?
-        };
-        if to_stdout {
-            use std::io::Write;
-            let mut so = std::io::stdout().lock();
-            so.write_all(&bytes).and_then(|_| so.flush())
-        } else {
-            portcullis::export::atomic::write(&out, &bytes)
-        }
-    } else {
-        // Straight into the file: a big level's output is not held in memory first.
-        pipeline::write_annotated_file(&t, &cells, &portals, stored, &out, format)?;
-        Ok(())
-    };
-    written.map_err(|e| portcullis::export::atomic::failed(&out, e))?;
+    let prt = a.prt.as_ref().map(|path| {
+        let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, path);
+        t.diagnostics.extend(d);
+        (path, text)
+    });
+    let diagnostics = policy.apply(t.diagnostics.0.clone());
+    // The outputs that show the problem are written whatever the verdict; the products only
+    // when the run will exit 0, so a failed run never leaves one for the next step to take.
     let write_extra = |path: &Path, bytes: &[u8]| {
         portcullis::export::atomic::write(path, bytes)
             .map_err(|e| portcullis::export::atomic::failed(path, e))
@@ -250,9 +246,6 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
         write_extra(path, &bytes)?;
     }
-    if let Some(path) = &a.prt {
-        write_prt(&mut t.diagnostics, cells.cells.len(), &portals, path)?;
-    }
     if let Some(path) = &a.svg {
         let visible = a.pvs_of.map(|c| {
             let seen: Vec<usize> = match &pvs {
@@ -261,16 +254,6 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
             };
             (c, seen)
         });
-        if let Some((c, _)) = visible {
-            if c >= cells.cells.len() {
-                return Err(Diagnostic::new(
-                    Code::OUTPUT_FAILED,
-                    format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
-                    Location::file(input),
-                )
-                .hint("give a cell index from `portcullis inspect`"));
-            }
-        }
         let svg = portcullis::export::svg::svg_map(
             &t.tagging,
             &cells,
@@ -279,12 +262,64 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         );
         write_extra(path, svg.as_bytes())?;
     }
+    let fails = diagnostics.iter().any(|d| {
+        d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
+    });
+    let summary = if fails {
+        format!(
+            "{}: {} cells, {} portals; nothing written to `{}` (the run fails)",
+            input.display(),
+            cells.cells.len(),
+            portals.portals.len(),
+            out.display()
+        )
+    } else {
+        write_main(&t, &cells, &portals, stored, &out, format, usda, to_stdout)?;
+        if let Some((path, text)) = &prt {
+            write_extra(path, text.as_bytes())?;
+        }
+        summary(input, &out, cells.cells.len(), portals.portals.len())
+    };
     let outcome = Outcome {
-        diagnostics: policy.apply(t.diagnostics.0.clone()),
-        summary: summary(input, &out, cells.cells.len(), portals.portals.len()),
+        diagnostics,
+        summary,
     };
     portcullis::free::drop_elsewhere((t, cells, portals, pvs));
     Ok(outcome)
+}
+
+/// The annotated level, to its file or standard output.
+#[allow(clippy::too_many_arguments)]
+fn write_main(
+    t: &pipeline::Tagged,
+    cells: &portcullis::cells::CellSet,
+    portals: &portcullis::portals::PortalSet,
+    stored: Option<(&portcullis::vis::Pvs, portcullis::vis::Method)>,
+    out: &Path,
+    format: OutFormat,
+    usda: bool,
+    to_stdout: bool,
+) -> Result<(), Diagnostic> {
+    let written = if usda || to_stdout {
+        let bytes = if usda {
+            portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, cells, portals, stored)
+                .into_bytes()
+        } else {
+            pipeline::write_annotated_with_pvs(t, cells, portals, stored, out, format)?
+        };
+        if to_stdout {
+            use std::io::Write;
+            let mut so = std::io::stdout().lock();
+            so.write_all(&bytes).and_then(|_| so.flush())
+        } else {
+            portcullis::export::atomic::write(out, &bytes)
+        }
+    } else {
+        // Straight into the file: a big level's output is not held in memory first.
+        pipeline::write_annotated_file(t, cells, portals, stored, out, format)?;
+        Ok(())
+    };
+    written.map_err(|e| portcullis::export::atomic::failed(out, e))
 }
 
 /// `-o OUT.prt`: only the portal file.
@@ -294,10 +329,25 @@ fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, 
     drop(reading);
     let cells = pipeline::build_cells(&mut t);
     let portals = pipeline::build_portals(&mut t, &cells);
-    write_prt(&mut t.diagnostics, cells.cells.len(), &portals, out)?;
+    let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, out);
+    t.diagnostics.extend(d);
+    let fails = t.diagnostics.0.iter().any(|d| {
+        d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
+    });
+    let summary = if fails {
+        format!(
+            "{}: nothing written to `{}` (the run fails)",
+            input.display(),
+            out.display()
+        )
+    } else {
+        portcullis::export::atomic::write(out, text.as_bytes())
+            .map_err(|e| portcullis::export::atomic::failed(out, e))?;
+        summary(input, out, cells.cells.len(), portals.portals.len())
+    };
     Ok(Outcome {
         diagnostics: t.diagnostics.0.clone(),
-        summary: summary(input, out, cells.cells.len(), portals.portals.len()),
+        summary,
     })
 }
 
@@ -310,18 +360,6 @@ fn summary(input: &Path, out: &Path, cells: usize, portals: usize) -> String {
     )
 }
 
-fn write_prt(
-    diags: &mut portcullis::diag::Diagnostics,
-    cells: usize,
-    portals: &portcullis::portals::PortalSet,
-    out: &Path,
-) -> Result<(), Diagnostic> {
-    let (text, d) = portcullis::prt::write(cells, portals, out);
-    diags.extend(d);
-    portcullis::export::atomic::write(out, text.as_bytes())
-        .map_err(|e| portcullis::export::atomic::failed(out, e))
-}
-
 pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
     if a.files.len() > 1 && (a.debug.is_some() || a.svg.is_some() || a.prt.is_some()) {
         eprintln!("error: --debug, --svg and --prt take one input");
@@ -331,11 +369,9 @@ pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
         eprintln!("error: -o takes one input; use --out-dir DIR for several");
         return 2;
     }
-    if let Some(dir) = &a.out_dir {
-        if !dir.is_dir() {
-            eprintln!("error: --out-dir `{}` is not a folder", dir.display());
-            return 2;
-        }
+    if let Err(e) = preflight(a) {
+        eprintln!("error: {e}");
+        return 2;
     }
     if a.files
         .iter()
@@ -377,6 +413,51 @@ pub fn run(a: &ConvertArgs, style: &Style) -> i32 {
     }
     eprintln!("{}", totals.line());
     totals.exit_code(a.deny.is_some())
+}
+
+/// Every argument that can be checked before work starts, so a mistake in one costs no
+/// conversion and leaves no output: the output folders exist, and no two inputs would be
+/// written to the same file.
+fn preflight(a: &ConvertArgs) -> Result<(), String> {
+    if let Some(dir) = &a.out_dir {
+        if !dir.is_dir() {
+            return Err(format!("--out-dir `{}` is not a folder", dir.display()));
+        }
+    }
+    let named = [
+        ("-o", a.output.as_ref()),
+        ("--debug", a.debug.as_ref()),
+        ("--svg", a.svg.as_ref()),
+        ("--prt", a.prt.as_ref()),
+    ];
+    for (flag, path) in named {
+        let Some(path) = path.filter(|p| p.as_path() != Path::new("-")) else {
+            continue;
+        };
+        let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+        if let Some(parent) = parent.filter(|p| !p.is_dir()) {
+            return Err(format!(
+                "{flag} `{}`: the folder `{}` does not exist\n  hint: create it first, or write somewhere else",
+                path.display(),
+                parent.display()
+            ));
+        }
+    }
+    if a.out_dir.is_some() {
+        let mut seen: std::collections::HashMap<PathBuf, &Path> = Default::default();
+        for f in &a.files {
+            let Ok(out) = output_for(a, f) else { continue };
+            if let Some(first) = seen.insert(out.clone(), f) {
+                return Err(format!(
+                    "`{}` and `{}` would both be written to `{}`\n  hint: convert them in separate runs with different --out-dir folders, or rename one",
+                    first.display(),
+                    f.display(),
+                    out.display()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A progress bar on a terminal; nothing in pipes, in CI, or for a single file.

@@ -36,6 +36,12 @@ pub enum Command {
     Inspect(inspect::InspectArgs),
     /// Write each level as glTF with the PORTCULLIS_portals extension (cells, portals)
     /// added and nothing else changed.
+    ///
+    /// Arguments are checked before any work. A level with errors (or warnings, with
+    /// `--deny warnings`) is not written, nor is its --prt, so a failed run leaves no output
+    /// for the next step to take; --debug and --svg, which show the problem, still are. In a
+    /// batch, the levels that pass are written. To write a level despite a finding, lower
+    /// its severity in portcullis.toml (`[check] severity = { CODE = "warning" }`).
     Convert(convert::ConvertArgs),
     /// Check levels for CI: every diagnostic (tags, cells, portals, transforms, the cell
     /// graph, loops, leaks) as text, JSON, SARIF or JUnit; exit 0 clean, 1 errors (or

@@ -225,8 +225,8 @@ pub fn blocking_triangles(scene: &Scene, tagging: &Tagging, props: &[NodeId]) ->
     for (n, m) in blocking_nodes(scene, tagging, props) {
         let world = scene.nodes[n].world;
         let mesh = &scene.meshes[m];
-        out.extend(mesh.triangles.iter().filter_map(|t| {
-            let p = t.map(|i| {
+        out.extend(mesh.triangles.iter().filter_map(|&t| {
+            let p = scene.world_order(n, t).map(|i| {
                 mesh.positions
                     .get(i as usize)
                     .map(|p| world.transform_point3(*p))
@@ -267,6 +267,10 @@ impl Opaque {
             let mine = &mut tris[start..];
             if !mine.is_sorted() {
                 mine.sort_unstable();
+            }
+            // Turned after sorting, so a mirrored instance keeps the original's order.
+            for t in mine.iter_mut() {
+                *t = scene.world_order(n, *t);
             }
         }
         Opaque::from_triangles(verts, tris, thick)

@@ -508,6 +508,18 @@ impl Scene {
         out
     }
 
+    /// A triangle of `node`'s mesh with its corners in the order that keeps its winding in
+    /// world space: a transform with a negative determinant (a scale of -1 on one axis, how
+    /// DCC tools mirror an instance) turns every triangle inside out, so its corners are
+    /// reversed, as renderers do when they flip the front face for such a node.
+    pub fn world_order(&self, node: NodeId, t: [u32; 3]) -> [u32; 3] {
+        if self.nodes[node].world.determinant() < 0.0 {
+            [t[0], t[2], t[1]]
+        } else {
+            t
+        }
+    }
+
     /// World-space positions of one node's mesh (empty if it has none).
     pub fn world_positions(&self, node: NodeId) -> Vec<DVec3> {
         let n = &self.nodes[node];
