@@ -24,7 +24,7 @@ BROKEN = ROOT / "samples" / "broken"
 COMMANDS = {
     "CONFIG_NOT_FOUND": ["check", "--config", "missing.toml", "two_rooms.gltf"],
     "TAGS_PRESET_UNKNOWN": ["check", "--tags", "unreal", "two_rooms.gltf"],
-    "OUTPUT_FAILED": ["convert", "two_rooms.gltf", "-o", "no/such/folder/out.glb"],
+    "OUTPUT_FAILED": ["convert", "two_rooms.gltf", "-o", "/proc/out.glb"],
     "OUTPUT_WOULD_OVERWRITE_INPUT": ["convert", "two_rooms.gltf", "-o", "two_rooms.gltf"],
     "OUTPUT_FORMAT_UNKNOWN": ["convert", "two_rooms.gltf", "-o", "out.fbx"],
 }

@@ -224,6 +224,17 @@ def level_samples():
     t = {"name": "Level", "children": [{"name": "Box", "tris": ms.box(0, 0, 0, 1, 1, 1), "material": "wood"}]}
     s["TAG_NO_ROOMS.gltf"] = (t, None)
 
+    # Two Doom-style sectors (one mesh node each, `sector_N` with extras `doom_sector`), checked
+    # with the default rules: nothing is a room, and the report names `--tags doom`.
+    def sector(n, x0, x1, holes):
+        room = closed_room(f"sector_{n}", x0, x1, holes=holes)
+        tris = [tri for c in room["children"] for tri in c["tris"]]
+        return {"name": f"sector_{n}", "tris": tris, "material": "wall",
+                "extras": {"doom_sector": n, "floor_height": 0, "ceiling_height": 96}}
+    door = (1.5, 2.5, 0.0, 2.2)
+    t = {"name": "E1M1", "children": [sector(0, 0, 4, [("x1", *door)]), sector(1, 4, 8, [("x0", *door)])]}
+    s["TAGS_PRESET_SUGGESTED.gltf"] = (t, None)
+
     # Cells.
     # Stored 2e5 m out (f32 there is good to about 16 mm): a node translation would not do,
     # since the tolerance comes from the stored coordinates, not from where nodes put them.

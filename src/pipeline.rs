@@ -88,7 +88,13 @@ fn read_stdin(opts: &LoadOptions) -> Result<import::Imported, Diagnostic> {
 
 /// The cells of a tagged level; their diagnostics are appended to `tagged.diagnostics`.
 pub fn build_cells(tagged: &mut Tagged) -> CellSet {
-    let set = cells::build(&tagged.scene, &tagged.tagging, &tagged.config.cells);
+    let mut set = cells::build(&tagged.scene, &tagged.tagging, &tagged.config.cells);
+    cells::drop_far_structure(
+        &tagged.scene,
+        &tagged.tagging,
+        &mut set,
+        tagged.config.portals.max_wall_thickness,
+    );
     tagged.diagnostics.extend(set.diagnostics.iter().cloned());
     set
 }

@@ -508,3 +508,63 @@ fn footprints_with_nothing_above_rise_to_the_levels_storey_height() {
         }
     }
 }
+
+/// Issue 29, item 9: a prop or stray mesh outside every room (a copy of the sample's table 26 m
+/// away) makes no cell and is reported as geometry in no cell, whether it is tagged as a
+/// prop, left untagged at the root, or left under a room's node; no cell renders it.
+#[test]
+fn geometry_outside_every_room_is_reported_and_rendered_by_no_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let base: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(sample("two_rooms.gltf")).unwrap()).unwrap();
+    let index = |doc: &serde_json::Value, name: &str| {
+        doc["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|n| n["name"] == name)
+            .unwrap()
+    };
+    for (name, parent) in [
+        ("Crate-detail", "Level"),
+        ("Crate", "Level"),
+        ("Crate", "kitchen-room"),
+        ("Crate", "lounge-room"),
+        ("Crate-detail", "kitchen-room"),
+    ] {
+        let mut doc = base.clone();
+        let mut crate_node = doc["nodes"][index(&doc, "Table-detail")].clone();
+        crate_node["name"] = name.into();
+        crate_node["translation"] = serde_json::json!([30.0, 0.0, 30.0]);
+        let nodes = doc["nodes"].as_array_mut().unwrap();
+        nodes.push(crate_node);
+        let new = nodes.len() - 1;
+        let p = index(&doc, parent);
+        doc["nodes"][p]["children"]
+            .as_array_mut()
+            .unwrap()
+            .push(new.into());
+        let path = dir.path().join("outside.gltf");
+        std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
+        let (t, c) = load(&path, None);
+        let what = format!("{name} under {parent}");
+        assert_eq!(c.cells.len(), 2, "{what}");
+        let outside: Vec<_> = t
+            .diagnostics
+            .iter()
+            .filter(|d| d.code == Code::CELL_GEOMETRY_OUTSIDE)
+            .collect();
+        assert_eq!(outside.len(), 1, "{what}: {:?}", t.diagnostics);
+        assert!(outside[0].message.contains(name), "{what}");
+        let id = t
+            .scene
+            .nodes
+            .iter()
+            .position(|n| n.name.as_deref() == Some(name))
+            .unwrap();
+        assert!(
+            c.cells.iter().all(|cell| !cell.nodes.contains(&id)),
+            "{what}"
+        );
+    }
+}

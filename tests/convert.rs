@@ -870,3 +870,46 @@ fn a_failed_output_is_not_called_unreadable() {
     assert!(out.is_dir());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+/// Issue 29, item 8: a room's priority (extras `priority`, for nested rooms) is stored on its
+/// cells, which the schema accepts and the runtime reads; with every room at the default it
+/// is left out.
+#[test]
+fn room_priority_is_stored_on_the_cells_when_set() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: Value =
+        serde_json::from_slice(&std::fs::read(sample("two_rooms.gltf")).unwrap()).unwrap();
+    let plain = dir.path().join("plain.gltf");
+    assert_ok(&convert(&sample("two_rooms.gltf"), &plain, &[]));
+    let (out, _) = read_gltf(&std::fs::read(&plain).unwrap());
+    check_extension(&out, "plain");
+    assert!(!serde_json::to_string(&out["extensions"])
+        .unwrap()
+        .contains("\"priority\""));
+
+    let kitchen = doc["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|n| n["name"] == "kitchen-room")
+        .unwrap();
+    doc["nodes"][kitchen]["extras"] = json!({"priority": 3});
+    let input = dir.path().join("ranked.gltf");
+    std::fs::write(&input, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let ranked = dir.path().join("ranked.glb");
+    assert_ok(&convert(&input, &ranked, &[]));
+    let (out, _) = read_gltf(&std::fs::read(&ranked).unwrap());
+    check_extension(&out, "ranked");
+    for c in out["extensions"]["PORTCULLIS_portals"]["cells"]
+        .as_array()
+        .unwrap()
+    {
+        let want = if c["room"] == "kitchen" {
+            json!(3)
+        } else {
+            Value::Null
+        };
+        assert_eq!(c["priority"], want, "{c}");
+    }
+    portcullis::runtime::Level::load(&ranked).expect("the runtime reads it");
+}

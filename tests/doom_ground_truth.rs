@@ -115,3 +115,63 @@ fn doom_portals_match_the_maps_openings() {
         );
     }
 }
+
+/// Issue 29, item 4: the Doom maps as a WAD converter writes them (`sector_N` nodes carrying
+/// `extras.doom_sector`, no tag suffix) give, under `--tags doom`, the same rooms, cells and
+/// portals as the `_godot` copies under the default rules; by names alone or by the extras
+/// alone. Under the default rules they tag nothing, and the report names the preset.
+#[test]
+fn the_doom_preset_reads_plain_sector_nodes() {
+    use portcullis::pipeline::{build_cells, build_portals, tag};
+    for level in ["E1M2_godot.glb", "MAP01_godot.glb"] {
+        let (godot, cells, portals) = load_level(&fixture(level), None);
+        let plain = |keep_names: bool, keep_extras: bool, preset: &str| {
+            let mut scene = godot.scene.clone();
+            for n in &mut scene.nodes {
+                n.name = match n.name.as_deref() {
+                    Some(s) if s.ends_with("-room") && keep_names => {
+                        Some(s.trim_end_matches("-room").to_string())
+                    }
+                    Some(s) if s.ends_with("-room") => None,
+                    other => other.map(str::to_string),
+                };
+                if !keep_extras {
+                    n.extras = None;
+                }
+            }
+            let config = portcullis::config::Config::default();
+            let rules = portcullis::config::rule_set(&config, Some(preset)).unwrap();
+            let imported = portcullis::import::Imported {
+                scene,
+                diagnostics: Default::default(),
+            };
+            tag(imported, config, rules)
+        };
+        let rooms = |t: &portcullis::pipeline::Tagged| {
+            let mut v: Vec<String> = t.tagging.rooms.iter().map(|r| r.name.clone()).collect();
+            v.sort();
+            v
+        };
+        for (names, extras) in [(true, true), (true, false), (false, true)] {
+            let mut t = plain(names, extras, "doom");
+            assert_eq!(
+                rooms(&t),
+                rooms(&godot),
+                "{level} names {names} extras {extras}"
+            );
+            let c = build_cells(&mut t);
+            let p = build_portals(&mut t, &c);
+            assert_eq!(c.cells.len(), cells.cells.len(), "{level}");
+            assert_eq!(p.portals.len(), portals.portals.len(), "{level}");
+        }
+        let t = plain(true, true, "default");
+        assert!(t.tagging.rooms.is_empty());
+        let hint = t
+            .diagnostics
+            .iter()
+            .find(|d| d.code == portcullis::diag::Code::TAGS_PRESET_SUGGESTED)
+            .and_then(|d| d.hint.clone())
+            .unwrap_or_default();
+        assert!(hint.contains("--tags doom"), "{level}: {:?}", t.diagnostics);
+    }
+}

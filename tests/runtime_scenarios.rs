@@ -1812,4 +1812,18 @@ fn locate_inside_on_a_boundary_and_in_nested_rooms() {
         &mut cells,
     );
     assert_eq!(cells, [0, 1]);
+
+    // Issue 29, item 8: a stored priority decides before size. The big room given the
+    // higher priority holds the point in the small one too; equal priorities fall back to
+    // the smaller cell.
+    let mut b = Builder::default();
+    b.room("big", [0.0, 0.0, 0.0], [10.0, 10.0, 10.0]);
+    b.room("small", [4.0, 4.0, 4.0], [6.0, 6.0, 6.0]);
+    b.cells[0]["priority"] = json!(2);
+    let ranked = b.level();
+    for hint in [None, Some(0), Some(1)] {
+        assert_eq!(ranked.locate(inner, hint), Location::Inside(0), "{hint:?}");
+    }
+    b.cells[1]["priority"] = json!(2);
+    assert_eq!(b.level().locate(inner, None), Location::Inside(1));
 }

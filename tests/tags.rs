@@ -408,3 +408,213 @@ fn config_next_to_the_input_adds_rules() {
         Some(dir.path().join("portcullis.toml").as_path())
     );
 }
+
+/// Issue 29, item 5: a misspelt tag word is a near miss, found by edit distance against every
+/// rule's affix, case-insensitively; a word that merely contains one is not.
+#[test]
+fn misspelt_tag_words_are_near_misses() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "typos.gltf",
+        &gltf(&[
+            n("Level", None, false),
+            n("lounge-rooom", Some(0), true),
+            n("Kitchen_rom", Some(0), true),
+            n("Broom_cupboard", Some(0), true),
+        ]),
+    );
+    let t = load(&p, None);
+    let hints: Vec<String> = t
+        .diagnostics
+        .iter()
+        .filter(|d| d.code == Code::TAG_NEAR_MISS)
+        .map(|d| d.hint.clone().unwrap_or_default())
+        .collect();
+    assert_eq!(hints.len(), 2, "{:?}", t.diagnostics);
+    assert!(hints[0].contains("`lounge-room`"), "{hints:?}");
+    assert!(hints[1].contains("`Kitchen-room`"), "{hints:?}");
+}
+
+/// Issue 29, item 3: the anchors' portal materials (id Tech 4's `textures/editor/visportal`,
+/// Quake 3's `textures/common/areaportal`) and a DCC's numbered duplicates (`portal.001`,
+/// `lounge-portal.001`) are tags under the default preset.
+#[test]
+fn anchor_portal_materials_and_numbered_duplicates_are_tags() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "materials.gltf",
+        &gltf(&[
+            n("kitchen-room", None, false),
+            n("Floor", Some(0), true),
+            n("door", Some(0), true).material("textures/editor/visportal"),
+            n("hatch", Some(0), true).material("textures/common/areaportal"),
+            n("window", Some(0), true).material("portal.001"),
+            n("lounge-portal.001", Some(0), true),
+            n("lounge-room.001", None, false),
+            n("Floor2", Some(6), true),
+            n("caulked", Some(0), true).material("textures/common/caulk"),
+        ]),
+    );
+    let t = load(&p, None);
+    let portals: BTreeSet<String> = t
+        .tagging
+        .portals
+        .iter()
+        .map(|p| t.scene.node_label(p.node))
+        .collect();
+    assert_eq!(
+        portals,
+        BTreeSet::from(["door", "hatch", "window", "lounge-portal.001"].map(str::to_string)),
+        "{:?}",
+        t.diagnostics
+    );
+    assert_eq!(
+        room_names(&t),
+        BTreeSet::from(["kitchen".to_string(), "lounge".to_string()])
+    );
+    assert_eq!(t.tagging.ignored.len(), 1);
+    assert!(
+        !t.diagnostics.has(Code::TAG_NEAR_MISS),
+        "{:?}",
+        t.diagnostics
+    );
+}
+
+/// Tags a copy of `t`'s scene after `edit`, with `preset`.
+fn retag(
+    t: &Tagged,
+    preset: Option<&str>,
+    edit: impl FnOnce(&mut portcullis::scene::Scene),
+) -> Tagged {
+    let mut scene = t.scene.clone();
+    edit(&mut scene);
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, preset).unwrap();
+    let imported = portcullis::import::Imported {
+        scene,
+        diagnostics: Default::default(),
+    };
+    portcullis::pipeline::tag(imported, config, rules)
+}
+
+/// Issue 29, item 7: extras say what the schema documents, or are reported. A footprint's
+/// `footprint_height` sets its cells' height (on the footprint, or on its room's node); a
+/// number where a name or flag belongs, a priority that is not a whole number or a height
+/// that is not positive is `TAG_EXTRAS_INVALID`; names lose stray spaces.
+#[test]
+fn extras_are_honoured_or_reported_and_names_trimmed() {
+    use portcullis::pipeline::build_cells;
+    let base = load(&fixture("panda3d_culling.glb"), Some("panda3d"));
+    let node = |t: &Tagged, name: &str| {
+        t.scene
+            .nodes
+            .iter()
+            .position(|n| n.name.as_deref() == Some(name))
+            .unwrap()
+    };
+    // A footprint piece raised by h everywhere (a ramp's too) is a cell of volume h times its
+    // plan area: the mean height is volume over the area of the vertices' plan hull.
+    let heights = |t: &mut Tagged, room: &str| -> Vec<f64> {
+        let c = build_cells(t);
+        let r = t.tagging.room_by_name(&t.rules, room).unwrap();
+        c.room_cells[r]
+            .iter()
+            .map(|&i| {
+                let plan: Vec<(f64, f64)> = c.cells[i]
+                    .poly
+                    .vertices(1e-9)
+                    .iter()
+                    .map(|v| (v.x, v.z))
+                    .collect();
+                c.cells[i].volume / hull_area(plan)
+            })
+            .collect()
+    };
+    let before = heights(&mut base.clone(), "cell4");
+    assert!(before.iter().all(|h| (h - 1.25).abs() > 1e-6), "{before:?}");
+    let cell4 = node(&base, "cell4");
+    let mut set = retag(&base, Some("panda3d"), |s| {
+        s.nodes[cell4].extras = Some(json!({"footprint_height": 1.25}));
+    });
+    let after = heights(&mut set, "cell4");
+    assert!(!after.is_empty());
+    for h in after {
+        assert!((h - 1.25).abs() < 1e-6, "{h}");
+    }
+
+    let bad = retag(&base, Some("panda3d"), |s| {
+        s.nodes[cell4].extras = Some(json!({"footprint_height": -1, "priority": 1.5}));
+    });
+    let invalid: Vec<&str> = bad
+        .diagnostics
+        .iter()
+        .filter(|d| d.code == Code::TAG_EXTRAS_INVALID)
+        .map(|d| d.message.as_str())
+        .collect();
+    assert_eq!(invalid.len(), 2, "{invalid:?}");
+    assert!(invalid[0].contains("priority") && invalid[1].contains("footprint_height"));
+
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "typed.gltf",
+        &gltf(&[
+            n(" kitchen-room", None, false),
+            n("Floor", Some(0), true),
+            n("Shelf", Some(0), true).extras(json!({"room": 5})),
+            n("Lamp", Some(0), true).extras(json!({"detail": 1})),
+        ]),
+    );
+    let t = load(&p, None);
+    assert_eq!(room_names(&t), BTreeSet::from(["kitchen".to_string()]));
+    let invalid: Vec<_> = t
+        .diagnostics
+        .iter()
+        .filter(|d| d.code == Code::TAG_EXTRAS_INVALID)
+        .collect();
+    assert_eq!(invalid.len(), 1, "{:?}", t.diagnostics);
+    assert!(
+        invalid[0].message.contains("`room`"),
+        "{}",
+        invalid[0].message
+    );
+    assert_eq!(t.tagging.rooms[0].detail.len(), 1);
+}
+
+/// The area of the convex hull of plan points (monotone chain, shoelace).
+fn hull_area(mut pts: Vec<(f64, f64)>) -> f64 {
+    pts.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    pts.dedup();
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
+        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+    };
+    let mut hull: Vec<(f64, f64)> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let it: Box<dyn Iterator<Item = &(f64, f64)>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in it {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    let n = hull.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (hull[i], hull[(i + 1) % n]);
+            a.0 * b.1 - b.0 * a.1
+        })
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}

@@ -38,6 +38,64 @@ fn node_in_cell(tris: &[[DVec3; 3]], cell: &ConvexPolyhedron, eps: f64) -> bool 
     })
 }
 
+/// A room's structure lying farther than `reach` (the thickest wall) from every cell of its
+/// room is not the room's shell but something misplaced (a crate left 30 m away under the
+/// room's node): it is taken off the cells that rendered it by default and reported as
+/// geometry in no cell, as a prop there would be.
+pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, reach: f64) {
+    let eps = set.tolerance.distance;
+    let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();
+    let mut far: Vec<NodeId> = Vec::new();
+    for (ri, room) in tagging.rooms.iter().enumerate() {
+        let mine = &set.room_cells[ri];
+        if mine.is_empty() {
+            continue;
+        }
+        for &n in room.structure.iter().filter(|n| !props.contains(n)) {
+            let mut b = crate::geom::aabb::Aabb::EMPTY;
+            scene.world_positions_used_iter(n).for_each(|p| b.add(p));
+            if b.is_empty() {
+                continue;
+            }
+            let near = mine.iter().any(|&c| {
+                let cb = &set.cells[c].bounds;
+                let grow = reach + eps;
+                (b.min - grow).cmple(cb.max).all() && (b.max + grow).cmpge(cb.min).all()
+            });
+            if !near {
+                far.push(n);
+            }
+        }
+    }
+    if far.is_empty() {
+        return;
+    }
+    for c in &mut set.cells {
+        c.nodes.retain(|n| !far.contains(n));
+    }
+    far.sort_unstable();
+    set.diagnostics
+        .extend(far.into_iter().map(|n| outside_diagnostic(scene, n)));
+}
+
+/// `CELL_GEOMETRY_OUTSIDE` for node `n`, placed at the middle of its box.
+fn outside_diagnostic(scene: &Scene, n: NodeId) -> Diagnostic {
+    let pts = scene.world_positions_used(n);
+    let b = crate::geom::aabb::Aabb::from_points(pts.iter());
+    Diagnostic::new(
+        Code::CELL_GEOMETRY_OUTSIDE,
+        format!(
+            "`{}` lies in no cell, so no cell renders it",
+            scene.node_label(n)
+        ),
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n))
+            .with_position(((b.min + b.max) * 0.5).to_array()),
+    )
+    .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
+}
+
 /// Per cell, the nodes it renders (ascending), and a diagnostic for each node in no cell.
 /// Rooms are placed in parallel and their findings joined in room order, so the result does
 /// not depend on the thread count.
@@ -47,11 +105,6 @@ pub(crate) fn find(
     set: &CellSet,
 ) -> (Vec<Vec<NodeId>>, Vec<Diagnostic>) {
     let eps = set.tolerance.distance;
-    let loc = |n: NodeId| {
-        Location::file(&scene.path)
-            .with_source(scene.nodes[n].source.clone())
-            .with_node(scene.node_path(n))
-    };
     let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
         prefer
             .iter()
@@ -136,16 +189,7 @@ pub(crate) fn find(
     outside.extend(loose.1);
     let diagnostics = outside
         .into_iter()
-        .map(|n| {
-            let pts = scene.world_positions_used(n);
-            let b = crate::geom::aabb::Aabb::from_points(pts.iter());
-            Diagnostic::new(
-                Code::CELL_GEOMETRY_OUTSIDE,
-                format!("`{}` lies in no cell, so no cell renders it", scene.node_label(n)),
-                loc(n).with_position(((b.min + b.max) * 0.5).to_array()),
-            )
-            .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
-        })
+        .map(|n| outside_diagnostic(scene, n))
         .collect();
     for l in &mut lists {
         l.sort_unstable();

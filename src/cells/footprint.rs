@@ -119,8 +119,8 @@ impl<'a> Context<'a> {
         mesh.cast_local_ray(&ray, f64::MAX, false)
     }
 
-    fn height_at(&self, p: DVec3) -> Option<f64> {
-        if let Some(h) = self.cfg.footprint_height {
+    fn height_at(&self, p: DVec3, fixed: Option<f64>) -> Option<f64> {
+        if let Some(h) = fixed.or(self.cfg.footprint_height) {
             return Some(h);
         }
         // The ray starts a little above the footprint, so the footprint's own floor is not
@@ -137,8 +137,13 @@ impl<'a> Context<'a> {
         }
     }
 
-    /// The cells of one footprint node.
-    pub fn extrude(&self, node: NodeId) -> Result<Vec<ConvexPolyhedron>, String> {
+    /// The cells of one footprint node; `fixed` is its height from extras
+    /// (`footprint_height`), before the configuration's and the geometry above.
+    pub fn extrude(
+        &self,
+        node: NodeId,
+        fixed: Option<f64>,
+    ) -> Result<Vec<ConvexPolyhedron>, String> {
         let tris = canonical_triangles(self.scene, &[node], self.origin);
         // Group the triangles by plane (normals made to face up).
         let mut groups: Vec<(Plane, Vec<[DVec2; 3]>)> = Vec::new();
@@ -176,12 +181,12 @@ impl<'a> Context<'a> {
             };
             for piece in plan_pieces(flat, self.eps)? {
                 let centre = piece.iter().copied().sum::<DVec2>() / piece.len() as f64;
-                let centre_h = self.height_at(lift(centre)).unwrap_or(self.storey);
+                let centre_h = self.height_at(lift(centre), fixed).unwrap_or(self.storey);
                 let mut pts = Vec::with_capacity(piece.len() * 2);
                 for q in &piece {
                     let bottom = lift(*q);
                     let probe = lift(*q + (centre - *q) * 0.02);
-                    let h = self.height_at(probe).unwrap_or(centre_h);
+                    let h = self.height_at(probe, fixed).unwrap_or(centre_h);
                     pts.push(bottom);
                     pts.push(bottom + self.frame.up * h);
                 }
@@ -200,4 +205,13 @@ impl<'a> Context<'a> {
         }
         Ok(out)
     }
+}
+
+/// The extrusion height designers set in extras (`footprint_height`), on the footprint itself
+/// or else on its room's node; only a positive number counts (the tags stage reports others).
+pub(crate) fn extras_height(scene: &Scene, nodes: &[NodeId]) -> Option<f64> {
+    nodes.iter().find_map(|&n| {
+        crate::tags::extras::read_number(scene.nodes[n].extras.as_ref(), "footprint_height")
+            .filter(|h| *h > 0.0)
+    })
 }

@@ -35,6 +35,7 @@ use crate::tags::rules::VolumeHint;
 use crate::tags::{RoomId, Tagging};
 
 mod assign;
+pub use assign::drop_far_structure;
 mod footprint;
 mod interior;
 mod overlap;
@@ -333,7 +334,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
             }
         } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
             for &f in &room.footprints {
-                match ctx.extrude(f) {
+                match ctx.extrude(f, footprint::extras_height(scene, &[f, room.node])) {
                     Ok(ps) => polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint))),
                     Err(msg) => diags.push(
                         Diagnostic::new(
@@ -382,7 +383,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
                         .hint("tag the floor as a footprint (extras `\"footprint\"`, or --tags panda3d for cellN) to say so"),
                     );
                     for &f in &structure {
-                        match ctx.extrude(f) {
+                        match ctx.extrude(f, footprint::extras_height(scene, &[f, room.node])) {
                             Ok(ps) => {
                                 polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint)))
                             }

@@ -88,6 +88,7 @@ codes! {
     TAG_EXTRAS_INVALID = Warning, "a tag key in extras has a value of the wrong type";
     TAG_TELEPORT_EXIT_UNKNOWN = Error, "a teleporter portal names an exit node that does not exist";
     TAG_NO_ROOMS = Info, "no room was recognised; the whole level is one space";
+    TAGS_PRESET_SUGGESTED = Warning, "most nodes follow the conventions of a built-in tag preset that is not active";
 
     // --- cells ---
     TOLERANCE_CAPPED = Warning, "the input's precision is coarser than the largest tolerance allowed";

@@ -333,6 +333,7 @@ impl<'a> Cells<'a> {
         let v3 = |v: glam::DVec3| [Num(v.x), Num(v.y), Num(v.z)];
         CellJson {
             room: &self.tagging.rooms[c.room].name,
+            priority: self.tagging.rooms[c.room].priority,
             planes: Seq::new(planes),
             min: v3(c.bounds.min),
             max: v3(c.bounds.max),
@@ -349,6 +350,8 @@ impl Serialize for Cells<'_> {
 
 struct CellJson<'a, P> {
     room: &'a str,
+    /// The room's priority where rooms nest; 0, the default, is left out.
+    priority: i64,
     planes: Seq<P>,
     min: [Num; 3],
     max: [Num; 3],
@@ -359,6 +362,9 @@ impl<P: Iterator<Item = [Num; 4]>> Serialize for CellJson<'_, P> {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let mut o = s.serialize_map(None)?;
         o.serialize_entry("room", self.room)?;
+        if self.priority != 0 {
+            o.serialize_entry("priority", &self.priority)?;
+        }
         o.serialize_entry("planes", &self.planes)?;
         o.serialize_entry(
             "bounds",

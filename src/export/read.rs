@@ -42,6 +42,9 @@ pub struct Bounds {
 #[serde(deny_unknown_fields)]
 pub struct CellRecord {
     pub room: String,
+    /// Where rooms nest, the higher wins a point both hold (absent: 0).
+    #[serde(default)]
+    pub priority: i64,
     pub planes: Vec<[f64; 4]>,
     pub bounds: Bounds,
     #[serde(default)]

@@ -162,8 +162,8 @@ impl Level {
     }
 
     /// The cell holding `p`. `hint` (last frame's cell) is tried first and wins ties on a
-    /// boundary. Where cells overlap (a nested room inside another), the smallest cell holding
-    /// the point wins: the inner room.
+    /// boundary. Where cells overlap (a nested room inside another), the cell of the highest
+    /// room priority holding the point wins, then the smallest: the inner room.
     pub fn locate(&self, p: DVec3, hint: Option<usize>) -> Location {
         let tol = self.tolerance;
         let hint = hint.filter(|&h| h < self.cells.len());
@@ -180,8 +180,9 @@ impl Level {
                 let m = self.margin(c, p);
                 if m > tol {
                     let smaller = inside.is_none_or(|b| {
+                        let (pc, pb) = (self.cells[c].priority, self.cells[b].priority);
                         let (vc, vb) = (self.cells[c].volume, self.cells[b].volume);
-                        vc < vb || (vc == vb && c < b)
+                        pc > pb || (pc == pb && (vc < vb || (vc == vb && c < b)))
                     });
                     if smaller {
                         inside = Some(c);

@@ -82,6 +82,8 @@ struct Cell {
     /// Cells with overlapping bounds (nested rooms) are not accepted from a hint alone.
     overlapped: bool,
     volume: f64,
+    /// The room's priority: where cells overlap, the highest holds the point.
+    priority: i64,
 }
 
 struct Face {
@@ -220,6 +222,7 @@ impl Level {
                 max,
                 overlapped: false,
                 volume: volume.abs(),
+                priority: c.priority,
             });
         }
         let cells = level.cells.len();

@@ -42,7 +42,15 @@ fn classify(v: &Value) -> ExtrasValue {
     match v {
         Value::Null => ExtrasValue::Off,
         Value::Bool(b) => flag(*b),
-        Value::Number(n) => flag(n.as_f64().is_some_and(|x| x != 0.0)),
+        // 1 and 0 are flags (Panda3D's egg scalars write `portal=1`); any other number is
+        // neither a flag nor a name (`"room": 5` is a slip for `"room": "5"` or true).
+        Value::Number(n) => match n.as_f64() {
+            Some(1.0) => ExtrasValue::On,
+            Some(0.0) => ExtrasValue::Off,
+            _ => ExtrasValue::Invalid(format!(
+                "expected a name (a string) or a flag (true, false, 1, 0), found {v}"
+            )),
+        },
         Value::String(s) => {
             let t = s.trim();
             match t.to_ascii_lowercase().as_str() {
@@ -51,9 +59,22 @@ fn classify(v: &Value) -> ExtrasValue {
                 _ => ExtrasValue::Named(t.to_string()),
             }
         }
-        Value::Array(_) | Value::Object(_) => {
-            ExtrasValue::Invalid(format!("expected a string or a boolean, found {v}"))
-        }
+        Value::Array(_) | Value::Object(_) => ExtrasValue::Invalid(format!(
+            "expected a name (a string) or a flag (true, false, 1, 0), found {v}"
+        )),
+    }
+}
+
+/// An identifier written into a rule's room template (`sector_${value}` of Doom's
+/// `"doom_sector": 12`): a whole number or a non-empty string.
+pub fn read_id(extras: Option<&Value>, key: &str) -> Result<Option<String>, String> {
+    match extras.and_then(|e| lookup(e, key)) {
+        None | Some(Value::Null) => Ok(None),
+        Some(Value::Number(n)) if n.is_i64() || n.is_u64() => Ok(Some(n.to_string())),
+        Some(Value::String(s)) if !s.trim().is_empty() => Ok(Some(s.trim().to_string())),
+        Some(v) => Err(format!(
+            "expected an identifier (a whole number or a string), found {v}"
+        )),
     }
 }
 
@@ -92,6 +113,50 @@ pub fn read_number(extras: Option<&Value>, key: &str) -> Option<f64> {
     .filter(|x: &f64| x.is_finite())
 }
 
+/// The attribute keys whose values have a type of their own, with what each value must be:
+/// a value of another type is reported (`TAG_EXTRAS_INVALID`) rather than quietly read as
+/// something else.
+pub fn attribute_problems(extras: Option<&Value>) -> Vec<(&'static str, String)> {
+    let mut out = Vec::new();
+    let Some(e) = extras else { return out };
+    for key in ["priority", "footprint_height"] {
+        let Some(v) = lookup(e, key) else { continue };
+        match (key, read_number(extras, key)) {
+            ("priority", Some(p)) if p.fract() == 0.0 => {}
+            ("footprint_height", Some(h)) if h > 0.0 => {}
+            _ => out.push((
+                key,
+                format!(
+                    "expected {}, found {v}",
+                    if key == "priority" {
+                        "a whole number"
+                    } else {
+                        "a positive number (a height in the level's units)"
+                    }
+                ),
+            )),
+        }
+    }
+    for key in ["one_way", "closed"] {
+        if let Some(v) = lookup(e, key) {
+            if !matches!(classify(v), ExtrasValue::On | ExtrasValue::Off) {
+                out.push((
+                    key,
+                    format!("expected a flag (true, false, 1, 0), found {v}"),
+                ));
+            }
+        }
+    }
+    for key in ["source_room", "teleport_exit"] {
+        if let Some(v) = lookup(e, key) {
+            if !matches!(v, Value::String(s) if !s.trim().is_empty()) {
+                out.push((key, format!("expected a name (a string), found {v}")));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,6 +169,23 @@ mod tests {
         assert_eq!(read(Some(&e), "a"), ExtrasValue::On);
         assert_eq!(read(Some(&e), "b"), ExtrasValue::Named("kitchen".into()));
         assert_eq!(read(Some(&e), "c"), ExtrasValue::Off);
+        let odd = json!({"room": 5, "id": 12, "name": " a "});
+        assert!(matches!(read(Some(&odd), "room"), ExtrasValue::Invalid(_)));
+        assert_eq!(read_id(Some(&odd), "id"), Ok(Some("12".into())));
+        assert_eq!(read_id(Some(&odd), "name"), Ok(Some("a".into())));
+        assert!(read_id(Some(&e), "e").is_err());
+        let typed = json!({"priority": "high", "footprint_height": -2, "closed": "maybe",
+                           "source_room": 3, "one_way": 1});
+        let keys: Vec<&str> = attribute_problems(Some(&typed))
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        assert_eq!(
+            keys,
+            ["priority", "footprint_height", "closed", "source_room"]
+        );
+        let fine = json!({"priority": 2, "footprint_height": "2.5", "closed": "yes"});
+        assert!(attribute_problems(Some(&fine)).is_empty());
         assert_eq!(read(Some(&e), "d"), ExtrasValue::On);
         assert!(matches!(read(Some(&e), "e"), ExtrasValue::Invalid(_)));
         assert_eq!(read(Some(&e), "egg_scalars.portal"), ExtrasValue::On);

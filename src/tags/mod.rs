@@ -21,6 +21,7 @@ pub mod extras;
 pub mod near_miss;
 pub mod presets;
 pub mod rules;
+mod suggest;
 
 use extras::ExtrasValue;
 use rules::{MatchOn, PortalKind, RuleMatch, RuleSet, TagKind, VolumeHint};
@@ -460,7 +461,10 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
     }
     // An empty scene is reported by the importer; "no rooms" would only repeat it.
     let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
-    if t.rooms.is_empty() && has_triangles {
+    let tagged = order.iter().filter(|&&n| classes[n].is_some()).count();
+    let suggested = suggest::suggest_preset(scene, rules, &order, tagged);
+    // A suggested preset says more than "no room": it says which rules find them.
+    if t.rooms.is_empty() && has_triangles && suggested.is_none() {
         diags.push(
             Diagnostic::new(
                 Code::TAG_NO_ROOMS,
@@ -470,6 +474,7 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
             .hint("tag rooms (e.g. `kitchen-room`, `room_kitchen`, extras `\"room\": \"kitchen\"`) or choose a preset with --tags"),
         );
     }
+    diags.extend(suggested);
     t.diagnostics = diags;
     t
 }
@@ -546,7 +551,16 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
             continue;
         }
         let key = r.spec.key.as_deref().unwrap_or_default();
-        let named = match extras::read(node.extras.as_ref(), key) {
+        // A rule with a room template reads its key as an identifier for the template.
+        let value = match &r.spec.room {
+            Some(template) => match extras::read_id(node.extras.as_ref(), key) {
+                Ok(None) => ExtrasValue::Off,
+                Ok(Some(id)) => ExtrasValue::Named(template.replace("${value}", &id)),
+                Err(why) => ExtrasValue::Invalid(why),
+            },
+            None => extras::read(node.extras.as_ref(), key),
+        };
+        let named = match value {
             ExtrasValue::Off => continue,
             ExtrasValue::On => None,
             ExtrasValue::Named(s) => Some(s),
@@ -559,7 +573,7 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
                             .with_source(node.source.clone())
                             .with_node(scene.node_path(n)),
                     )
-                    .hint("use a string (a room name) or true"),
+                    .hint("write a name in quotes (`\"kitchen\"`), or true for a flag"),
                 );
                 continue;
             }
@@ -574,6 +588,18 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
             m.room = named;
         }
         found.push((r.spec.kind, m));
+    }
+    for (key, why) in extras::attribute_problems(node.extras.as_ref()) {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_EXTRAS_INVALID,
+                format!("extras key `{key}` of `{}`: {why}", scene.node_label(n)),
+                Location::file(&scene.path)
+                    .with_source(node.source.clone())
+                    .with_node(scene.node_path(n)),
+            )
+            .hint("see schemas/tags.schema.json for each key's type"),
+        );
     }
     if let Some(name) = node.name.as_deref() {
         if let Some(m) = rules.match_text(MatchOn::Name, name) {
@@ -763,25 +789,10 @@ fn make_portal(
 fn closest<'a>(candidates: impl Iterator<Item = &'a str>, name: &str) -> Option<&'a str> {
     let lname = name.to_lowercase();
     candidates
-        .map(|c| (edit_distance(&c.to_lowercase(), &lname), c))
+        .map(|c| (strsim::levenshtein(&c.to_lowercase(), &lname), c))
         .filter(|(d, c)| *d <= (c.len().max(name.len()) / 3).max(2))
         .min_by_key(|(d, _)| *d)
         .map(|(_, c)| c)
-}
-
-fn edit_distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut cur = vec![i + 1; b.len() + 1];
-        for (j, cb) in b.iter().enumerate() {
-            cur[j + 1] = (prev[j] + usize::from(ca != *cb))
-                .min(prev[j + 1] + 1)
-                .min(cur[j] + 1);
-        }
-        prev = cur;
-    }
-    prev[b.len()]
 }
 
 #[cfg(test)]
@@ -789,9 +800,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn edit_distance_and_closest() {
-        assert_eq!(edit_distance("kitchen", "kitchen"), 0);
-        assert_eq!(edit_distance("kitchen", "kitchn"), 1);
+    fn closest_names() {
         assert_eq!(
             closest(["lounge", "kitchen"].into_iter(), "lounges"),
             Some("lounge")

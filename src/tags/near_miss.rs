@@ -4,9 +4,10 @@
 //! `Kitchen_Room ` is simply not a room, and nobody says so). A name is a near miss when a
 //! small, typical slip (stray whitespace, Blender's `.001` duplicate suffix, the wrong
 //! separator, the wrong case) is all that stands between it and a rule; the fix is then that
-//! corrected name, which we can show.
+//! corrected name, which we can show. A misspelt tag word (`lounge-rooom`, `Kitchen_rom`) is
+//! found by its edit distance to the literal prefixes and suffixes of the name rules.
 
-use super::rules::{MatchOn, RuleSet};
+use super::rules::{numbered_duplicate_stem, MatchOn, Rule, RuleSet};
 
 /// A rule the name almost matched, and the name that would match it.
 #[derive(Debug, Clone)]
@@ -68,24 +69,126 @@ fn variants(name: &str) -> Vec<(String, &'static str)> {
 
 /// `Room.001` -> `Room`; `Room.12` stays (only Blender's three-digit form).
 fn strip_duplicate_suffix(s: &str) -> String {
-    if let Some(dot) = s.rfind('.') {
-        let tail = &s[dot + 1..];
-        if tail.len() >= 3 && tail.chars().all(|c| c.is_ascii_digit()) {
-            return s[..dot].to_string();
+    numbered_duplicate_stem(s).unwrap_or(s).to_string()
+}
+
+/// A literal word a name rule requires at one end of a name, next to a separator: `room` of
+/// `NAME-room` (a suffix after `-`), `portal` of `portal_TARGET` (a prefix before `_`).
+#[derive(Debug, Clone)]
+pub struct Affix {
+    pub rule: usize,
+    /// Lower case, without the separator.
+    pub word: String,
+    pub separator: char,
+    pub prefix: bool,
+}
+
+/// The affixes of every name rule, read from its pattern's literal prefix and suffix.
+pub fn affixes(rules: &[Rule]) -> Vec<Affix> {
+    use regex_syntax::hir::literal::{ExtractKind, Extractor};
+    let mut out = Vec::new();
+    for (i, r) in rules.iter().enumerate() {
+        let (MatchOn::Name, Some(pattern)) = (r.spec.on, r.spec.pattern.as_deref()) else {
+            continue;
+        };
+        let Ok(hir) = regex_syntax::parse(pattern) else {
+            continue;
+        };
+        for prefix in [true, false] {
+            let kind = if prefix {
+                ExtractKind::Prefix
+            } else {
+                ExtractKind::Suffix
+            };
+            let seq = Extractor::new().kind(kind).extract(&hir);
+            // One literal, longer than a separator: what a name must start or end with.
+            let Some([lit]) = seq.literals() else {
+                continue;
+            };
+            let Ok(text) = std::str::from_utf8(lit.as_bytes()) else {
+                continue;
+            };
+            let text = text.to_lowercase();
+            let split = if prefix {
+                text.strip_suffix(SEPARATORS)
+                    .map(|w| (w, text.chars().last()))
+            } else {
+                text.strip_prefix(SEPARATORS)
+                    .map(|w| (w, text.chars().next()))
+            };
+            if let Some((word, Some(separator))) = split {
+                if word.chars().count() >= 3 && !word.contains(SEPARATORS) {
+                    out.push(Affix {
+                        rule: i,
+                        word: word.to_string(),
+                        separator,
+                        prefix,
+                    });
+                }
+            }
         }
     }
-    s.to_string()
+    out
+}
+
+/// A name whose first or last word is a rule's affix misspelt (within one edit, two for
+/// words of seven letters or more, the first letter right, case ignored), with the name that
+/// rule accepts.
+fn misspelt_affix(rules: &RuleSet, name: &str) -> Option<Miss> {
+    let name = strip_duplicate_suffix(name.trim());
+    let lower = name.to_lowercase();
+    for a in &rules.affixes {
+        // The word at the affix's end of the name, and the rest.
+        let cut = if a.prefix {
+            lower.find(SEPARATORS)
+        } else {
+            lower.rfind(SEPARATORS)
+        };
+        let Some(cut) = cut else { continue };
+        let (word, rest) = if a.prefix {
+            (&lower[..cut], &name[cut + 1..])
+        } else {
+            (&lower[cut + 1..], &name[..cut])
+        };
+        // A slip keeps the word's first letter: `Broom_cupboard` is not `room_cupboard`.
+        if rest.is_empty() || word == a.word || word.chars().next() != a.word.chars().next() {
+            continue;
+        }
+        let allowed = if a.word.chars().count() >= 7 { 2 } else { 1 };
+        if strsim::damerau_levenshtein(word, &a.word) > allowed {
+            continue;
+        }
+        let suggestion = if a.prefix {
+            format!("{}{}{rest}", a.word, a.separator)
+        } else {
+            format!("{rest}{}{}", a.separator, a.word)
+        };
+        if let Some(m) = rules
+            .match_text(MatchOn::Name, &suggestion)
+            .filter(|m| m.rule == a.rule)
+        {
+            return Some(Miss {
+                rule: m.rule,
+                suggestion,
+                slip: "a misspelt tag word",
+            });
+        }
+    }
+    None
 }
 
 /// The rule `name` narrowly misses, if any. Call only for names no rule accepts.
 pub fn check(rules: &RuleSet, name: &str) -> Option<Miss> {
-    variants(name).into_iter().find_map(|(v, slip)| {
-        rules.match_text(MatchOn::Name, &v).map(|m| Miss {
-            rule: m.rule,
-            suggestion: v,
-            slip,
+    variants(name)
+        .into_iter()
+        .find_map(|(v, slip)| {
+            rules.match_text(MatchOn::Name, &v).map(|m| Miss {
+                rule: m.rule,
+                suggestion: v,
+                slip,
+            })
         })
-    })
+        .or_else(|| misspelt_affix(rules, name))
 }
 
 #[cfg(test)]
@@ -111,6 +214,42 @@ mod tests {
     }
 
     #[test]
+    fn misspelt_tag_words_are_caught_by_edit_distance() {
+        let r = default_rules();
+        for (name, rule, fix) in [
+            ("lounge-rooom", "godot.room", "lounge-room"),
+            ("Kitchen_rom", "godot.room", "Kitchen-room"),
+            ("Kitchen-Rom", "godot.room", "Kitchen-room"),
+            ("hall-protal", "godot.portal", "hall-portal"),
+            ("rom_kitchen", "lportal.room", "room_kitchen"),
+            ("outside-roomgrup", "godot.roomgroup", "outside-roomgroup"),
+            ("kitchen-rooms", "godot.room", "kitchen-room"),
+        ] {
+            let m = check(&r, name).unwrap_or_else(|| panic!("{name}: no near miss"));
+            assert_eq!(r.rules[m.rule].spec.id, rule, "{name}");
+            assert_eq!(m.suggestion, fix, "{name}");
+        }
+    }
+
+    #[test]
+    fn every_name_rule_of_the_presets_has_its_affix() {
+        let r = default_rules();
+        let words: Vec<(&str, bool)> = r
+            .affixes
+            .iter()
+            .map(|a| (a.word.as_str(), a.prefix))
+            .collect();
+        for w in [
+            ("room", false),
+            ("portal", false),
+            ("room", true),
+            ("bound", true),
+        ] {
+            assert!(words.contains(&w), "{w:?} missing from {words:?}");
+        }
+    }
+
+    #[test]
     fn ordinary_names_are_not_near_misses() {
         let r = default_rules();
         for n in [
@@ -123,9 +262,31 @@ mod tests {
             "Bathroom_tiles",
             "levelgeo",
             "Spotlight",
+            "Door_frame",
+            "Bedroom",
+            "Wall_Door_Centre.001",
+            "Floor_tiles",
+            "Mushroom",
+            "Broom_cupboard",
+            "Store-broom",
         ] {
             assert!(check(&r, n).is_none(), "{n} flagged");
         }
+    }
+
+    #[test]
+    fn numbered_duplicates_are_tags_not_near_misses() {
+        let r = default_rules();
+        for name in ["kitchen-room.001", "lounge-portal.002"] {
+            assert!(r.match_text(MatchOn::Name, name).is_some(), "{name}");
+        }
+        for material in ["portal.001", "textures/editor/visportal", "nodraw.003"] {
+            assert!(
+                r.match_text(MatchOn::Material, material).is_some(),
+                "{material}"
+            );
+        }
+        assert!(r.match_text(MatchOn::Name, "kitchen-room.5").is_none());
     }
 
     #[test]

@@ -6,6 +6,7 @@ use super::rules::{RuleSet, RuleSetSpec};
 /// (name, TOML text) of every preset.
 pub const PRESETS: &[(&str, &str)] = &[
     ("default", include_str!("presets/default.toml")),
+    ("doom", include_str!("presets/doom.toml")),
     ("godot", include_str!("presets/godot.toml")),
     ("lportal", include_str!("presets/lportal.toml")),
     ("panda3d", include_str!("presets/panda3d.toml")),

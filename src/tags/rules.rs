@@ -113,7 +113,9 @@ pub struct RuleSpec {
     /// Extras key for `on = "extras"`; dots descend into objects (`egg_scalars.portal`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub key: Option<String>,
-    /// Template for the room this rule names (rooms, bounds, footprints), e.g. `cell${name}`.
+    /// Template for the room this rule names (rooms, bounds, footprints), e.g. `cell${name}`;
+    /// for an extras rule, `${value}` is the key's value read as an identifier
+    /// (`sector_${value}`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub room: Option<String>,
     /// Template for a portal's source room (else the room the portal sits in).
@@ -175,6 +177,8 @@ pub struct RuleSet {
     pub case_sensitive: bool,
     pub wildcard: Option<char>,
     pub rules: Vec<Rule>,
+    /// The literal prefixes and suffixes of the name rules, for near misses.
+    pub affixes: Vec<super::near_miss::Affix>,
 }
 
 /// The parts a rule pulled out of a name or extras value.
@@ -184,6 +188,14 @@ pub struct RuleMatch {
     pub room: Option<String>,
     pub source: Option<String>,
     pub target: Option<String>,
+}
+
+/// `NAME` of `NAME.001`: a name ending in a dot and three or more digits, as Blender numbers a
+/// duplicate (`Room.12` is a name of its own).
+pub fn numbered_duplicate_stem(text: &str) -> Option<&str> {
+    let (stem, digits) = text.rsplit_once('.')?;
+    (!stem.is_empty() && digits.len() >= 3 && digits.bytes().all(|b| b.is_ascii_digit()))
+        .then_some(stem)
 }
 
 impl RuleSet {
@@ -230,11 +242,13 @@ impl RuleSet {
                 regex,
             });
         }
+        let affixes = super::near_miss::affixes(&rules);
         Ok(RuleSet {
             name: spec.name.clone(),
             case_sensitive: spec.case_sensitive,
             wildcard: spec.wildcard,
             rules,
+            affixes,
         })
     }
 
@@ -254,8 +268,17 @@ impl RuleSet {
         }
     }
 
-    /// The first rule of `on` that accepts `text`, with its captures expanded.
+    /// The first rule of `on` that accepts `text`, with its captures expanded. A name no rule
+    /// accepts is tried again without a DCC's numbered-duplicate suffix (`portal.001`, as
+    /// Blender names a copy), so copies keep the original's tag.
     pub fn match_text(&self, on: MatchOn, text: &str) -> Option<RuleMatch> {
+        self.match_exactly(on, text).or_else(|| {
+            let stem = numbered_duplicate_stem(text)?;
+            self.match_exactly(on, stem)
+        })
+    }
+
+    fn match_exactly(&self, on: MatchOn, text: &str) -> Option<RuleMatch> {
         let text = self.strip_wildcard(text);
         self.rules
             .iter()
@@ -278,6 +301,8 @@ impl RuleSet {
                         }
                         None => get(group),
                     }
+                    // A DCC keeps stray spaces in names; a room is not named by them.
+                    .map(|s| s.trim().to_string())
                     .filter(|s| !s.is_empty())
                 };
                 Some(RuleMatch {
