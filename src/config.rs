@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::diag::{Code, Diagnostic, Location};
 use crate::schema::{self, Schema};
@@ -45,7 +45,7 @@ pub struct TagsConfig {
 }
 
 /// `[cells]`: how rooms become convex cells.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CellsConfig {
     /// A cell with more planes than this is reported (engines test every plane per frame).
@@ -92,7 +92,7 @@ impl Default for CellsConfig {
 }
 
 /// `[portals]`: how openings become portals.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PortalsConfig {
     /// Parallel cell faces facing each other at most this far apart (m) are bridged across

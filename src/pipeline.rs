@@ -55,9 +55,26 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
     Ok(tag(imported, config, rules))
 }
 
+/// What of the configuration shapes the result, for the input hash: the rules as compiled
+/// (every spec, case rule, wildcard) and the `[cells]` and `[portals]` sections. `[check]` and
+/// `[vis]` change what is reported or how the PVS is found (the PVS records its method), not
+/// the cells and portals.
+fn settings_bytes(config: &Config, rules: &RuleSet) -> Vec<u8> {
+    let specs: Vec<&crate::tags::rules::RuleSpec> = rules.rules.iter().map(|r| &r.spec).collect();
+    serde_json::to_vec(&serde_json::json!({
+        "rules": specs,
+        "caseSensitive": rules.case_sensitive,
+        "wildcard": rules.wildcard,
+        "cells": config.cells,
+        "portals": config.portals,
+    }))
+    .unwrap_or_default()
+}
+
 /// Tags an imported level with `rules` (library callers that import themselves use this).
 pub fn tag(imported: import::Imported, config: Config, rules: RuleSet) -> Tagged {
-    let tagging = tags::recognise(&imported.scene, &rules);
+    let mut tagging = tags::recognise(&imported.scene, &rules);
+    tagging.settings = settings_bytes(&config, &rules);
     let mut diagnostics = imported.diagnostics;
     diagnostics.extend(tagging.diagnostics.iter().cloned());
     Tagged {
@@ -239,7 +256,8 @@ fn written_hash(
     let dir = out.parent().unwrap_or(Path::new("."));
     let back =
         import::import_bytes(&bytes, out, scene_format, dir, &ImportOptions::default()).ok()?;
-    let tagging = tags::recognise(&back.scene, &tagged.rules);
+    let mut tagging = tags::recognise(&back.scene, &tagged.rules);
+    tagging.settings = tagged.tagging.settings.clone();
     Some(crate::export::extension::input_hash(&back.scene, &tagging))
 }
 

@@ -50,7 +50,7 @@ const NOT_FROM_A_FILE: &[&str] = &[
 /// no-USD code then reads as a room instead.
 fn usd_build() -> bool {
     let (_, r) = check_json(&[broken_dir().join("USD_UNSUPPORTED_BUILD.usda")], &[]);
-    r["files"][0]["failed"] == false
+    r["files"][0]["unprocessed"] == false
 }
 
 /// The code a broken level must report in this build: without USD support every `.usda`
@@ -175,7 +175,7 @@ fn exit_codes_follow_severity() {
         }
         let c = Code::parse(&expected_code(&code, &path, usd)).unwrap();
         let (exit, report) = check_json(std::slice::from_ref(&path), &[]);
-        let failed = report["files"][0]["failed"].as_bool().unwrap();
+        let failed = report["files"][0]["unprocessed"].as_bool().unwrap();
         let expected = if failed {
             2
         } else if c.default_severity() == portcullis::diag::Severity::Error {
@@ -654,4 +654,95 @@ fn a_sealed_level_without_rooms_is_a_leak() {
     // Not sealed: an open level without rooms is fine.
     let (exit, _) = check_json(&[level], &[]);
     assert_eq!(exit, 0);
+}
+
+/// Issue 29, item 11: messages say what they mean. A stored portal turned 45 degrees (parallel
+/// to no face of its cell) is not "inf m" from one; the JSON report calls a file it could not
+/// process `unprocessed`, so a level with errors is never shown beside `"failed": 0`.
+#[test]
+fn messages_say_unbounded_things_in_words_and_json_counts_unprocessed_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("two_rooms.gltf");
+    exe()
+        .args([
+            "convert",
+            common::sample("two_rooms.gltf").to_str().unwrap(),
+            "-o",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let mut doc: Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let portal = &mut doc["extensions"]["PORTCULLIS_portals"]["portals"][0]["polygon"];
+    let pts: Vec<[f64; 3]> = serde_json::from_value(portal.clone()).unwrap();
+    let n = pts.len() as f64;
+    let c = pts.iter().fold([0.0; 3], |a, p| {
+        [a[0] + p[0] / n, a[1] + p[1] / n, a[2] + p[2] / n]
+    });
+    // Turned 45 degrees about the vertical through its middle.
+    let (s, k) = std::f64::consts::FRAC_PI_4.sin_cos();
+    let turned: Vec<[f64; 3]> = pts
+        .iter()
+        .map(|p| {
+            let (x, z) = (p[0] - c[0], p[2] - c[2]);
+            [c[0] + k * x - s * z, p[1], c[2] + s * x + k * z]
+        })
+        .collect();
+    *portal = serde_json::json!(turned);
+    std::fs::write(&out, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let (exit, report) = check_json(std::slice::from_ref(&out), &[]);
+    assert_eq!(exit, 1, "{report:#}");
+    let text = report.to_string();
+    assert!(text.contains("PORTAL_NOT_ON_BOUNDARY"), "{report:#}");
+    assert!(!text.contains("inf m"), "{report:#}");
+    assert!(text.contains("is parallel to it"), "{report:#}");
+    assert!(report["summary"].get("failed").is_none(), "{report:#}");
+    assert_eq!(report["summary"]["unprocessed"], 0);
+    assert!(report["summary"]["errors"].as_u64().unwrap() >= 1);
+    assert_eq!(report["files"][0]["unprocessed"], false);
+    assert!(report["files"][0].get("failed").is_none());
+}
+
+/// Issue 29, item 13: `--shard K/N` splits the inputs into N disjoint slices that cover them
+/// all, the same slices whatever order the inputs are given in.
+#[test]
+fn shards_partition_the_inputs_whatever_their_order() {
+    let mut inputs: Vec<PathBuf> = std::fs::read_dir(root().join("samples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+        .collect();
+    inputs.sort();
+    assert!(inputs.len() >= 10);
+    let files_of = |report: &Value| -> Vec<String> {
+        let mut v: Vec<String> = report["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["file"].as_str().unwrap().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    let slices = |inputs: &[PathBuf]| -> Vec<Vec<String>> {
+        (1..=3)
+            .map(|k| files_of(&check_json(inputs, &["--shard", &format!("{k}/3")]).1))
+            .collect()
+    };
+    let forward = slices(&inputs);
+    let mut backward_inputs = inputs.clone();
+    backward_inputs.reverse();
+    assert_eq!(forward, slices(&backward_inputs));
+    let mut all: Vec<String> = forward.iter().flatten().cloned().collect();
+    all.sort();
+    let mut want: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
+    want.sort();
+    assert_eq!(all, want, "every input in exactly one shard");
+    assert!(forward.iter().all(|s| s.len() >= inputs.len() / 3));
+    let refused = exe()
+        .args(["check", "--shard", "0/3"])
+        .args(&inputs)
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2));
 }

@@ -258,3 +258,41 @@ fn schema_lists_and_prints_the_extension_schema() {
     let o = portcullis().args(["schema", "nope"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// Issue 29, item 10: `inspect` reads the Quake portal files `vis` reads (the counts are the
+/// file's own header: leaves, clusters, portals for PRT2), and under every level it builds it
+/// says that `check` runs more checks than it does.
+#[test]
+fn inspect_reads_portal_files_and_says_it_runs_fewer_checks_than_check() {
+    for name in ["qbspfeatures.prt", "light_general.prt"] {
+        let path = root().join("tests/fixtures/prt").join(name);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let header: Vec<usize> = text
+            .lines()
+            .skip(1)
+            .take(3)
+            .map(|l| l.trim().parse().unwrap())
+            .collect();
+        let (code, v) = inspect_json(&[path.to_str().unwrap()]);
+        assert_eq!(code, 0, "{v:#}");
+        let prt = &v["files"][0]["prt"];
+        assert_eq!(prt["format"], "PRT2");
+        assert_eq!(prt["leaves"], header[0]);
+        assert_eq!(prt["cells"], header[1]);
+        assert_eq!(prt["portals"], header[2]);
+        assert_eq!(v["summary"]["unprocessed"], 0);
+    }
+    let (code, v) = inspect_json(&[sample("two_rooms.gltf").to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(v["files"][0]["checks"]
+        .as_str()
+        .unwrap()
+        .contains("`portcullis check` also checks"));
+    let human = portcullis()
+        .arg("inspect")
+        .arg(sample("two_rooms.gltf"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&human.stdout);
+    assert!(text.contains("note: inspect reports"), "{text}");
+}

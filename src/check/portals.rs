@@ -155,11 +155,19 @@ fn boundary(s: &Subject, i: usize, p: &Portal, plane: &Plane, c: DVec3, out: &mu
     if let Some(from) = poly_of(p.from) {
         let d = outside(from, c);
         if d > reach || !on_face(from, plane, c, reach) {
-            problems.push(format!(
-                "it is {:.3} m from the nearest face of {} that it could lie on",
-                nearest_face(from, plane, c).max(d),
-                s.cell(p.from)
-            ));
+            // No face parallel to it: there is no distance to give ("inf m" said nothing).
+            let near = nearest_face(from, plane, c).max(d);
+            problems.push(if near.is_finite() {
+                format!(
+                    "it is {near:.3} m from the nearest face of {} that it could lie on",
+                    s.cell(p.from)
+                )
+            } else {
+                format!(
+                    "no face of {} is parallel to it, so it lies on none",
+                    s.cell(p.from)
+                )
+            });
         }
     }
     if p.transform.is_none() {

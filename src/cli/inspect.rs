@@ -65,7 +65,80 @@ struct FileReport {
     /// What a stored PORTCULLIS_portals extension says, if the file has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     annotation: Option<AnnotationView>,
+    /// A Quake portal file's graph, for a .prt input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    prt: Option<PrtView>,
+    /// What inspect ran, next to what `check` would (inspect builds; check also judges).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    checks: Option<&'static str>,
     diagnostics: Vec<Diagnostic>,
+}
+
+/// What a Quake portal file holds.
+#[derive(Debug, Serialize)]
+struct PrtView {
+    format: &'static str,
+    cells: usize,
+    leaves: usize,
+    portals: usize,
+    /// Cells no portal touches.
+    isolated: usize,
+}
+
+/// Said under every level inspect builds: it runs the stages, not `check`'s judgements.
+const FEWER_CHECKS: &str = "inspect reports what importing, tagging and building cells and \
+portals found; `portcullis check` also checks portal pairing and shape, transforms, the cell \
+graph, leaks and a stored annotation";
+
+/// The report of a file that could not be read at all.
+fn failed_report(path: &std::path::Path, d: Diagnostic) -> FileReport {
+    FileReport {
+        path: path.to_path_buf(),
+        ok: false,
+        config: None,
+        scene: None,
+        tags: None,
+        cells: None,
+        portals: None,
+        tolerance: None,
+        annotation: None,
+        prt: None,
+        checks: None,
+        diagnostics: vec![d],
+    }
+}
+
+/// A .prt input: its graph, as `vis` reads it.
+fn prt_report(path: &std::path::Path) -> Result<FileReport, Diagnostic> {
+    let (file, diagnostics) = portcullis::prt::read(path)?;
+    let mut touched = vec![false; file.cells];
+    for p in &file.portals {
+        for c in [p.a, p.b] {
+            if let Some(t) = touched.get_mut(c) {
+                *t = true;
+            }
+        }
+    }
+    Ok(FileReport {
+        path: path.to_path_buf(),
+        ok: true,
+        config: None,
+        scene: None,
+        tags: None,
+        cells: None,
+        portals: None,
+        tolerance: None,
+        annotation: None,
+        prt: Some(PrtView {
+            format: file.format.header(),
+            cells: file.cells,
+            leaves: file.leaves,
+            portals: file.portals.len(),
+            isolated: touched.iter().filter(|t| !**t).count(),
+        }),
+        checks: None,
+        diagnostics,
+    })
 }
 
 #[derive(Debug, Serialize)]
@@ -380,6 +453,18 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     let mut reports = Vec::new();
     for path in &a.files {
         totals.files += 1;
+        if portcullis::vis::load::is_prt(path) {
+            let report = prt_report(path).unwrap_or_else(|d| {
+                totals.failed += 1;
+                failed_report(path, d)
+            });
+            totals.add(report.diagnostics.iter());
+            if a.format == Format::Human {
+                print!("{}", render_human(&report, style));
+            }
+            reports.push(report);
+            continue;
+        }
         let reading = super::huge_pages::reading(path);
         let loaded = pipeline::load_tagged(path, &opts);
         drop(reading);
@@ -399,26 +484,17 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     portals: Some(portals_view(&t, &cells, &portals)),
                     tolerance: Some(cells.tolerance.distance),
                     annotation,
+                    prt: None,
+                    checks: Some(FEWER_CHECKS),
                     diagnostics: t.diagnostics.0.clone(),
                 }
             }
             Err(d) => {
                 totals.failed += 1;
-                totals.add([&d]);
-                FileReport {
-                    path: path.clone(),
-                    ok: false,
-                    config: None,
-                    scene: None,
-                    tags: None,
-                    cells: None,
-                    portals: None,
-                    tolerance: None,
-                    annotation: None,
-                    diagnostics: vec![d],
-                }
+                failed_report(path, d)
             }
         };
+        totals.add(report.diagnostics.iter().filter(|_| !report.ok));
         if a.format == Format::Human {
             print!("{}", render_human(&report, style));
         }
@@ -489,6 +565,25 @@ fn fmt3(v: [f64; 3]) -> String {
 fn render_human(r: &FileReport, style: &Style) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "{}", style.bold(&r.path.display().to_string()));
+    if let Some(p) = &r.prt {
+        let _ = writeln!(
+            out,
+            "  portal file ({}): {} cells, {} leaves, {} portals, {} without a portal",
+            p.format,
+            p.cells,
+            p.leaves,
+            p.portals,
+            match p.isolated {
+                1 => "1 cell".to_string(),
+                n => format!("{n} cells"),
+            }
+        );
+        let _ = writeln!(
+            out,
+            "  {}",
+            style.dim("`portcullis vis` computes its PVS; the level it came from is not here")
+        );
+    }
     if let Some(s) = &r.scene {
         let _ = writeln!(
             out,
@@ -717,6 +812,9 @@ fn render_human(r: &FileReport, style: &Style) -> String {
                 let _ = writeln!(out, "  {line}");
             }
         }
+    }
+    if let Some(c) = r.checks {
+        let _ = writeln!(out, "  {}", style.dim(&format!("note: {c}")));
     }
     out
 }

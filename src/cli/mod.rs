@@ -75,7 +75,8 @@ pub enum Format {
 /// Options every level-reading subcommand shares.
 #[derive(Debug, Clone, Args)]
 pub struct LevelArgs {
-    /// Tag preset: default, godot, lportal, panda3d. Wins over the preset in portcullis.toml.
+    /// Tag preset: default, godot, lportal, panda3d, doom. Wins over the preset in
+    /// portcullis.toml.
     #[arg(long = "tags", value_name = "PRESET")]
     pub tags: Option<String>,
 
@@ -91,6 +92,58 @@ pub struct LevelArgs {
     /// project's .venv). Needs a build with `--features usd`.
     #[arg(long, value_name = "DIR")]
     pub python_venv: Option<PathBuf>,
+
+    /// Process only slice K of N of the inputs (1 <= K <= N): the inputs, globs expanded, are
+    /// sorted by path and every Nth from the Kth taken, so N jobs given the same inputs and
+    /// K = 1..N cover each input exactly once, whatever order the shell listed them in.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<Shard>,
+}
+
+/// `--shard K/N`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// 1-based.
+    pub k: usize,
+    pub n: usize,
+}
+
+fn parse_shard(s: &str) -> Result<Shard, String> {
+    let bad = || format!("`{s}` is not K/N with 1 <= K <= N (e.g. 2/8)");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n) = (
+        k.trim().parse::<usize>().map_err(|_| bad())?,
+        n.trim().parse::<usize>().map_err(|_| bad())?,
+    );
+    if k == 0 || n == 0 || k > n {
+        return Err(bad());
+    }
+    Ok(Shard { k, n })
+}
+
+/// The inputs of one shard, in the order given: the inputs ranked by path (ties by position),
+/// and those whose rank is K-1 modulo N kept. Says on stderr how many it kept.
+pub fn shard_inputs(files: Vec<PathBuf>, shard: Option<Shard>) -> Vec<PathBuf> {
+    let Some(s) = shard else { return files };
+    let mut order: Vec<usize> = (0..files.len()).collect();
+    order.sort_by(|&a, &b| {
+        files[a]
+            .as_os_str()
+            .cmp(files[b].as_os_str())
+            .then(a.cmp(&b))
+    });
+    let mut keep = vec![false; files.len()];
+    for (rank, &i) in order.iter().enumerate() {
+        keep[i] = rank % s.n == s.k - 1;
+    }
+    let total = files.len();
+    let kept: Vec<PathBuf> = files
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(f, k)| k.then_some(f))
+        .collect();
+    eprintln!("shard {}/{}: {} of {total} inputs", s.k, s.n, kept.len());
+    kept
 }
 
 impl LevelArgs {
@@ -111,18 +164,18 @@ pub fn run(cli: Cli) -> i32 {
     let style = portcullis::report::style::Style::for_stdout(&cli.color);
     match cli.command {
         Command::Inspect(mut a) => {
-            a.files = expand_inputs(&a.files);
+            a.files = shard_inputs(expand_inputs(&a.files), a.level.shard);
             inspect::run(&a, &style)
         }
         Command::Convert(mut a) => {
-            a.files = expand_inputs(&a.files);
+            a.files = shard_inputs(expand_inputs(&a.files), a.level.shard);
             convert::run(
                 &a,
                 &portcullis::report::style::Style::for_stderr(&cli.color),
             )
         }
         Command::Check(mut a) => {
-            a.files = expand_inputs(&a.files);
+            a.files = shard_inputs(expand_inputs(&a.files), a.level.shard);
             check::run(&a, &style)
         }
         Command::Gen(a) => gen::run(&a),
@@ -133,7 +186,7 @@ pub fn run(cli: Cli) -> i32 {
             &portcullis::report::style::Style::for_stderr(&cli.color),
         ),
         Command::Vis(mut a) => {
-            a.files = expand_inputs(&a.files);
+            a.files = shard_inputs(expand_inputs(&a.files), a.level.shard);
             vis::run(
                 &a,
                 &portcullis::report::style::Style::for_stderr(&cli.color),

@@ -10,6 +10,8 @@ use crate::diag::{Diagnostic, Severity};
 pub struct FileReport {
     pub file: PathBuf,
     /// The file could not be checked at all (unreadable, not a level); its diagnostics say why.
+    /// In JSON `unprocessed`, so a level with errors is not reported `"failed": false`.
+    #[serde(rename = "unprocessed")]
     pub failed: bool,
     /// Checked from its stored PORTCULLIS_portals annotation rather than rebuilt.
     #[serde(skip_serializing_if = "std::ops::Not::not")]

@@ -16,7 +16,9 @@ use crate::diag::{Diagnostic, Severity};
 #[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
 pub struct Totals {
     pub files: usize,
-    /// Files that could not be processed at all.
+    /// Files that could not be processed at all (in JSON `unprocessed`: a `"failed": 0`
+    /// beside a level's errors read as if nothing had failed).
+    #[serde(rename = "unprocessed")]
     pub failed: usize,
     pub errors: usize,
     pub warnings: usize,

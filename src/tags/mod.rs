@@ -123,6 +123,10 @@ pub struct Tagging {
     /// Structural mesh nodes in no room (the cells stage places or reports them).
     pub unassigned: Vec<NodeRef>,
     pub near_misses: Vec<NearMiss>,
+    /// The effective settings that shape the cells and portals (the tag rules, `[cells]`,
+    /// `[portals]`), as the bytes the input hash covers; set by `pipeline::tag`.
+    #[serde(skip)]
+    pub settings: Vec<u8>,
     #[serde(skip)]
     pub diagnostics: Diagnostics,
     /// Rooms by name as the rules compare names (lower case unless case-sensitive), so a level
@@ -207,6 +211,7 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
         player_starts: Vec::new(),
         unassigned: Vec::new(),
         near_misses: Vec::new(),
+        settings: Vec::new(),
         diagnostics: Diagnostics::default(),
         room_index: Default::default(),
     };
