@@ -122,7 +122,7 @@ fn doom_portals_match_the_maps_openings() {
 /// alone. Under the default rules they tag nothing, and the report names the preset.
 #[test]
 fn the_doom_preset_reads_plain_sector_nodes() {
-    use portcullis::pipeline::{build_cells, build_portals, tag};
+    use portcullis::pipeline::{build_cells, build_portals};
     for level in ["E1M2_godot.glb", "MAP01_godot.glb"] {
         let (godot, cells, portals) = load_level(&fixture(level), None);
         let plain = |keep_names: bool, keep_extras: bool, preset: &str| {
@@ -139,13 +139,7 @@ fn the_doom_preset_reads_plain_sector_nodes() {
                     n.extras = None;
                 }
             }
-            let config = portcullis::config::Config::default();
-            let rules = portcullis::config::rule_set(&config, Some(preset)).unwrap();
-            let imported = portcullis::import::Imported {
-                scene,
-                diagnostics: Default::default(),
-            };
-            tag(imported, config, rules)
+            common::tagged_with(scene, Default::default(), Some(preset))
         };
         let rooms = |t: &portcullis::pipeline::Tagged| {
             let mut v: Vec<String> = t.tagging.rooms.iter().map(|r| r.name.clone()).collect();

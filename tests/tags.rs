@@ -490,13 +490,7 @@ fn retag(
 ) -> Tagged {
     let mut scene = t.scene.clone();
     edit(&mut scene);
-    let config = portcullis::config::Config::default();
-    let rules = portcullis::config::rule_set(&config, preset).unwrap();
-    let imported = portcullis::import::Imported {
-        scene,
-        diagnostics: Default::default(),
-    };
-    portcullis::pipeline::tag(imported, config, rules)
+    common::tagged_with(scene, Default::default(), preset)
 }
 
 /// Issue 29, item 7: extras say what the schema documents, or are reported. A footprint's

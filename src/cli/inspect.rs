@@ -92,9 +92,14 @@ graph, leaks and a stored annotation";
 
 /// The report of a file that could not be read at all.
 fn failed_report(path: &std::path::Path, d: Diagnostic) -> FileReport {
+    bare_report(path, false, vec![d])
+}
+
+/// A report with nothing but its diagnostics.
+fn bare_report(path: &std::path::Path, ok: bool, diagnostics: Vec<Diagnostic>) -> FileReport {
     FileReport {
         path: path.to_path_buf(),
-        ok: false,
+        ok,
         config: None,
         scene: None,
         tags: None,
@@ -104,7 +109,7 @@ fn failed_report(path: &std::path::Path, d: Diagnostic) -> FileReport {
         annotation: None,
         prt: None,
         checks: None,
-        diagnostics: vec![d],
+        diagnostics,
     }
 }
 
@@ -120,15 +125,6 @@ fn prt_report(path: &std::path::Path) -> Result<FileReport, Diagnostic> {
         }
     }
     Ok(FileReport {
-        path: path.to_path_buf(),
-        ok: true,
-        config: None,
-        scene: None,
-        tags: None,
-        cells: None,
-        portals: None,
-        tolerance: None,
-        annotation: None,
         prt: Some(PrtView {
             format: file.format.header(),
             cells: file.cells,
@@ -136,8 +132,7 @@ fn prt_report(path: &std::path::Path) -> Result<FileReport, Diagnostic> {
             portals: file.portals.len(),
             isolated: touched.iter().filter(|t| !**t).count(),
         }),
-        checks: None,
-        diagnostics,
+        ..bare_report(path, true, diagnostics)
     })
 }
 

@@ -547,6 +547,17 @@ fn ancestor_room(scene: &Scene, room_of_node: &[Option<RoomId>], n: NodeId) -> O
     None
 }
 
+/// `TAG_EXTRAS_INVALID` for extras key `key` of node `n`, saying `why`.
+fn extras_invalid(scene: &Scene, n: NodeId, key: &str, why: &str) -> Diagnostic {
+    Diagnostic::new(
+        Code::TAG_EXTRAS_INVALID,
+        format!("extras key `{key}` of `{}`: {why}", scene.node_label(n)),
+        Location::file(&scene.path)
+            .with_source(scene.nodes[n].source.clone())
+            .with_node(scene.node_path(n)),
+    )
+}
+
 fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) -> Option<Class> {
     let node = &scene.nodes[n];
     let mut found: Vec<(TagKind, RuleMatch)> = Vec::new();
@@ -571,14 +582,8 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
             ExtrasValue::Named(s) => Some(s),
             ExtrasValue::Invalid(why) => {
                 diags.push(
-                    Diagnostic::new(
-                        Code::TAG_EXTRAS_INVALID,
-                        format!("extras key `{key}` of `{}`: {why}", scene.node_label(n)),
-                        Location::file(&scene.path)
-                            .with_source(node.source.clone())
-                            .with_node(scene.node_path(n)),
-                    )
-                    .hint("write a name in quotes (`\"kitchen\"`), or true for a flag"),
+                    extras_invalid(scene, n, key, &why)
+                        .hint("write a name in quotes (`\"kitchen\"`), or true for a flag"),
                 );
                 continue;
             }
@@ -596,14 +601,8 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
     }
     for (key, why) in extras::attribute_problems(node.extras.as_ref()) {
         diags.push(
-            Diagnostic::new(
-                Code::TAG_EXTRAS_INVALID,
-                format!("extras key `{key}` of `{}`: {why}", scene.node_label(n)),
-                Location::file(&scene.path)
-                    .with_source(node.source.clone())
-                    .with_node(scene.node_path(n)),
-            )
-            .hint("see schemas/tags.schema.json for each key's type"),
+            extras_invalid(scene, n, key, &why)
+                .hint("see schemas/tags.schema.json for each key's type"),
         );
     }
     if let Some(name) = node.name.as_deref() {

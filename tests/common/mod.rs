@@ -357,8 +357,16 @@ pub fn succeeds(cmd: &mut assert_cmd::Command) -> std::process::Output {
 
 /// A scene built in code, tagged with the default configuration as `convert` tags a level.
 pub fn tagged(scene: portcullis::scene::Scene) -> portcullis::pipeline::Tagged {
-    let config = portcullis::config::Config::default();
-    let rules = portcullis::config::rule_set(&config, None).unwrap();
+    tagged_with(scene, Default::default(), None)
+}
+
+/// A scene tagged with `config` and a preset (`--tags`), as `convert` tags a level.
+pub fn tagged_with(
+    scene: portcullis::scene::Scene,
+    config: portcullis::config::Config,
+    preset: Option<&str>,
+) -> portcullis::pipeline::Tagged {
+    let rules = portcullis::config::rule_set(&config, preset).unwrap();
     let imported = portcullis::import::Imported {
         scene,
         diagnostics: Default::default(),
