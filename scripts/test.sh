@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite, as the README gives it and .ci/run calls it.
-# Sets up what the tests need (the npm Khronos glTF-Validator, and Pixar's usd-core in a Python
-# venv for the `usd` feature) and caches them in ignored folders, then runs formatting, lint
+# Sets up what the tests need (the npm Khronos glTF-Validator, Debian's chromium with the npm
+# playwright-core for the browser tests, and Pixar's usd-core in a Python venv for the `usd`
+# feature) and caches them in ignored folders, then runs formatting, lint
 # (with and without the feature) and every test with the feature on. Needs the Rust toolchain,
 # Node (npm) and Python 3 built with a shared libpython (python3 -m venv, pip).
 set -euo pipefail
@@ -15,6 +16,21 @@ if command -v npm >/dev/null 2>&1; then
   fi
 else
   echo "warning: npm not found; tests that run the glTF validator will fail under CI=true and skip otherwise" >&2
+fi
+
+# Browser tests (tests/viewer.rs): Debian's chromium, driven by playwright-core (npm, pinned by
+# tools/browser-test/package-lock.json, cached in tools/browser-test/node_modules).
+if [ ! -x /usr/bin/chromium ] && command -v apt-get >/dev/null 2>&1; then
+  echo "== installing Debian's chromium for the browser tests"
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null 2>&1 && SUDO="sudo"
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends chromium >/dev/null \
+    || { $SUDO apt-get update >/dev/null && $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends chromium >/dev/null; } \
+    || echo "warning: could not install chromium; the browser tests fail under CI=true and skip otherwise" >&2
+fi
+if command -v npm >/dev/null 2>&1 && [ ! -d tools/browser-test/node_modules/playwright-core ]; then
+  echo "== installing playwright-core (npm ci, cached in tools/browser-test/node_modules)"
+  (cd tools/browser-test && npm ci --no-audit --no-fund --loglevel=error)
 fi
 
 # usd-core (PyPI, pinned; the same version as USD_CORE_VERSION in src/import/usd.rs), cached in

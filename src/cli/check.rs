@@ -71,6 +71,11 @@ pub struct CheckArgs {
     #[arg(long, value_name = "N")]
     pub sightlines: Option<usize>,
 
+    /// Also write the `portcullis view` page of the level with this report's diagnostics listed
+    /// beside it (click one to fly to it): a CI artifact next to SARIF or JUnit. One input.
+    #[arg(long, value_name = "REPORT.html")]
+    pub html: Option<PathBuf>,
+
     /// Rebuild cells and portals from the geometry even when the file carries a stored
     /// annotation, and check those.
     #[arg(long)]
@@ -203,6 +208,10 @@ fn render(a: &CheckArgs, files: &[FileReport], totals: &Totals, style: &Style) -
 }
 
 pub fn run(a: &CheckArgs, style: &Style) -> i32 {
+    if a.html.is_some() && a.files.len() != 1 {
+        eprintln!("error: --html takes one input (a page shows one level)");
+        return 2;
+    }
     let policy = a.policy();
     let reports: Vec<FileReport> = a
         .files
@@ -246,6 +255,29 @@ pub fn run(a: &CheckArgs, style: &Style) -> i32 {
             }
         }
     }
+    if let (Some(path), Some(report)) = (&a.html, reports.first()) {
+        if let Err(d) = write_html(a, report, path) {
+            eprintln!("{}", portcullis::report::human::diagnostic(&d, style));
+            return 2;
+        }
+    }
     eprintln!("{}", totals.line());
     totals.exit_code(a.deny.is_some())
+}
+
+/// `--html`: the level's page with this report's diagnostics beside it. A file that could not
+/// be checked has no level to show; the report says why.
+fn write_html(a: &CheckArgs, report: &FileReport, path: &Path) -> Result<(), Diagnostic> {
+    if report.failed {
+        return Ok(());
+    }
+    let (page, _) = super::view::build_page(
+        &report.file,
+        &a.level,
+        a.sealed,
+        a.sightlines,
+        Some(&report.diagnostics),
+    )?;
+    portcullis::export::atomic::write(path, page.as_bytes())
+        .map_err(|e| portcullis::export::atomic::failed(path, e))
 }

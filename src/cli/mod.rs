@@ -13,6 +13,7 @@ pub mod gen;
 pub mod huge_pages;
 pub mod inspect;
 pub mod schema;
+pub mod view;
 pub mod vis;
 
 /// Cells and portals for game levels: import glTF / OBJ / USD, recognise rooms and portals from
@@ -62,6 +63,10 @@ pub enum Command {
     /// camera's cell, the cells reached through the portals in view with their screen
     /// rectangles, depth and path.
     Cull(cull::CullArgs),
+    /// Write one HTML page that shows the level in 3D, offline in any browser: its geometry,
+    /// cells by room, portals by kind, leaks and missed sightlines; pick a cell to light its
+    /// PVS, fly the camera to see what its cell draws.
+    View(view::ViewArgs),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -182,6 +187,10 @@ pub fn run(cli: Cli) -> i32 {
         Command::Bench(a) => bench::run(&a),
         Command::Schema(a) => schema::run(&a),
         Command::Cull(a) => cull::run(
+            &a,
+            &portcullis::report::style::Style::for_stderr(&cli.color),
+        ),
+        Command::View(a) => view::run(
             &a,
             &portcullis::report::style::Style::for_stderr(&cli.color),
         ),
