@@ -24,7 +24,6 @@ pub mod scc;
 pub mod scene;
 pub mod schema;
 pub mod tags;
-pub mod view;
 pub mod vis;
 
 /// The README's examples, compiled and run as doctests (its engine example above all).

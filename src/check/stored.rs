@@ -106,7 +106,7 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
         diagnostics.push(
             Diagnostic::new(
                 Code::ANNOTATION_STALE,
-                "the stored annotation was computed from different geometry or tags",
+                "the stored annotation was computed from a different level or settings (geometry, names, extras, materials, tag rules, [cells] or [portals])",
                 at(),
             )
             .hint("convert the level again"),

@@ -57,15 +57,15 @@ pub fn build_page(
         || input.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let extras = portcullis::view::Extras {
+    let extras = portcullis::export::view::Extras {
         leaks: &leaks,
         sightlines: &sightlines,
         diagnostics: listed.unwrap_or(&[]),
     };
-    let data = portcullis::view::payload(
+    let data = portcullis::export::view::payload(
         &title, &t.scene, &t.tagging, &cells, &portals, &pvs, &extras,
     );
-    Ok((portcullis::view::page(&data), diagnostics))
+    Ok((portcullis::export::view::page(&data), diagnostics))
 }
 
 pub fn run(a: &ViewArgs, style: &Style) -> i32 {

@@ -102,7 +102,7 @@ codes! {
 
     // --- annotated files ---
     ANNOTATION_INVALID = Error, "the file's PORTCULLIS_portals extension breaks its schema or refers to things that do not exist";
-    ANNOTATION_STALE = Warning, "the file's PORTCULLIS_portals extension was computed from different geometry or tags";
+    ANNOTATION_STALE = Warning, "the file's PORTCULLIS_portals extension was computed from a different level or settings (geometry, names, extras, materials, tag rules, [cells] or [portals])";
 
     // --- portals ---
     PORTAL_AUTHORED_UNMATCHED = Warning, "an authored portal covers no opening between its cells";

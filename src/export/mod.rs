@@ -1,6 +1,6 @@
 //! Writing results: the annotated glTF with the `PORTCULLIS_portals` extension, written
-//! atomically, reading it back, and the debug outputs (a glTF of cells and portals, an SVG
-//! plan), and the annotated level as a USD layer.
+//! atomically, reading it back, the debug outputs (a glTF of cells and portals, an SVG plan,
+//! the HTML viewer), and the annotated level as a USD layer.
 
 pub mod atomic;
 pub mod bake;
@@ -14,4 +14,5 @@ pub mod sink;
 pub mod svg;
 pub(crate) mod transcode;
 pub mod usd_out;
+pub mod view;
 pub mod visibility;
