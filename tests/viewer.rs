@@ -81,13 +81,7 @@ fn view(level: &Path, preset: Option<&str>, page: &Path) {
     if let Some(p) = preset {
         cmd.args(["--tags", p]);
     }
-    let o = cmd.output().unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    common::succeeds(&mut cmd);
 }
 
 fn levels() -> Vec<(PathBuf, Option<&'static str>)> {

@@ -114,8 +114,9 @@ pub(crate) fn node_triangles(scene: &Scene, nodes: &[NodeId], origin: DVec3) -> 
             .iter()
             .map(|p| node.world.transform_point3(*p) - origin)
             .collect();
+        let winding = scene.winding(n);
         for &t in &mesh.triangles {
-            let t = scene.world_order(n, t);
+            let t = winding.order(t);
             if let (Some(a), Some(b), Some(c)) = (
                 world.get(t[0] as usize),
                 world.get(t[1] as usize),
@@ -165,8 +166,9 @@ pub(crate) fn canonical_triangles(
         // Sorted as stored, then turned for a mirroring node: a mirrored instance lists its
         // triangles in the same order as the original, so its cells are the mirror image.
         tris.sort_unstable();
+        let winding = scene.winding(n);
         out.extend(
-            tris.into_iter().map(|t| scene.world_order(n, t)).map(|t| {
+            tris.into_iter().map(|t| winding.order(t)).map(|t| {
                 t.map(|i| node.world.transform_point3(mesh.positions[i as usize]) - origin)
             }),
         );
@@ -658,7 +660,7 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
         area += a;
         acc += a * ((t[0] - first) + (t[1] - first) + (t[2] - first)) / 3.0;
         // The edge opposite the first corner first: it is the same edge when a mirroring
-        // node has turned the triangle's corners round (see `Scene::world_order`).
+        // node has turned the triangle's corners round (see `Scene::winding`).
         for (i, j) in [(1, 2), (0, 1), (2, 0)] {
             let e = t[j] - t[i];
             let len = e.length();

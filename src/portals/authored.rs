@@ -39,8 +39,9 @@ fn quad(scene: &Scene, node: NodeId, eps: f64) -> Option<Quad> {
     let mut normal = DVec3::ZERO;
     let mut centre = DVec3::ZERO;
     let mut area = 0.0;
+    let winding = scene.winding(node);
     for &t in &mesh.triangles {
-        let [a, b, c] = scene.world_order(node, t).map(|i| w[i as usize]);
+        let [a, b, c] = winding.order(t).map(|i| w[i as usize]);
         let cr = (b - a).cross(c - a);
         normal += cr;
         let ar = 0.5 * cr.length();

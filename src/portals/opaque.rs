@@ -225,8 +225,9 @@ pub fn blocking_triangles(scene: &Scene, tagging: &Tagging, props: &[NodeId]) ->
     for (n, m) in blocking_nodes(scene, tagging, props) {
         let world = scene.nodes[n].world;
         let mesh = &scene.meshes[m];
+        let winding = scene.winding(n);
         out.extend(mesh.triangles.iter().filter_map(|&t| {
-            let p = scene.world_order(n, t).map(|i| {
+            let p = winding.order(t).map(|i| {
                 mesh.positions
                     .get(i as usize)
                     .map(|p| world.transform_point3(*p))
@@ -269,8 +270,11 @@ impl Opaque {
                 mine.sort_unstable();
             }
             // Turned after sorting, so a mirrored instance keeps the original's order.
-            for t in mine.iter_mut() {
-                *t = scene.world_order(n, *t);
+            let winding = scene.winding(n);
+            if winding.mirrored {
+                for t in mine.iter_mut() {
+                    *t = winding.order(*t);
+                }
             }
         }
         Opaque::from_triangles(verts, tris, thick)

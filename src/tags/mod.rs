@@ -467,7 +467,13 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
     // An empty scene is reported by the importer; "no rooms" would only repeat it.
     let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
     let tagged = order.iter().filter(|&&n| classes[n].is_some()).count();
-    let suggested = suggest::suggest_preset(scene, rules, &order, tagged);
+    // Only when the active rules find no room: that is how a wrong preset shows, and asking
+    // every other preset about every node cost a big level's tagging a third again.
+    let suggested = if t.rooms.is_empty() {
+        suggest::suggest_preset(scene, rules, &order, tagged)
+    } else {
+        None
+    };
     // A suggested preset says more than "no room": it says which rules find them.
     if t.rooms.is_empty() && has_triangles && suggested.is_none() {
         diags.push(

@@ -10,6 +10,7 @@ use super::rules::RuleSet;
 
 /// A warning naming the preset that tags most of the level's nodes, when that is more than
 /// half of them and more than the active rules tag. `tagged` is what the active rules tagged.
+/// The caller asks only when the active rules found no room.
 pub(super) fn suggest_preset(
     scene: &Scene,
     rules: &RuleSet,

@@ -79,9 +79,10 @@ fn geometry(scene: &Scene, tagging: &Tagging) -> Value {
                 .iter()
                 .flat_map(|p| point(node.world.transform_point3(*p))),
         );
+        let winding = scene.winding(n);
         for &t in &mesh.triangles {
             if t.iter().all(|&i| (i as usize) < mesh.positions.len()) {
-                indices.extend(scene.world_order(n, t).map(|i| base + i));
+                indices.extend(winding.order(t).map(|i| base + i));
             }
         }
     }
