@@ -511,8 +511,8 @@ impl Scene {
     /// How `node`'s triangles keep their winding in world space ([`Winding::order`]): a
     /// transform with a negative determinant (a scale of -1 on one axis, how DCC tools mirror
     /// an instance) turns every triangle inside out, so its corners are reversed, as renderers
-    /// do when they flip the front face for such a node. Asked once per node: the determinant
-    /// per triangle cost the portal stage a tenth.
+    /// do when they flip the front face for such a node. Asked once per node: a determinant per
+    /// triangle was a visible share of a whole conversion.
     pub fn winding(&self, node: NodeId) -> Winding {
         Winding {
             mirrored: self.nodes[node].world.determinant() < 0.0,
