@@ -43,6 +43,18 @@ COMMANDS["SIGHTLINES_CONFIRMED"] = ["check", "--sightlines", "200", "two_rooms.g
 # A converted two_rooms.gltf whose stored PVS lost the pairs out of cell 0 (written before the
 # command runs, as tests/sightlines.rs does).
 COMMANDS["PVS_MISSES_SIGHTLINE"] = ["check", "--sightlines", "200", "edited.gltf"]
+# `cull` on a level written by `convert` (two_rooms.glb) with a cameras file whose second line
+# gives the eye two numbers, and on the unconverted sample.
+CAMERA = '{"eye":[2,1.6,2],"look":[1,0,0]}'
+COMMANDS["CULL_NOT_CONVERTED"] = ["cull", "two_rooms.gltf", "--cameras", "cams.jsonl"]
+COMMANDS["CULL_CAMERA_INVALID"] = ["cull", "two_rooms.glb", "--cameras", "bad.jsonl"]
+COMMANDS["CULL_PORTAL_UNKNOWN"] = ["cull", "two_rooms.glb", "--cameras", "cams.jsonl", "--closed", "9"]
+# Where the hint shows by example, the fix says it in full.
+FIX = {
+    "CULL_CAMERA_INVALID": "One JSON object per line with `eye` and `look` (a direction), and optionally "
+                           "`up`, `fov_y` (degrees, between 0 and 180), `aspect` and `near` (positive); "
+                           "`up` must not lie along `look`.",
+}
 NO_EXAMPLE = {
     "USD_CORE_MISSING": "No level file triggers it: it is about the machine. Run a `usd` build with "
                         "`--python-venv` pointing at a venv without usd-core to see it; the fix is "
@@ -85,6 +97,11 @@ def example(code):
             (Path(d) / "teleporter.gltf").write_bytes((ROOT / "samples" / "teleporter.gltf").read_bytes())
             if code in PRT_TEXT:
                 (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
+            if code.startswith("CULL_"):
+                subprocess.run([EXE, "convert", "two_rooms.gltf", "-o", "two_rooms.glb"], cwd=d,
+                               capture_output=True, check=True)
+                (Path(d) / "cams.jsonl").write_text(CAMERA + "\n")
+                (Path(d) / "bad.jsonl").write_text(CAMERA + '\n{"eye":[2,1.6],"look":[1,0,0]}\n')
             if code == "PVS_MISSES_SIGHTLINE":
                 subprocess.run([EXE, "convert", "two_rooms.gltf", "-o", "edited.gltf"], cwd=d,
                                capture_output=True, check=True)
@@ -147,7 +164,9 @@ def main():
                 continue
             hint = next((ln.split("= hint: ", 1)[1] for ln in lines if "= hint: " in ln), None)
             out += [f"`{cmd}`:", "", "```text", *lines, "```", ""]
-            if hint:
+            if c in FIX:
+                out += [f"**Fix:** {FIX[c]}", ""]
+            elif hint:
                 out += [f"**Fix:** {hint[0].upper() + hint[1:]}.", ""]
     (ROOT / "docs" / "diagnostics.md").write_text("\n".join(out).rstrip() + "\n")
     if missing:

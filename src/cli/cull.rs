@@ -112,8 +112,14 @@ fn read_cameras(path: &Path) -> Result<Vec<View>, Diagnostic> {
             )
             .hint(CAMERA_HINT)
         };
-        let c: Camera =
-            serde_json::from_str(line).map_err(|e| bad(format!("not a camera: {e}")))?;
+        // The line is the location; serde's own "at line 1 column N" would name another line.
+        let c: Camera = serde_json::from_str(line).map_err(|e| {
+            let text = e.to_string();
+            let what = text
+                .rsplit_once(" at line ")
+                .map_or(text.as_str(), |(w, _)| w);
+            bad(format!("not a camera: {what} (column {})", e.column()))
+        })?;
         let v = View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
             .map_err(|e| bad(format!("not a usable camera: {e}")))?;
         views.push(v);
