@@ -939,9 +939,62 @@ fn cull_reports_each_camera_as_json_and_as_text() {
 fn cull_refuses_bad_input_with_what_where_and_how() {
     let dir = tempfile::tempdir().unwrap();
     let glb = convert(&common::sample("two_rooms.gltf"), None, dir.path());
+    let unconverted = common::sample("two_rooms.gltf");
+    let missing = dir.path().join("missing.glb");
     let cams = dir.path().join("cams.jsonl");
-    let run = |level: &Path, cams_text: &str, extra: &[&str]| {
-        std::fs::write(&cams, cams_text).unwrap();
+    let good = "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n";
+    // (level, cameras, extra arguments, what the report must say); each run exits 2 and
+    // prints nothing on stdout.
+    let cases: [(&Path, String, &[&str], &[&str]); 6] = [
+        (
+            &glb,
+            format!("{good}{{\"eye\":[1,1],\"look\":[1,0,0]}}\n"),
+            &[],
+            &["error[CULL_CAMERA_INVALID]", "cams.jsonl:2", "hint:"],
+        ),
+        (
+            &glb,
+            "{\"eye\":[1,1,1],\"look\":[0,1,0],\"up\":[0,2,0]}\n".into(),
+            &[],
+            &["error[CULL_CAMERA_INVALID]", "cams.jsonl:1", "up"],
+        ),
+        // Unknown fields are typos.
+        (
+            &glb,
+            "{\"eye\":[1,1,1],\"look\":[1,0,0],\"fov\":60}\n".into(),
+            &[],
+            &["error[CULL_CAMERA_INVALID]"],
+        ),
+        (
+            &glb,
+            good.into(),
+            &["--closed", "7"],
+            &[
+                "error[CULL_PORTAL_UNKNOWN]",
+                "portal 7 does not exist",
+                "2 portals",
+                "#/extensions/PORTCULLIS_portals/portals",
+            ],
+        ),
+        (
+            &unconverted,
+            good.into(),
+            &[],
+            &[
+                "error[CULL_NOT_CONVERTED]",
+                "no PORTCULLIS_portals extension",
+                "portcullis convert",
+            ],
+        ),
+        (
+            &missing,
+            good.into(),
+            &[],
+            &["error[IO_READ_FAILED]", "cannot be read"],
+        ),
+    ];
+    for (level, cams_text, extra, says) in cases {
+        std::fs::write(&cams, &cams_text).unwrap();
         let o = cull_cmd()
             .arg("cull")
             .arg(level)
@@ -950,67 +1003,13 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
             .args(extra)
             .output()
             .unwrap();
-        (
-            o.status.code(),
-            String::from_utf8_lossy(&o.stderr).to_string(),
-            o.stdout,
-        )
-    };
-    let good = "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n";
-    let (code, err, out) = run(
-        &glb,
-        "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n{\"eye\":[1,1],\"look\":[1,0,0]}\n",
-        &[],
-    );
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("error[CULL_CAMERA_INVALID]")
-            && err.contains("cams.jsonl:2")
-            && err.contains("hint:"),
-        "{err}"
-    );
-    assert!(out.is_empty());
-    let (code, err, _) = run(
-        &glb,
-        "{\"eye\":[1,1,1],\"look\":[0,1,0],\"up\":[0,2,0]}\n",
-        &[],
-    );
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("error[CULL_CAMERA_INVALID]")
-            && err.contains("cams.jsonl:1")
-            && err.contains("up"),
-        "{err}"
-    );
-    let (code, err, _) = run(&glb, "{\"eye\":[1,1,1],\"look\":[1,0,0],\"fov\":60}\n", &[]);
-    assert_eq!(code, Some(2), "unknown fields are typos: {err}");
-    assert!(err.contains("error[CULL_CAMERA_INVALID]"), "{err}");
-    let (code, err, _) = run(&glb, good, &["--closed", "7"]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("error[CULL_PORTAL_UNKNOWN]")
-            && err.contains("portal 7 does not exist")
-            && err.contains("2 portals"),
-        "{err}"
-    );
-    assert!(
-        err.contains("#/extensions/PORTCULLIS_portals/portals"),
-        "{err}"
-    );
-    let (code, err, _) = run(&common::sample("two_rooms.gltf"), good, &[]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("error[CULL_NOT_CONVERTED]")
-            && err.contains("no PORTCULLIS_portals extension")
-            && err.contains("portcullis convert"),
-        "{err}"
-    );
-    let (code, err, _) = run(&dir.path().join("missing.glb"), good, &[]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("error[IO_READ_FAILED]") && err.contains("cannot be read"),
-        "{err}"
-    );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{cams_text} {extra:?}: {err}");
+        for s in says {
+            assert!(err.contains(s), "{cams_text} {extra:?}: no `{s}` in {err}");
+        }
+        assert!(o.stdout.is_empty(), "{cams_text} {extra:?}");
+    }
 }
 
 #[test]
