@@ -870,15 +870,19 @@ fn cull_reports_each_camera_as_json_and_as_text() {
         ),
     )
     .unwrap();
-    let o = common::succeeds(
-        cull_cmd()
-            .arg("cull")
-            .arg(&glb)
-            .arg("--cameras")
-            .arg(&cams)
-            .args(["--format", "json"]),
-    );
-    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    // `cull LEVEL --cameras CAMS EXTRA...`, which must succeed: its stdout.
+    let cull = |extra: &[&str]| {
+        common::succeeds(
+            cull_cmd()
+                .arg("cull")
+                .arg(&glb)
+                .arg("--cameras")
+                .arg(&cams)
+                .args(extra),
+        )
+        .stdout
+    };
+    let r: Value = serde_json::from_slice(&cull(&["--format", "json"])).unwrap();
     let r = r.as_array().unwrap();
     assert_eq!(r.len(), 3, "one result per camera, blank lines skipped");
     assert_eq!(r[0]["cell"], 0);
@@ -909,18 +913,9 @@ fn cull_reports_each_camera_as_json_and_as_text() {
     assert!(r[2]["nearest"].is_u64());
     assert!(r[0]["stats"]["portals_tested"].as_u64().unwrap() >= 1);
     // Closing the teleporter (and its partner) leaves the camera's own cell.
-    let o = common::succeeds(
-        cull_cmd()
-            .arg("cull")
-            .arg(&glb)
-            .arg("--cameras")
-            .arg(&cams)
-            .args(["--format", "json", "--closed", "1"]),
-    );
-    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r: Value = serde_json::from_slice(&cull(&["--format", "json", "--closed", "1"])).unwrap();
     assert_eq!(r[0]["visible"].as_array().unwrap().len(), 1);
-    let o = common::succeeds(cull_cmd().arg("cull").arg(&glb).arg("--cameras").arg(&cams));
-    let text = String::from_utf8(o.stdout).unwrap();
+    let text = String::from_utf8(cull(&[])).unwrap();
     assert!(
         text.contains("camera 1: inside of cell 0 (a); 2 visible"),
         "{text}"
