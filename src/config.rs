@@ -139,6 +139,14 @@ pub struct CheckConfig {
     pub severity: std::collections::BTreeMap<String, String>,
 }
 
+impl CheckConfig {
+    /// What this section asks to hear: its `ignore` and `severity` as a policy. Unknown code
+    /// or severity names are errors the schema cannot catch (codes are not in it).
+    pub fn policy(&self) -> Result<crate::diag::policy::Policy, String> {
+        crate::diag::policy::Policy::from_names(&self.ignore, &self.severity)
+    }
+}
+
 /// The configuration next to `input`, if there is one.
 pub fn discover(input: &Path) -> Option<PathBuf> {
     let dir = input

@@ -785,16 +785,15 @@ fn moving_the_level_and_the_camera_together_changes_nothing() {
         let glb = convert(&path, preset, dir.path());
         let (doc, bin) = common::read_gltf(&std::fs::read(&glb).unwrap());
         let ext_json = &doc["extensions"]["PORTCULLIS_portals"];
-        let base: portcullis::export::read::Annotated =
-            serde_json::from_value(ext_json.clone()).unwrap();
+        let base: portcullis::format::Annotated = serde_json::from_value(ext_json.clone()).unwrap();
         let bufs: Vec<Vec<u8>> = bin.into_iter().collect();
-        let pvs = portcullis::export::read::visibility(&base, &doc, &bufs).map(|r| r.unwrap());
+        let pvs = portcullis::format::read::visibility(&base, &doc, &bufs).map(|r| r.unwrap());
         let level = Level::from_annotation(&base, pvs.clone()).unwrap();
         let ext = read_ext(&glb);
         let opts = TraceOptions::default();
         let cams = cameras(&ext, 8, &mut rng);
         for m in motions {
-            let a: portcullis::export::read::Annotated =
+            let a: portcullis::format::Annotated =
                 serde_json::from_value(moved(ext_json, m)).unwrap();
             let there = Level::from_annotation(&a, pvs.clone()).unwrap();
             let (mut t0, mut t1) = (Trace::default(), Trace::default());

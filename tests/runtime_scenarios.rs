@@ -4,7 +4,7 @@
 //! points with a camera model written here), so each test can fail.
 
 use glam::{DMat4, DVec3};
-use portcullis::export::read::Annotated;
+use portcullis::format::Annotated;
 use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View, Visible};
 use serde_json::{json, Value};
 
@@ -117,7 +117,7 @@ impl Builder {
         self.check_winding();
         let a: Annotated = serde_json::from_value(self.json()).expect("the annotation parses");
         let pvs = a.visibility.as_ref().map(|vis| {
-            portcullis::export::visibility::decode(vis, a.cells.len(), None).expect("PVS decodes")
+            portcullis::format::visibility::decode(vis, a.cells.len(), None).expect("PVS decodes")
         });
         Level::from_annotation(&a, pvs).expect("the level loads")
     }

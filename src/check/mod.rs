@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::cells::CellSet;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::geom::polyhedron::ConvexPolyhedron;
-use crate::pipeline::Tagged;
+use crate::level::Tagged;
 use crate::portals::PortalSet;
 
 mod graph;

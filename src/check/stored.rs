@@ -7,12 +7,12 @@ use glam::{DMat4, DVec3};
 
 use super::{CellInfo, Subject};
 use crate::diag::{Code, Diagnostic, Location};
-use crate::export::extension::{self, NAME};
-use crate::export::read::{self, Annotated};
+use crate::format::{self as extension, NAME};
+use crate::format::{read, Annotated};
 use crate::geom::aabb::Aabb;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
-use crate::pipeline::Tagged;
+use crate::level::Tagged;
 use crate::portals::{Portal, PortalSet};
 use crate::tags::rules::PortalKind;
 

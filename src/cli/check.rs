@@ -119,7 +119,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
             return report;
         }
     };
-    let policy = match Policy::from_config(&t.config.check) {
+    let policy = match t.config.check.policy() {
         Ok(p) => p.merged(cli_policy),
         Err(e) => {
             let at = t.config.path.clone().unwrap_or_else(|| input.to_path_buf());

@@ -110,7 +110,7 @@ struct Outcome {
 
 fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let out = output_for(a, input)?;
-    if portcullis::vis::load::is_prt(&out) {
+    if portcullis::prt::is_prt(&out) {
         return convert_to_prt(a, input, &out);
     }
     let to_stdout = out == Path::new("-");
@@ -160,7 +160,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("write the glTF with -o OUT.glb instead"));
     }
-    let policy = portcullis::diag::policy::Policy::from_config(&t.config.check).map_err(|e| {
+    let policy = t.config.check.policy().map_err(|e| {
         Diagnostic::new(
             Code::CONFIG_INVALID,
             format!("[check] in the configuration: {e}"),

@@ -159,7 +159,7 @@ struct VisibilityView {
 /// Summarises (and with `validate`, checks) a stored annotation.
 fn annotation_view(t: &mut Tagged, validate: bool) -> Option<AnnotationView> {
     use portcullis::diag::{Code, Location};
-    use portcullis::export::{extension, read};
+    use portcullis::format::{self as extension, read};
     let stored = portcullis::check::stored::read(t, validate)?;
     t.diagnostics.extend(stored.diagnostics);
     let a = stored.annotated?;
@@ -448,7 +448,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     let mut reports = Vec::new();
     for path in &a.files {
         totals.files += 1;
-        if portcullis::vis::load::is_prt(path) {
+        if portcullis::prt::is_prt(path) {
             let report = prt_report(path).unwrap_or_else(|d| {
                 totals.failed += 1;
                 failed_report(path, d)

@@ -8,8 +8,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use portcullis::diag::{Code, Diagnostic, Location};
+use portcullis::pipeline::graph as load;
 use portcullis::report::{human, style::Style, Totals};
-use portcullis::vis::{self, load, Method, VisOptions};
+use portcullis::vis::{self, Method, VisOptions};
 
 use super::LevelArgs;
 

@@ -61,14 +61,18 @@ impl Policy {
         out
     }
 
-    /// The policy a configuration's `[check]` section gives. Unknown names are errors the
-    /// schema cannot catch (codes are not in it), reported as strings.
-    pub fn from_config(cfg: &crate::config::CheckConfig) -> Result<Policy, String> {
+    /// The policy of `ignore` codes and `severity` overrides, named as a user writes them
+    /// (a configuration's `[check]` section). Unknown names are errors the schema cannot
+    /// catch (codes are not in it), reported as strings.
+    pub fn from_names<'a>(
+        ignore: impl IntoIterator<Item = &'a String>,
+        severity: impl IntoIterator<Item = (&'a String, &'a String)>,
+    ) -> Result<Policy, String> {
         let mut p = Policy::default();
-        for c in &cfg.ignore {
+        for c in ignore {
             p.ignore(parse_code(c)?);
         }
-        for (c, s) in &cfg.severity {
+        for (c, s) in severity {
             p.set(parse_code(c)?, parse_severity(s)?);
         }
         Ok(p)

@@ -12,10 +12,10 @@ use std::path::{Component, Path, PathBuf};
 use base64::Engine;
 use serde_json::{json, Map, Value};
 
-use super::extension::{Annotation, NAME};
 use super::rewrite::Failed;
 use super::sink::Sink;
 use crate::diag::{Code, Diagnostic, Location};
+use crate::format::{Annotation, NAME};
 use crate::scene::{NodeId, Scene};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,14 +5,11 @@
 pub mod atomic;
 pub mod bake;
 pub mod debug;
-pub mod extension;
 pub mod gltf_out;
 pub(crate) mod parallel;
-pub mod read;
 pub(crate) mod rewrite;
 pub mod sink;
 pub mod svg;
 pub(crate) mod transcode;
 pub mod usd_out;
 pub mod view;
-pub mod visibility;

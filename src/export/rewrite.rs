@@ -18,11 +18,12 @@ use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
 use serde_json::value::RawValue;
 use serde_json::{json, Value};
 
-use super::extension::{Annotation, Json, NAME};
 use super::gltf_out::{self as out, OutFormat};
 use super::parallel::{self, Failure, Render, RenderText, Source};
 use super::sink::{Counted, Sink};
 use super::transcode::{self, Element, Transcode};
+use crate::format::write::{Json, Member};
+use crate::format::{Annotation, NAME};
 use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
@@ -441,7 +442,7 @@ impl<'r> Document<'r, '_> {
                     for (j, (k, x)) in e.iter().enumerate() {
                         v.push(Source::key(k, j == 0)?);
                         if k == NAME {
-                            ours.sources(&mut v)?;
+                            annotation_sources(ours, &mut v)?;
                         } else {
                             v.push(Source::value(x));
                         }
@@ -536,6 +537,53 @@ fn view_unchanged(e: &str, base: &[usize]) -> bool {
         })
 }
 
+/// The root extension object as sources of the parallel writer: `cells` and `portals` a run
+/// of elements at a time, the same bytes as serializing it.
+fn annotation_sources<'r>(ours: Json<'r>, out: &mut Vec<Source<'r>>) -> serde_json::Result<()> {
+    let Some(members) = ours.members() else {
+        out.push(Source::Job(Box::new(move |b| {
+            serde_json::to_writer(b, &ours)
+        })));
+        return Ok(());
+    };
+    out.push(Source::bytes(b"{"));
+    for (i, (k, m)) in members.into_iter().enumerate() {
+        out.push(Source::key(k, i == 0)?);
+        match m {
+            Member::Cells(cells) => items(out, cells.len(), move |i, b| {
+                serde_json::to_writer(b, &cells.cell(i))
+            }),
+            Member::Portals(portals) => items(out, portals.len(), move |i, b| {
+                serde_json::to_writer(b, &portals.portal(i))
+            }),
+            // Rendered when the writer reaches it, by then long computed.
+            Member::Hash(hash, v) => out.push(Source::Deferred(Box::new(move || {
+                match hash.and_then(|h| h.get()) {
+                    Some(h) => serde_json::to_vec(h),
+                    None => serde_json::to_vec(v),
+                }
+            }))),
+            Member::Plain(v) => out.push(Source::value(v)),
+        }
+    }
+    out.push(Source::bytes(b"}"));
+    Ok(())
+}
+
+/// An array of `len` elements, each rendered by `render`, as sources of the parallel writer.
+fn items<'r>(
+    out: &mut Vec<Source<'r>>,
+    len: usize,
+    render: impl Fn(usize, &mut Vec<u8>) -> serde_json::Result<()> + Send + Sync + 'r,
+) {
+    out.push(Source::bytes(b"["));
+    out.push(Source::Items {
+        len,
+        render: std::sync::Arc::new(Box::new(render)),
+    });
+    out.push(Source::bytes(b"]"));
+}
+
 /// The root's `extensions`, our member serialized from the annotation.
 struct WithOurs<'r>(&'r serde_json::Map<String, Value>, Json<'r>);
 
@@ -614,8 +662,8 @@ mod tests {
 
     use serde_json::{json, Value};
 
-    use super::super::extension::{self, Annotation};
-    use super::super::gltf_out::{self, OutFormat};
+    use crate::export::gltf_out::{self, OutFormat};
+    use crate::format::{self as extension, Annotation};
     use crate::scene::{Format, GltfSource, Scene};
 
     const FORMATS: [OutFormat; 2] = [OutFormat::Glb, OutFormat::Gltf];

@@ -405,7 +405,7 @@ fn annotation(
     portals: &PortalSet,
     pvs: Option<(&Pvs, Method)>,
 ) {
-    let hash = crate::export::extension::input_hash(w.scene, tagging);
+    let hash = crate::format::input_hash(w.scene, tagging);
     w.out.push('\n');
     w.line(0, &format!("def Scope \"{ANNOTATION_PRIM}\""));
     w.line(0, "{");

@@ -9,7 +9,7 @@ use base64::Engine as _;
 use serde::Deserialize;
 use serde_json::Value;
 
-use crate::export::read::Annotated;
+use crate::format::Annotated;
 use crate::vis::Pvs;
 
 /// Why a level cannot be loaded: what, where, and what to do.
@@ -87,7 +87,7 @@ pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
                 .map_err(|e| err(format!("visibility: buffer view {i} {e}")))?,
         ),
     };
-    let pvs = crate::export::visibility::decode(vis, annotated.cells.len(), blob.as_deref())
+    let pvs = crate::format::visibility::decode(vis, annotated.cells.len(), blob.as_deref())
         .map_err(|e| err(format!("visibility: {e}")))?;
     Ok((annotated, Some(pvs)))
 }

@@ -41,7 +41,7 @@ pub use load::LoadError;
 pub use locate::Location;
 pub use trace::{Stats, Trace, TraceOptions, View, ViewError, Visible};
 
-use crate::export::read::Annotated;
+use crate::format::Annotated;
 use crate::vis::Pvs;
 use clip::Half;
 
@@ -130,7 +130,7 @@ impl Level {
     /// Builds the runtime data of an annotation already read. `Err` names the first record
     /// that cannot be used.
     pub fn from_annotation(a: &Annotated, pvs: Option<Pvs>) -> Result<Level, String> {
-        if let Some(problem) = crate::export::read::consistency(a, usize::MAX).first() {
+        if let Some(problem) = crate::format::read::consistency(a, usize::MAX).first() {
             return Err(problem.clone());
         }
         let tolerance = if a.tolerance.is_finite() && a.tolerance > 0.0 {

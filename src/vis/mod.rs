@@ -15,7 +15,6 @@ mod fast;
 mod flood;
 mod full;
 pub mod graph;
-pub mod load;
 pub mod pvs;
 mod sampled;
 pub mod winding;

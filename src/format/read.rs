@@ -1,85 +1,10 @@
 //! Reading an annotated file back: the `PORTCULLIS_portals` extension as typed data, so an
 //! engine's tools (and `inspect`) get the same level portcullis wrote.
 
-use serde::Deserialize;
 use serde_json::Value;
 
-use super::extension::NAME;
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct Annotated {
-    pub version: u64,
-    pub generator: String,
-    pub input_hash: String,
-    pub tolerance: f64,
-    #[serde(default)]
-    pub rooms: Vec<RoomRecord>,
-    #[serde(default)]
-    pub cells: Vec<CellRecord>,
-    #[serde(default)]
-    pub portals: Vec<PortalRecord>,
-    /// The stored PVS, encoded (see [`super::visibility`]); [`visibility`] decodes it.
-    #[serde(default)]
-    pub visibility: Option<Value>,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RoomRecord {
-    pub name: String,
-    pub cells: Vec<usize>,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Bounds {
-    pub min: [f64; 3],
-    pub max: [f64; 3],
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CellRecord {
-    pub room: String,
-    /// Where rooms nest, the higher wins a point both hold (absent: 0).
-    #[serde(default)]
-    pub priority: i64,
-    pub planes: Vec<[f64; 4]>,
-    pub bounds: Bounds,
-    #[serde(default)]
-    pub nodes: Vec<usize>,
-}
-
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "camelCase")]
-pub struct PortalRecord {
-    pub polygon: Vec<[f64; 3]>,
-    pub cells: Vec<usize>,
-    #[serde(default)]
-    pub kind: Option<String>,
-    #[serde(default)]
-    pub one_way: bool,
-    #[serde(default)]
-    pub closed: bool,
-    #[serde(default)]
-    pub internal: bool,
-    #[serde(default)]
-    pub transform: Option<[f64; 16]>,
-    #[serde(default)]
-    pub partner: Option<usize>,
-    #[serde(default)]
-    pub node: Option<usize>,
-}
-
-impl PortalRecord {
-    pub fn from(&self) -> usize {
-        self.cells.first().copied().unwrap_or(0)
-    }
-    pub fn to(&self) -> Option<usize> {
-        self.cells.get(1).copied()
-    }
-}
+use super::records::Annotated;
+use super::NAME;
 
 /// The annotation of a glTF document, if it has one. `Err` says why it does not parse.
 pub fn annotation(doc: &Value) -> Option<Result<Annotated, String>> {

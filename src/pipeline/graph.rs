@@ -4,11 +4,11 @@
 use std::path::Path;
 
 use crate::diag::{Diagnostic, Diagnostics};
-use crate::pipeline::{self, LoadOptions};
+use crate::vis::VisGraph;
 
-use super::VisGraph;
+use super::LoadOptions;
 
-/// A graph ready for [`super::compute`] and what reading it reported.
+/// A graph ready for [`crate::vis::compute`] and what reading it reported.
 pub struct Loaded {
     pub graph: VisGraph,
     pub diagnostics: Diagnostics,
@@ -17,24 +17,20 @@ pub struct Loaded {
     pub transform_depth: usize,
     /// The level the graph was built from (none for a .prt file): what `vis --report` traces
     /// rays through.
-    pub level: Option<Level>,
+    pub level: Option<Built>,
 }
 
 /// A level as built for its graph.
-pub struct Level {
-    pub tagged: crate::pipeline::Tagged,
+pub struct Built {
+    pub tagged: crate::level::Tagged,
     pub cells: crate::cells::CellSet,
     pub portals: crate::portals::PortalSet,
 }
 
-pub fn is_prt(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("prt"))
-}
-
+/// The portal graph of `path`, as `vis` reads it.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
-    if is_prt(path) {
-        let config = pipeline::config_for(path, opts)?;
+    if crate::prt::is_prt(path) {
+        let config = super::config_for(path, opts)?;
         let (file, diags) = crate::prt::read(path)?;
         return Ok(Loaded {
             graph: file.graph(None),
@@ -42,24 +38,24 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
             transform_depth: config
                 .vis
                 .transform_depth
-                .unwrap_or(super::DEFAULT_TRANSFORM_DEPTH),
+                .unwrap_or(crate::vis::DEFAULT_TRANSFORM_DEPTH),
             config,
             level: None,
         });
     }
-    let mut t = pipeline::load_tagged(path, opts)?;
-    let cells = pipeline::build_cells(&mut t);
-    let portals = pipeline::build_portals(&mut t, &cells);
+    let mut t = super::load_tagged(path, opts)?;
+    let cells = super::build_cells(&mut t);
+    let portals = super::build_portals(&mut t, &cells);
     Ok(Loaded {
         graph: VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance),
-        transform_depth: super::level_transform_depth(
+        transform_depth: crate::vis::level_transform_depth(
             &cells,
             &portals,
             t.config.vis.transform_depth,
         ),
         diagnostics: std::mem::take(&mut t.diagnostics),
         config: t.config.clone(),
-        level: Some(Level {
+        level: Some(Built {
             tagged: t,
             cells,
             portals,

@@ -3,12 +3,14 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod graph;
+
 use crate::cells::{self, CellSet};
 use crate::config::{self, Config};
-use crate::diag::{Diagnostic, Diagnostics};
+use crate::diag::Diagnostic;
 use crate::import::{self, ImportOptions};
-use crate::scene::Scene;
-use crate::tags::{self, rules::RuleSet, Tagging};
+pub use crate::level::Tagged;
+use crate::tags::{self, rules::RuleSet};
 
 /// What the user chose on the command line (or a library caller set).
 #[derive(Debug, Clone, Default)]
@@ -18,17 +20,6 @@ pub struct LoadOptions {
     /// `--config FILE`: else `portcullis.toml` next to the input, else built-in defaults.
     pub config: Option<PathBuf>,
     pub import: ImportOptions,
-}
-
-/// A level read and tagged.
-#[derive(Debug, Clone)]
-pub struct Tagged {
-    pub scene: Scene,
-    pub config: Config,
-    pub rules: RuleSet,
-    pub tagging: Tagging,
-    /// Everything reported so far (import, then tags), in stage order.
-    pub diagnostics: Diagnostics,
 }
 
 /// The configuration that applies to `input`.
@@ -201,7 +192,8 @@ fn write_annotated_to(
     format: crate::export::gltf_out::OutFormat,
     sink: &mut dyn crate::export::sink::Sink,
 ) -> Result<(), Diagnostic> {
-    use crate::export::{extension, gltf_out};
+    use crate::export::gltf_out;
+    use crate::format as extension;
     let scene = &tagged.scene;
     let tagging = &tagged.tagging;
     // The input hash is a pass over every position: it runs on a thread of its own while the
@@ -258,7 +250,7 @@ fn written_hash(
         import::import_bytes(&bytes, out, scene_format, dir, &ImportOptions::default()).ok()?;
     let mut tagging = tags::recognise(&back.scene, &tagged.rules);
     tagging.settings = tagged.tagging.settings.clone();
-    Some(crate::export::extension::input_hash(&back.scene, &tagging))
+    Some(crate::format::input_hash(&back.scene, &tagging))
 }
 
 /// The checks of a built level (see [`crate::check`]); findings are appended to
@@ -316,7 +308,7 @@ pub fn audit_sightlines(
 /// annotation, so they block here (which only ever confirms fewer pairs).
 pub fn audit_stored(
     tagged: &Tagged,
-    annotated: &crate::export::read::Annotated,
+    annotated: &crate::format::Annotated,
     subject: &crate::check::Subject,
     rays: usize,
 ) -> crate::check::sightlines::Audit {
@@ -324,7 +316,7 @@ pub fn audit_stored(
     let stored = tagged.scene.gltf.as_ref().and_then(|src| {
         let buffers = src.buffer_data().ok()?;
         let doc = src.subset(&["bufferViews"]).ok()?;
-        crate::export::read::visibility(annotated, &doc, &buffers)?.ok()
+        crate::format::read::visibility(annotated, &doc, &buffers)?.ok()
     });
     let depth =
         tagged.config.vis.transform_depth.unwrap_or_else(|| {
