@@ -3,7 +3,7 @@
 //! with divan's statistics: `cargo bench --bench stages`. Sizes 10, 100 and 1 000 rooms by
 //! default; `PORTCULLIS_BENCH_ROOMS=10000` (comma-separated) for others. The targets of the
 //! performance issue are checked with `portcullis bench`, which prints the same stages as one
-//! table with the peak memory and the whole-process time (README, "Measured"); this is for
+//! table with the peak memory and the whole-process time (docs/performance.md); this is for
 //! comparing two builds stage by stage. It runs on the system allocator (the binary's jemalloc
 //! and huge pages are the binary's, not the library's), so its times are the library's as a
 //! caller that links it would see them.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The stage table of README.md ("Every stage at scale"): every stage and PVS method per
+# The stage tables of docs/performance.md ("Every stage at scale"): every stage and PVS method per
 # generated building size, the read+write floor, the whole-process time and the peak memory,
 # as one Markdown table. Release build; not a test. Arguments go to `portcullis bench`:
 #   scripts/bench.sh                          # 10, 100, 1 000 and 10 000 rooms, fastest of 3

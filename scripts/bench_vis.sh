@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The error-against-run-time table of README.md: per level and method, the run time, the
+# The error-against-run-time table of docs/performance.md: per level and method, the run time, the
 # visible pairs and the over-estimate against the sampled lower bound, on the Quake portal
 # files of ../shared/prt and the bigger third-party levels. Release build; not a test.
 #   scripts/bench_vis.sh [THREADS] [SAMPLES]

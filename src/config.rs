@@ -2,6 +2,9 @@
 //! `--config`; TOML, converted to JSON and validated against schemas/config.schema.json before
 //! it is used, so a typo in a key is an error with its path rather than a silently ignored
 //! setting.
+//!
+//! The effective rule set is the config's rules before the preset's (or instead, with `replace`),
+//! and `--tags` wins over the config's preset.
 
 use std::path::{Path, PathBuf};
 

@@ -28,7 +28,7 @@ pub mod schema;
 pub mod tags;
 pub mod vis;
 
-/// The README's examples, compiled and run as doctests (its engine example above all).
+/// The guide's examples, compiled and run as doctests (its engine example above all).
 #[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeDoctests;
+#[doc = include_str!("../docs/guide.md")]
+struct GuideDoctests;

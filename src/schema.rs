@@ -1,5 +1,9 @@
 //! The JSON Schemas in schemas/, embedded so the binary validates without the source tree, and
 //! one place that runs them.
+//!
+//! `schemas/config.schema.json` holds the config file and, under `$defs/ruleSet`, a preset;
+//! `schemas/tags.schema.json` the extras keys; `schemas/PORTCULLIS_portals.schema.json` the
+//! extension. A test validates every built-in preset against the rule-set schema.
 
 use serde_json::Value;
 

@@ -13,6 +13,26 @@
 //!
 //! Invariants of [`CellSet`]: every cell is convex with outward planes and at least four faces;
 //! the cells of one room do not overlap; `room_cells[r]` lists room `r`'s cells in order.
+//!
+//! Room meshes touching fewer than two sides of the box around the rest of the room are props (a
+//! crate, a lamp): rendered by the cell containing them, never shaping it. Footprints
+//! (`footprint.rs`): each planar part partitioned into convex pieces, every piece vertex raised to
+//! the geometry above it by a ray cast against the level, or to the level's top outdoors. Triangles
+//! are taken in an order fixed by node path and vertex indices, so shuffling nodes or triangles
+//! breaks no tie differently. Rooms are built in parallel and their cells numbered in room order
+//! afterwards, so the result does not depend on the thread count.
+//!
+//! `overlap.rs` reports cells of different rooms of equal priority that overlap (pairs from a grid
+//! over their boxes in the order of their numbers, never all pairs); it and `assign.rs` only read
+//! the cells, so they run side by side and their findings are applied in a fixed order. `assign.rs`
+//! (rooms in parallel, joined in room order) lists for each cell the nodes it renders and reports
+//! geometry in no cell; `split.rs` (`--split-geometry`) cuts meshes listed by several cells along
+//! the cell planes, a part on a shared face going to the cell it faces.
+//!
+//! Further invariants: the union of a room's cells is the room's air within the tolerance
+//! (tests/cells_3d.rs holds this against rays cast at the room's own triangles and the divergence
+//! theorem); a cell never carries a plane its shape does not need. A thick wall is bridged only
+//! where no other cell lies in the gap (a reveal cell already joins the two sides).
 
 use std::collections::HashMap;
 

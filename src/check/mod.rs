@@ -6,6 +6,27 @@
 //!
 //! Every finding is a [`Diagnostic`] located at the portal's node (or its JSON pointer in a
 //! stored annotation) with the 3D point it concerns, so a designer can go there.
+//!
+//! A [`Subject`] is cells (polyhedra and labels), a `PortalSet`, where each portal is in the file,
+//! the tolerance, the level's extent and the player starts. `portals.rs`: at least three distinct
+//! points off one line (the same `usable_polygon` test the builder uses), planar, convex, on the
+//! source cell's boundary (across a wall up to its thickness), between two cells, partners mutual
+//! with the same polygon reversed (compared on one plane, since across a wall the two lie on
+//! opposite faces), no two overlapping the same way between the same cells. `transforms.rs`:
+//! finite; a teleporter's rigid and proper; a mirror's the reflection in its own plane; a partner's
+//! the inverse; a teleporter's exit the image of its entry. `graph.rs`: union-find parts (the part
+//! holding the first player start, else the largest, is the level; the others are unreachable) and
+//! strongly connected parts from `scc.rs` (a part with a way in but none out is a one-way dead
+//! end). Loops come from `portals/loops.rs`. `leaks.rs`: exterior portals; in a sealed level, one
+//! LEAK per leaking cell with the shortest cell chain from a player start (BFS; no start: the cell
+//! itself) and a polyline from the start through the portal centres to a step outside, which
+//! `convert --debug` draws. `sightlines.rs` (`check --sightlines N`, run after the others, and only
+//! when asked) audits a PVS against the triangles that block sight (`portals::blocking_triangles`);
+//! it shares nothing with `vis` but the cells and portals.
+//!
+//! The portal checks, the loops and the rest run side by side, their findings joined in that fixed
+//! order. Invariant: checks never mutate; the same subject gives the same findings in the same
+//! order, whatever the thread count.
 
 use std::path::PathBuf;
 

@@ -4,6 +4,13 @@
 //! same finding can be rendered for a person, a CI system (JSON) or a later SARIF/JUnit report.
 //! Codes are stable identifiers listed once in [`codes`]; their default severity lives there
 //! too, so a user override (`--severity CODE=LEVEL`) has a single place to act on.
+//!
+//! A [`Location`] is the file, a node path, a JSON pointer or line or prim, and the 3D point.
+//! `policy.rs` applies what the user asked to hear (`[check] ignore`/`severity` in the
+//! configuration, `--ignore`/`--severity` on top) after every stage has run, so stages always
+//! report everything. Invariants: a code never changes meaning, and new problems get new codes;
+//! every code has a level in `samples/broken/` that triggers exactly it (or a reason in its README)
+//! and a section in `docs/diagnostics.md` quoting what that level prints.
 
 use std::fmt;
 use std::path::PathBuf;

@@ -6,7 +6,7 @@
 //! relative to its parent as one `xformOp:transform`; names made valid USD identifiers, the
 //! original kept as `displayName`, which the importer reads back); extras become customData.
 //! Cells and portals live on `/PortcullisAnnotation` as custom attributes in the `portcullis:`
-//! namespace (documented in README "USD output"), with the PVS when one was computed; the
+//! namespace (documented in docs/guide.md, "USD output"), with the PVS when one was computed; the
 //! importer ignores that prim, so converting an annotated file again replaces the annotation
 //! instead of reading it as level.
 

@@ -9,6 +9,9 @@
 //!   bytes it stands for (1–255). Chosen when it is at most 3/4 of `bits`.
 //!
 //! Left out when the level has one cell (it sees itself; nothing to store).
+//!
+//! `lists` is always used up to 16 cells; above that, whichever encoding is smallest. The writer
+//! appends the buffer view last (in the BIN chunk of a .glb, as its own data: buffer in a .gltf).
 
 use serde_json::{json, Value};
 

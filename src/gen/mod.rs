@@ -7,6 +7,15 @@
 //! The same options give the same level, byte for byte (a seeded generator, no hash-map
 //! order). Walls have no thickness: two rooms sharing a wall each have their own surface on
 //! the same plane, facing into the room, as in many exported levels; storeys stack the same way.
+//!
+//! `layout.rs` plans a building: the same grid on every storey (cell sizes from a seeded
+//! SplitMix64), rooms of one cell or an L of three, a stairwell in the first cell of each storey,
+//! doors from a random spanning tree of neighbouring rooms plus extra loops, windows in outer
+//! walls. `surfaces.rs` turns one room into inward floor, ceiling and walls with rectangular holes
+//! (split along every hole edge so pieces meet edge to edge), the authored portal quads of its
+//! doors (facing out of the room, the Godot convention), stairs, a bound box for a stairwell, and
+//! furniture. Invariants: every room is reachable; the portals portcullis derives join exactly the
+//! rooms the layout put doors and stairs between (tests/gen.rs checks it against the layout).
 
 use glam::DVec3;
 

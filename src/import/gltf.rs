@@ -6,6 +6,15 @@
 //! everything the pipeline needs is read from it with the lenient structs in [`schema`] and our
 //! own accessor reader, which checks every size the file claims against the bytes present before
 //! allocating anything.
+//!
+//! The GLB container is parsed with the gltf crate, the JSON with our own small serde structs, item
+//! by item from the text (the gltf crate's validation rejects KHR_mesh_quantization and keeps node
+//! transforms as f32). A big top-level array is read in runs of about 1 MB on every thread, cut
+//! between object items (a cut in the wrong place leaves its run unreadable, and the array is then
+//! read whole). Meshes are built on every thread while the nodes are walked; a mesh that fails
+//! counts only if the walk reached it, so the error is the one a mesh-by-mesh walk gives. A mesh's
+//! first all-finite POSITION list becomes the mesh's without a copy, and JSON pointers are written
+//! only for a diagnostic.
 
 use std::path::{Path, PathBuf};
 

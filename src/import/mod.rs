@@ -4,6 +4,9 @@
 //!
 //! Importers never panic on hostile input: sizes claimed by a file are checked against the bytes
 //! actually present before anything is allocated.
+//!
+//! A big file is read a part per thread into one buffer (`read_file`: positioned reads, the same
+//! bytes as `std::fs::read`).
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};

@@ -9,6 +9,21 @@
 //!
 //! Without the feature, a USD input gets one sentence on how to get support, so a plain build
 //! never needs Python.
+//!
+//! `usd/python.rs` picks the venv (`--python-venv`, `VIRTUAL_ENV`, the repository's `.venv`), runs
+//! `helper.py` (`include_str!`) and copies the result out through the buffer protocol. `helper.py`
+//! only walks the stage: instance proxies included, a PointInstancer's prototypes once per visible
+//! instance and never where they are defined, shading prims, lights, invisible and guide/proxy
+//! subtrees left out; per prim it returns its path, name, nearest kept ancestor, world matrix, tags
+//! as JSON (authored customData, not `GetCustomData()`, which adds schema docs; custom attributes)
+//! and, once per prototype, the raw mesh arrays. `usd/stage.rs` makes every geometric decision:
+//! Z-up to Y-up rotation, the unit scale put into positions and translations (so coordinates and
+//! tolerances are metres), n-gons ear-clipped with the exact predicates, holes skipped, left-handed
+//! faces flipped.
+//!
+//! Invariants: a Python exception is a diagnostic carrying its message, never a traceback or a
+//! panic; one prim is one node, with its prim path as the source; a UsdLuxPortalLight never becomes
+//! a node (it is a light, not a visibility portal).
 
 use std::path::Path;
 

@@ -1,5 +1,9 @@
 //! The stages chained for one input file, as every subcommand runs them. Library users call
 //! this too, or the stages one by one.
+//!
+//! It does config discovery, rule compilation, import and tagging for one file, and the stage calls
+//! (`build_cells`, `build_portals`, `check_level`) that append each stage's diagnostics in stage
+//! order.
 
 use std::path::{Path, PathBuf};
 

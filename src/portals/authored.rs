@@ -1,5 +1,12 @@
 //! Authored portals: linked to the derived portal they cover (which takes their name, kind and
 //! flags), or, for mirrors and teleporters, made into transformed portals of their own.
+//!
+//! Each authored quad (Newell normal from its winding, convex outline) is matched to derived
+//! portals that are parallel within 3°, within the wall thickness and overlap it, in the direction
+//! its names give; it lends its node and flags; one-way claims drop unclaimed partners; mirrors and
+//! teleporters become transformed portals of their own (a mirror, and a teleporter whose exit is
+//! itself, is its own partner). Each quad's outline and the derived portals it overlaps are found
+//! for all quads in parallel first; the linking loop that flags portals runs in quad order.
 
 use rayon::prelude::*;
 

@@ -1,5 +1,27 @@
 //! Openings between cells (and to the exterior), from the cells' faces and the level's opaque
 //! triangles.
+//!
+//! Cell pairs are found through a grid over their boxes (never all pairs) and visited in the order
+//! of the cells' numbers; a pair's faces that are coplanar with opposite normals, or parallel,
+//! facing and at most `max_wall_thickness` apart with no third cell in the gap, share the 2D
+//! intersection of their polygons. The opaque triangles on the plane (or clipped to the wall slab
+//! and projected) are merged and subtracted (`geom/boolean2.rs`, on the face's own grid, 2^-24 of
+//! its size) unless `geom/cover.rs` shows them covered (most shared walls, floors and ceilings; an
+//! opening the boolean would keep leaves at least 28·eps² uncovered, so skipping changes no
+//! portal). Openings thinner than ten tolerances are float noise and dropped; each opening is
+//! partitioned into convex pieces (or hulled), and the pieces (and the claims) get the exact input
+//! coordinates back, a corner where two input edges cross on their crossing (`geom/exact.rs`). The
+//! part of a face that no other cell claims and no triangle covers is an exterior opening.
+//!
+//! A bridged pair's face claims the shared region minus its holes into the wall (not covered by
+//! what lies on that face nor bridged, at least as wide on average as the wall is thick; each
+//! shadow carries its triangle's span along the normal, `Shadows::rings_with_spans`, to tell the
+//! wall's two faces apart). A cell pair looks only at the faces whose planes come near the other
+//! cell's box, and a face pair whose face boxes are further apart than that reach is passed over
+//! before projecting. Cell pairs (and cells, for the exterior) go out in jobs of at most 64 with
+//! per-thread shadow buffers (`Shadows::with`), so no thread waits long on another's last job; the
+//! regions pairs claim on a face are found through an index sorted by cell and face, not pushed one
+//! by one.
 
 use rayon::prelude::*;
 

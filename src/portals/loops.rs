@@ -8,6 +8,13 @@
 //! strictly beyond `p`'s exit plane (the plane of `p`'s polygon mapped by `p`'s transform,
 //! facing the direction of travel mapped the same way). That is the classic "might see" test
 //! of portal flow, so every cycle reported is one a conservative renderer would follow.
+//!
+//! The shortest cycle through each transformed portal is found by BFS, deduplicated by its set of
+//! portals. Each loop's run-time depth bound is the number of rounds until the composed transform
+//! moves the first portal's centre farther than the level is wide (or maps it back onto itself),
+//! capped at 8 rounds, times the cycle length; `recursion_depth` is the deepest bound (or, with no
+//! loops, the number of transformed portals), capped at 64. It is what the loop check prints and
+//! the default depth of `vis`.
 
 use std::collections::VecDeque;
 

@@ -4,6 +4,18 @@
 //! On a big level this is the portals stage's inner loop (every face pair two cells share asks
 //! for the triangles near it, a hundred and more on a floor), so nothing here allocates per
 //! triangle: candidates and shadows go into buffers the caller keeps between face pairs.
+//!
+//! The blocking triangles are kept as indexed world vertices in eight `geom/grid.rs` grids, built
+//! beside the cell pairs. A triangle goes in the grid of the axes whose slabs it cannot shadow (its
+//! normal at exactly a right angle to the axis and wider along it than any slab), and a slab across
+//! an axis skips those grids; a test holds the shadows to a plain pass over every triangle. For a
+//! face pair the grids are asked for the box around the slab over the shared region, each triangle
+//! offered is boxed and clipped in one pass, and only the shadows kept are sorted back into scene
+//! order (the order the booleans and exact vertices depend on). A triangle crossing a face's
+//! tolerance slab at more than a degree casts no shadow (its part inside is a strip as wide as the
+//! tolerance makes it); one lying within a degree of the slab's planes, across them or beside them
+//! within a thousandth of the face's size (`NEAR`), casts all of itself (its part inside would be a
+//! strip as wide as its distance over the angle's sine).
 
 use std::collections::HashSet;
 

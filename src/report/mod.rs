@@ -1,5 +1,14 @@
 //! Rendering diagnostics for people and machines. Stages only produce [`Diagnostic`] values;
 //! how they look is decided here, once.
+//!
+//! `human.rs` (compiler-style messages: `severity[CODE]: message`, `-->` location, `= hint:`),
+//! `style.rs` (colour only on a terminal, `NO_COLOR`), `Totals` (the summary line and the exit
+//! code). `file.rs` is one file's result (`FileReport`), from which `json.rs` (the stable JSON
+//! report), `sarif.rs` (SARIF 2.1.0: every code a rule with its default level and documentation
+//! link; glTF pointers and node paths as logical locations, OBJ lines as regions, the 3D point and
+//! hint as properties) and `junit.rs` (one test case per file: a `failure` when it fails the gate,
+//! an `error` when it could not be read) are built. Invariant: no timings or absolute state in
+//! reports, so the same input gives the same bytes.
 
 pub mod file;
 pub mod human;

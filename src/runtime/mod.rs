@@ -26,6 +26,24 @@
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! The files: `load.rs` reads the .glb JSON chunk or .gltf text and the one buffer view of the PVS,
+//! never the meshes, into a [`Level`] (cells' planes, faces and bounds, portals with their plane
+//! facing by the winding, links per region with the outside as the region after the cells,
+//! [`Doors`]). `locate.rs`: a uniform grid over the cells' bounds, the point's cell (hint first,
+//! nested rooms to the highest stored priority then the smallest cell, ties on a boundary to the
+//! hint then the lowest index, never to a distance within the tolerance), the nearest cell by exact
+//! distance to its faces, the cells a box touches. `trace.rs`: the portal walk (a portal clipped to
+//! the near plane and the planes of the transformed portals on its path, projected, and cut to the
+//! parent's convex screen polygon, which is the view; its bounds are the rectangle; mirrors and
+//! teleporters in camera space by a draw transform; doors, one-way, the PVS row of the camera's
+//! cell as prefilter, the portal and cell guards of a path, depth limits). `clip.rs`: half-spaces,
+//! 3D and screen polygon clipping that keeps what lies within a hair of the inside (culling errs
+//! towards drawing), distances.
+//!
+//! Invariants: a trace allocates nothing once its [`Trace`] has grown; every result is a superset
+//! of what rays through the level's triangles reach (tests/runtime.rs); the same answer for the
+//! level moved with the camera.
 
 mod clip;
 mod load;

@@ -11,6 +11,23 @@
 //!   before children in `Scene::nodes` order is *not* promised, use `roots` + `children`;
 //! - every triangle index is in range of its mesh's `positions`, and every position is finite
 //!   (non-finite input is reported and the offending triangles are dropped).
+//!
+//! For glTF the scene keeps the original document and buffer bytes (`GltfSource`). The document is
+//! kept as its JSON text, not a `serde_json::Value` (ten times the text's size on a big level);
+//! `json_text.rs` reads parts of it (root members, array lengths, runs of an array's elements found
+//! by a scan of the checked text, which the parallel writer hands out as work) and checks a text
+//! the way a `Value` parse would. The importer keeps where the root members lie
+//! (`GltfSource::members_at`), so the exporter does not scan the text again.
+//!
+//! A .glb read into memory becomes its BIN chunk in place (the tail moved to the front) and is let
+//! go once the meshes are built (`GltfSource::release_bin`); the exporter copies it back from the
+//! file (`write_buffer`/`buffer_data`) and refuses if the file's length or modification time
+//! changed since it was read. The JSON text is let go the same way as soon as it is parsed (before
+//! the meshes are built, the importer's peak) and read back by `GltfSource::text` when the exporter
+//! or a reader of the stored annotation asks for it (`TextInFile`: where it lies, and its XXH3
+//! hash, which the text read back must match). Read the text only through
+//! `text`/`members`/`subset`/`document`, never the `json` field. `summary.rs` computes what
+//! `inspect` shows.
 
 use std::path::{Path, PathBuf};
 

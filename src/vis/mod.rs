@@ -9,6 +9,22 @@
 //!
 //! Results never depend on the thread count: parallel work is split by source portal and
 //! merged in a fixed order (see `full.rs` and `sampled.rs`).
+//!
+//! The files: `graph.rs`, the method-neutral input; `load.rs`, any input to a graph; `flood.rs`
+//! (reachability, once per strongly connected part, parts in reverse topological order); `fast.rs`
+//! (Quake's per-portal might-see: front tests, then a flood; behind a transform it floods
+//! unfiltered); `full.rs` (the portal flow; a per-frame separator cache; one portal × portal matrix
+//! holds the might-see rows and is overwritten by the results); `sampled.rs` (seeded random
+//! segments from each directed portal, walked through the first portal crossed strictly inside; the
+//! outside's openings are walls to it, since nothing there is known to be clear); `winding.rs`
+//! (chop and separators into reused buffers; separators built only for the two extreme pass corners
+//! per source edge); `bits.rs` (u64 rows); `pvs.rs` (`Pvs`: one bit row per cell, ordered pairs,
+//! the `c: v1 v2 ...` text).
+//!
+//! Invariants: sampled ⊆ full ⊆ fast ⊆ flood; every cell sees itself; each sampler generator is
+//! seeded by its portal; a transformed portal carries the whole stack into its target space, and
+//! the default `transform_depth` is the loop check's `recursion_depth`, else `[vis]
+//! transform_depth`.
 
 pub mod bits;
 mod fast;

@@ -6,6 +6,13 @@
 //! object, and [`page`] wraps it with three.js and the viewer script, both embedded in the
 //! binary, so the file opens offline from disk. Nothing here decides anything about the level;
 //! it draws what the stages found.
+//!
+//! `page.rs` inlines the payload (coordinates rounded to 0.1 mm) with `assets/three.min.js`
+//! (three.js r158, vendored unmodified with its licence: the last release with a classic-script
+//! build that a page opened from disk can inline) and `assets/viewer.js` (drawing, picking, the PVS
+//! of a cell, the camera's cell and what its PVS draws in view). It decides nothing about the
+//! level. Invariant: the page makes no network request and exposes `window.portcullis = {ready,
+//! cells, portals, select(cell)}`, which `tests/viewer.rs` drives in headless Chromium.
 
 mod page;
 
