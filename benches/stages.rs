@@ -11,6 +11,9 @@
 use std::path::PathBuf;
 
 use divan::Bencher;
+
+#[path = "../src/bin/portcullis-floor/round_trip.rs"]
+mod round_trip;
 use portcullis::cells::CellSet;
 use portcullis::export::gltf_out::{self, OutFormat};
 use portcullis::gen::{self, GenOptions};
@@ -74,7 +77,7 @@ fn with_portals(rooms: usize) -> (Tagged, CellSet, PortalSet) {
 #[divan::bench(args = sizes(), sample_count = 10)]
 fn floor(b: Bencher, rooms: usize) {
     let (input, out) = (level(rooms), output("floor", rooms));
-    b.bench(|| portcullis::floor::read_write(&input, &out).unwrap());
+    b.bench(|| round_trip::read_write(&input, &out).unwrap());
 }
 
 #[divan::bench(args = sizes(), sample_count = 10)]

@@ -842,31 +842,6 @@ fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
     }
 }
 
-/// The binary's allocator can be switched to the system's (`bench` runs its floor that way):
-/// both give the same output and report, on a level with a PVS and every stage on two threads.
-#[test]
-fn the_system_allocator_converts_the_same() {
-    let dir = tempfile::tempdir().unwrap();
-    let input = fixture("lportal_boxrooms.glb");
-    let mut outputs = Vec::new();
-    for allocator in ["", "system"] {
-        let out = dir.path().join(format!("out{allocator}.glb"));
-        let o = portcullis()
-            .env("PORTCULLIS_ALLOCATOR", allocator)
-            .env("RAYON_NUM_THREADS", "2")
-            .args(["convert", "--vis", "full", "-o"])
-            .arg(&out)
-            .arg(&input)
-            .output()
-            .unwrap();
-        assert_ok(&o);
-        let report = String::from_utf8_lossy(&o.stderr).replace(&*out.to_string_lossy(), "OUT");
-        outputs.push((std::fs::read(&out).unwrap(), report));
-    }
-    assert!(outputs[0].0 == outputs[1].0, "the outputs differ");
-    assert_eq!(outputs[0].1, outputs[1].1);
-}
-
 /// Issue 29, item 11: a file that failed while being written is not reported as unreadable.
 #[test]
 fn a_failed_output_is_not_called_unreadable() {

@@ -587,7 +587,7 @@ fn a_real_change_is_seen() {
 }
 
 /// Levels whose result moves with the tolerance, with their number of differences over the
-/// four factors, held exactly (fewer is progress to record here and in the README, more a
+/// four factors, held exactly (fewer is progress to record here and in docs/guide.md, "Numerics", more a
 /// regression). What moves, on panda3d only: its modelling is a fraction of a millimetre off
 /// its own cells (a stair's side 1e-5 m short of a cell's edge), inside the range the factors
 /// sweep (6e-3 to 9e-2 mm for the f32 .glb, 0.2 to 3 mm for the six-digit OBJ). Slivers of

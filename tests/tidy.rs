@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 /// The library's top-level modules, lowest first. A module may use modules of a lower rank,
 /// and none of its own rank or above (modules of one rank know nothing of each other).
 const LAYERS: &[&[&str]] = &[
-    &["rng", "scc", "free", "floor", "schema"],
+    &["rng", "scc", "free", "schema"],
     &["geom"],
     &["scene"],
     &["diag"],
@@ -44,13 +44,13 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 /// The top-level module a file belongs to (`src/cells/split.rs` → `cells`), or None for the
-/// crate root and the binary (`lib.rs`, `main.rs`, `cli/`), which may use anything.
+/// crate root and the binaries (`lib.rs`, `main.rs`, `cli/`, `bin/`), which may use anything.
 fn module_of(src: &Path, file: &Path) -> Option<String> {
     let rel = file.strip_prefix(src).unwrap();
     let first = rel.components().next()?.as_os_str().to_str()?.to_string();
     let name = first.trim_end_matches(".rs").to_string();
     match name.as_str() {
-        "lib" | "main" | "cli" => None,
+        "lib" | "main" | "cli" | "bin" => None,
         _ => Some(name),
     }
 }

@@ -44,12 +44,6 @@ pub struct BenchArgs {
     /// Run one size and print its measurements as JSON (used by the parent process).
     #[arg(long, hide = true)]
     pub one: Option<usize>,
-
-    /// Time the floor of one size alone and print it (used by the parent process, so the
-    /// floor runs in a fresh process, on the system allocator, as a program using only the
-    /// gltf crate would).
-    #[arg(long, hide = true)]
-    pub floor: Option<usize>,
 }
 
 /// Seconds per stage for one size, and the peak memory.
@@ -120,12 +114,29 @@ fn timed_cpu<T>(cpu: &mut Vec<f64>, f: impl FnOnce() -> T) -> (T, f64) {
     r
 }
 
-/// Reading and writing the file with the gltf crate alone: parse the GLB (JSON and BIN chunk)
-/// into the crate's document, serialise it back, write it.
-fn floor(input: &Path, out: &Path) -> Result<f64, String> {
-    let t = Instant::now();
-    portcullis::floor::read_write(input, out)?;
-    Ok(t.elapsed().as_secs_f64())
+/// Reading and writing the file with the gltf crate alone (parse the GLB's JSON and BIN chunk
+/// into the crate's document, serialise it back, write it), by `portcullis-floor`, the binary
+/// built beside this one: a process of its own on the system allocator, as a program using
+/// only the gltf crate would run.
+fn floor(exe: &Path, dir: &Path, rooms: usize, seed: u64) -> Result<f64, String> {
+    let floor = exe.with_file_name(format!("portcullis-floor{}", std::env::consts::EXE_SUFFIX));
+    let out = std::process::Command::new(&floor)
+        .arg(level_path(dir, rooms, seed))
+        .arg(dir.join(format!("floor_{rooms}.glb")))
+        .output()
+        .map_err(|e| {
+            format!(
+                "error: cannot run `{}` ({e}); it is built with portcullis (`cargo build --release`)\n",
+                floor.display()
+            )
+        })?;
+    if !out.status.success() {
+        return Err(String::from_utf8_lossy(&out.stderr).into_owned());
+    }
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .map_err(|e| format!("error: unreadable floor for {rooms} rooms: {e}\n"))
 }
 
 /// Wall seconds of `portcullis convert` on the level as its own process, without a PVS.
@@ -364,19 +375,6 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             return 2;
         }
     };
-    if let Some(n) = a.floor {
-        let input = level_path(dir, n, a.seed);
-        return match floor(&input, &dir.join(format!("floor_{n}.glb"))) {
-            Ok(t) => {
-                println!("{t}");
-                0
-            }
-            Err(e) => {
-                eprintln!("error: the floor of {n} rooms failed: {e}");
-                2
-            }
-        };
-    }
     if let Some(n) = a.one {
         return match one(n, a.seed, dir, &methods) {
             Ok(row) => {
@@ -401,12 +399,7 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             return 2;
         }
         let child = |what: &str| {
-            let mut cmd = std::process::Command::new(&exe);
-            if what == "--floor" {
-                // As a program using only the gltf crate would run: on the system allocator.
-                cmd.env(crate::ALLOCATOR_VAR, "system");
-            }
-            let out = cmd
+            let out = std::process::Command::new(&exe)
                 .args([
                     "bench",
                     what,
@@ -431,11 +424,7 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
                 let mut r: Row = serde_json::from_slice(&out)
                     .map_err(|e| format!("error: unreadable measurements for {n} rooms: {e}\n"))?;
                 r.process = convert_process(&exe, dir, n, a.seed)?;
-                let floor = child("--floor")?;
-                r.floor = String::from_utf8_lossy(&floor)
-                    .trim()
-                    .parse()
-                    .map_err(|e| format!("error: unreadable floor for {n} rooms: {e}\n"))?;
+                r.floor = floor(&exe, dir, n, a.seed)?;
                 Ok(r)
             });
             match row {

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+#[cfg(unix)]
+mod alloc;
 pub mod bench;
 pub mod check;
 pub mod convert;

@@ -1,11 +1,4 @@
-//! The read+write floor of the benchmarks: reading a .glb and writing it back with the gltf
-//! crate alone, the least any tool that reads and writes a level does. `portcullis bench` and
-//! `cargo bench` put every stage's time next to it.
-//!
-//! `portcullis bench` (`cli/bench.rs`) prints one table per run, each size in a child process of
-//! its own so its peak memory is its own, the floor in another on the system allocator; the targets
-//! are read from it. `cargo bench --bench stages` (`benches/stages.rs`) gives divan statistics per
-//! stage, PVS method and size, for comparing builds.
+//! The floor's one job, shared with `cargo bench --bench stages` (which includes this file).
 
 use std::path::Path;
 
