@@ -42,8 +42,11 @@
 
 pub mod atomic;
 pub mod bake;
+pub(crate) mod container;
 pub mod debug;
 pub mod gltf_out;
+#[cfg(test)]
+mod oracle;
 pub(crate) mod parallel;
 pub(crate) mod rewrite;
 pub mod sink;

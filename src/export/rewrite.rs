@@ -18,7 +18,8 @@ use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
 use serde_json::value::RawValue;
 use serde_json::{json, Value};
 
-use super::gltf_out::{self as out, OutFormat};
+use super::container as out;
+use super::gltf_out::OutFormat;
 use super::parallel::{self, Failure, Render, RenderText, Source};
 use super::sink::{Counted, Sink};
 use super::transcode::{self, Element, Transcode};
@@ -673,7 +674,7 @@ mod tests {
     fn both(scene: &Scene, ann: &Annotation, format: OutFormat) -> (Option<Vec<u8>>, Vec<u8>) {
         let out = Path::new("/nonexistent/out/level.glb");
         let dir = out.parent().unwrap();
-        let whole = gltf_out::write_whole(scene, ann, out, dir, format).unwrap();
+        let whole = crate::export::oracle::write_whole(scene, ann, out, dir, format).unwrap();
         let mut mine = ann_clone(ann);
         let src = scene.gltf.as_ref().unwrap();
         let mut bytes = std::io::Cursor::new(Vec::new());
@@ -844,7 +845,7 @@ mod tests {
                 let out = Path::new("/nonexistent/out/level.glb");
                 for format in FORMATS {
                     let whole =
-                        gltf_out::write_whole(scene, &ann, out, out.parent().unwrap(), format)
+                        crate::export::oracle::write_whole(scene, &ann, out, out.parent().unwrap(), format)
                             .unwrap();
                     let mine = crate::pipeline::write_annotated(&t, &cells, &portals, out, format)
                         .unwrap();
@@ -881,7 +882,7 @@ mod tests {
         for base in [&[0usize, 100][..], &[0][..], &[16, 0][..], &[][..]] {
             for e in views {
                 let mut v: Value = serde_json::from_str(e).unwrap();
-                gltf_out::rebase_view(&mut v, base);
+                crate::export::container::rebase_view(&mut v, base);
                 let slow = serde_json::to_string(&v).unwrap();
                 if super::view_unchanged(e, base) {
                     taken += 1;

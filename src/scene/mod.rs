@@ -291,6 +291,20 @@ pub struct BinInFile {
 }
 
 impl GltfSource {
+    /// A document held in memory: its JSON text (which must parse) and each buffer's data,
+    /// external URIs resolving from `base_dir`.
+    pub fn in_memory(json: String, buffers: Vec<Vec<u8>>, base_dir: &Path) -> GltfSource {
+        GltfSource {
+            json,
+            json_file: None,
+            reloaded: Default::default(),
+            buffers,
+            base_dir: base_dir.to_path_buf(),
+            bin_file: None,
+            members_at: None,
+        }
+    }
+
     /// The document's JSON text, read back from the input file if the importer let it go (an
     /// error if the file cannot be read or no longer holds it).
     pub fn text(&self) -> std::io::Result<&str> {

@@ -1,0 +1,177 @@
+//! The test oracle of the glTF writer: the whole output document built as a JSON tree, the
+//! simple way the streamed writer ([`super::rewrite`]) must match byte for byte. Tests only;
+//! a tree takes ten times the room of its text on a big level.
+
+use std::path::Path;
+
+use serde_json::{json, Value};
+
+use super::container::*;
+use super::gltf_out::{from_scene, OutFormat};
+use crate::diag::{Code, Diagnostic, Location};
+use crate::format::{Annotation, NAME};
+use crate::scene::Scene;
+
+/// [`write`] by building the whole output document.
+pub(crate) fn write_whole(
+    scene: &Scene,
+    ann: &Annotation,
+    out: &Path,
+    out_dir: &Path,
+    format: OutFormat,
+) -> Result<Vec<u8>, Diagnostic> {
+    let (mut doc, mut bin) = match &scene.gltf {
+        Some(src) => {
+            let buffers = src
+                .buffer_data()
+                .map_err(|e| super::atomic::failed(out, e))?;
+            from_gltf(src, &buffers, format, out_dir).map_err(|e| super::atomic::failed(out, e))?
+        }
+        None => from_scene(&super::bake::world_space(scene), format),
+    };
+    annotate(&mut doc, ann);
+    if let Some(blob) = &ann.blob {
+        let view = attach(&mut doc, &mut bin, format, blob);
+        if let Some(v) = doc
+            .pointer_mut(&format!("/extensions/{NAME}/visibility"))
+            .and_then(Value::as_object_mut)
+        {
+            v.insert("bufferView".into(), json!(view));
+        }
+    }
+    match format {
+        OutFormat::Glb => Ok(glb(&doc, bin.as_deref())),
+        OutFormat::Gltf => {
+            let mut v = serde_json::to_vec_pretty(&doc).map_err(|e| {
+                Diagnostic::new(
+                    Code::OUTPUT_FAILED,
+                    format!("cannot serialise the glTF: {e}"),
+                    Location::file(out),
+                )
+            })?;
+            v.push(b'\n');
+            Ok(v)
+        }
+    }
+}
+
+/// Adds the extension to the document (replacing an earlier annotation by portcullis).
+fn annotate(doc: &mut Value, ann: &Annotation) {
+    let Some(obj) = doc.as_object_mut() else {
+        return;
+    };
+    let used = obj.entry("extensionsUsed").or_insert_with(|| json!([]));
+    if let Some(a) = used.as_array_mut() {
+        if !a.iter().any(|v| v == NAME) {
+            a.push(json!(NAME));
+        }
+    }
+    let ext = obj.entry("extensions").or_insert_with(|| json!({}));
+    if let Some(e) = ext.as_object_mut() {
+        e.insert(NAME.into(), ann.to_value());
+    }
+    if let Some(nodes) = obj.get_mut("nodes").and_then(Value::as_array_mut) {
+        nodes.iter_mut().for_each(strip_ours);
+        for (i, v) in &ann.nodes {
+            if let Some(node) = nodes.get_mut(*i) {
+                add_ours(node, v.clone());
+            }
+        }
+    }
+}
+
+/// Appends `blob` as a new buffer view and returns its index: in the BIN chunk (buffer 0) of a
+/// .glb, as a buffer of its own with a data: URI in a .gltf.
+fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &[u8]) -> usize {
+    let buffer = match format {
+        OutFormat::Glb => {
+            let data = bin.get_or_insert_with(Vec::new);
+            while data.len() % 4 != 0 {
+                data.push(0);
+            }
+            let offset = data.len();
+            data.extend_from_slice(blob);
+            let len = data.len();
+            match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                Some(b) if !b.is_empty() => b[0]["byteLength"] = json!(len),
+                _ => doc["buffers"] = json!([{ "byteLength": len }]),
+            }
+            (0, offset)
+        }
+        OutFormat::Gltf => {
+            let entry = json!({"byteLength": blob.len(), "uri": data_uri(blob)});
+            match doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                Some(b) => {
+                    b.push(entry);
+                    (b.len() - 1, 0)
+                }
+                None => {
+                    doc["buffers"] = json!([entry]);
+                    (0, 0)
+                }
+            }
+        }
+    };
+    let view = blob_view(buffer, blob.len());
+    match doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
+        Some(v) => {
+            v.push(view);
+            v.len() - 1
+        }
+        None => {
+            doc["bufferViews"] = json!([view]);
+            0
+        }
+    }
+}
+
+fn from_gltf(
+    src: &crate::scene::GltfSource,
+    held: &[Vec<u8>],
+    format: OutFormat,
+    out_dir: &Path,
+) -> std::io::Result<(Value, Option<Vec<u8>>)> {
+    let mut doc = src.document()?;
+    if let Some(images) = doc.get_mut("images").and_then(Value::as_array_mut) {
+        for v in images {
+            rebase_item(v, &src.base_dir, out_dir);
+        }
+    }
+    match format {
+        OutFormat::Gltf => {
+            if let Some(buffers) = doc.get_mut("buffers").and_then(Value::as_array_mut) {
+                for (i, b) in buffers.iter_mut().enumerate() {
+                    let data: &[u8] = held.get(i).map_or(&[], |b| b.as_slice());
+                    gltf_buffer(b, data, &src.base_dir, out_dir);
+                }
+            }
+            Ok((doc, None))
+        }
+        OutFormat::Glb => {
+            let lens: Vec<usize> = held.iter().map(Vec::len).collect();
+            let (base, len) = glb_layout(&lens);
+            let mut bin = Vec::with_capacity(len);
+            for (data, at) in held.iter().zip(&base) {
+                bin.resize(*at, 0);
+                bin.extend_from_slice(data);
+            }
+            if let Some(views) = doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
+                for v in views {
+                    rebase_view(v, &base);
+                }
+            }
+            if held.is_empty() {
+                if let Some(o) = doc.as_object_mut() {
+                    o.remove("buffers");
+                }
+                return Ok((doc, None));
+            }
+            let first = doc
+                .get("buffers")
+                .and_then(Value::as_array)
+                .and_then(|a| a.first());
+            doc["buffers"] = glb_buffer(first, bin.len());
+            Ok((doc, Some(bin)))
+        }
+    }
+}
