@@ -52,7 +52,7 @@ use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::geom::tolerance::Tolerance;
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::VolumeHint;
-use crate::tags::{RoomId, Tagging};
+use crate::tags::{Room, RoomId, Tagging};
 
 mod assign;
 pub use assign::drop_far_structure;
@@ -266,218 +266,29 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
             .hint("store the geometry near its node's origin and place it with the node's translation (that keeps its precision), or raise [cells] max_tolerance"),
         );
     }
-    let loc = |n: NodeId| {
-        Location::file(&scene.path)
-            .with_source(scene.nodes[n].source.clone())
-            .with_node(scene.node_path(n))
-    };
     let mut cells: Vec<Cell> = Vec::new();
     let mut room_cells = vec![Vec::new(); tagging.rooms.len()];
     let mut props = Vec::new();
     let frame = Frame::new(cfg.up);
-    // The highest point of the level along up, over its vertices: the corners of the
-    // world-axis box overshoot when the level is turned off its axes, which raised outdoor
-    // footprints higher on a turned level (tests/metamorphic.rs, panda3d_culling).
-    let top = scene
-        .walk()
-        .into_par_iter()
-        .map(|n| {
-            scene
-                .world_positions_used_iter(n)
-                .map(|p| (p - origin).dot(frame.up))
-                .fold(f64::NEG_INFINITY, f64::max)
-        })
-        .reduce(|| f64::NEG_INFINITY, f64::max);
-    // Structure of rooms made only of floor: extruded like footprints (see `floor_only`).
-    let floors: Vec<NodeId> = tagging
-        .rooms
-        .par_iter()
-        .filter(|r| r.bounds.is_empty() && r.footprints.is_empty())
-        .filter(|r| floor_only(&node_triangles(scene, &r.structure, origin), frame.up))
-        .flat_map_iter(|r| r.structure.iter().copied())
-        .collect();
-    // Footprints (tagged, or rooms made only of floor) are where cells start, not what they
-    // rise to; portals, bounds and ignored nodes block nothing.
-    let skip: std::collections::HashSet<NodeId> = tagging
-        .footprints
-        .iter()
-        .map(|f| f.node)
-        .chain(floors.iter().copied())
-        .chain(tagging.portals.iter().map(|p| p.node))
-        .chain(tagging.bounds.iter().map(|b| b.node))
-        .chain(tagging.ignored.iter().map(|n| n.node))
-        .collect();
-    let extruded: Vec<NodeId> = tagging
-        .footprints
-        .iter()
-        .map(|f| f.node)
-        .chain(floors.iter().copied())
-        .collect();
+    let top = level_top(scene, origin, &frame);
+    let (skip, extruded) = footprint_nodes(scene, tagging, origin, &frame);
     let ctx = footprint::Context::new(scene, &skip, &extruded, origin, cfg, eps, (frame, top));
+    let b = RoomBuilder {
+        scene,
+        cfg,
+        ctx: &ctx,
+        origin,
+        eps,
+        extent,
+        frame,
+    };
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count.
     let built: Vec<RoomCells> = tagging
         .rooms
         .par_iter()
         .enumerate()
-        .map(|(ri, room)| {
-        let mut diags: Vec<Diagnostic> = Vec::new();
-        let mut props: Vec<NodeId> = Vec::new();
-        let mut cells: Vec<Cell> = Vec::new();
-        let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
-        if !room.bounds.is_empty() {
-            for &b in &room.bounds {
-                let tris = node_triangles(scene, &[b], origin);
-                let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
-                match hull(&pts, eps) {
-                    Ok(h) => {
-                        if let Some(bad) = tris
-                            .iter()
-                            .position(|t| !on_hull_boundary(&h, t, eps * 10.0))
-                        {
-                            let c = (tris[bad][0] + tris[bad][1] + tris[bad][2]) / 3.0 + origin;
-                            diags.push(
-                                Diagnostic::new(
-                                    Code::CELL_BOUND_NOT_CONVEX,
-                                    format!(
-                                        "bound mesh `{}` of room `{}` is not convex; its convex hull is used",
-                                        scene.node_label(b),
-                                        room.name
-                                    ),
-                                    loc(b).with_position(c.to_array()),
-                                )
-                                .hint("model the bound as a convex mesh, or split it into several convex bound meshes"),
-                            );
-                        }
-                        polys.push((h, CellSource::Bound));
-                    }
-                    Err(e) => diags.push(degenerate(scene, room.name.as_str(), b, &e, &loc)),
-                }
-            }
-        } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
-            for &f in &room.footprints {
-                match ctx.extrude(f, footprint::extras_height(scene, &[f, room.node])) {
-                    Ok(ps) => polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint))),
-                    Err(msg) => diags.push(
-                        Diagnostic::new(
-                            Code::CELL_ROOM_DEGENERATE,
-                            format!(
-                                "footprint `{}` of room `{}`: {msg}",
-                                scene.node_label(f),
-                                room.name
-                            ),
-                            loc(f),
-                        )
-                        .hint("a footprint must be a floor polygon with area, not vertical"),
-                    ),
-                }
-            }
-        } else {
-            let mut structure: Vec<NodeId> = room.structure.clone();
-            if cfg.detect_props && structure.len() >= 2 {
-                let found = detect_props(scene, &structure, origin, extent, &frame);
-                structure.retain(|n| !found.contains(n));
-                props.extend(found);
-            }
-            if structure.is_empty() {
-                diags.push(
-                    Diagnostic::new(
-                        Code::CELL_ROOM_EMPTY,
-                        format!("room `{}` has no geometry, bound or footprint to give it a volume", room.name),
-                        loc(room.node),
-                    )
-                    .hint("put the room's floor, walls and ceiling under the room node, or add a bound mesh"),
-                );
-            } else {
-                let tris = canonical_triangles(scene, &structure, origin);
-                if floor_only(&tris, frame.up) {
-                    // Only floor (no wall, no ceiling): the room is its footprint, as Panda3D's
-                    // `cellN` meshes are even without the panda3d preset.
-                    diags.push(
-                        Diagnostic::new(
-                            Code::CELL_ROOM_FROM_FLOOR,
-                            format!(
-                                "room `{}` has only upward-facing geometry; it was extruded upward as a footprint",
-                                room.name
-                            ),
-                            loc(room.node).with_position((mean(tris.iter().flatten()) + origin).to_array()),
-                        )
-                        .hint("tag the floor as a footprint (extras `\"footprint\"`, or --tags panda3d for cellN) to say so"),
-                    );
-                    for &f in &structure {
-                        match ctx.extrude(f, footprint::extras_height(scene, &[f, room.node])) {
-                            Ok(ps) => {
-                                polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint)))
-                            }
-                            Err(msg) => diags.push(
-                                Diagnostic::new(
-                                    Code::CELL_ROOM_DEGENERATE,
-                                    format!(
-                                        "floor `{}` of room `{}`: {msg}",
-                                        scene.node_label(f),
-                                        room.name
-                                    ),
-                                    loc(f),
-                                )
-                                .hint(
-                                    "a footprint must be a floor polygon with area, not vertical",
-                                ),
-                            ),
-                        }
-                    }
-                } else {
-                    let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
-                    match hull(&pts, eps) {
-                        Ok(h) => {
-                            let cells = prism::cells(&tris, &h, eps, &frame)
-                                .unwrap_or_else(|| interior::decompose(&tris, &h, eps));
-                            let source = if cells.len() == 1 && cells[0] == h {
-                                CellSource::Hull
-                            } else {
-                                CellSource::Split
-                            };
-                            polys.extend(cells.into_iter().map(|c| (c, source)));
-                        }
-                        Err(e) => {
-                            let mut d = degenerate(scene, room.name.as_str(), room.node, &e, &loc);
-                            if !pts.is_empty() {
-                                d.location.position = Some((mean(pts.iter()) + origin).to_array());
-                            }
-                            diags.push(d)
-                        }
-                    }
-                }
-            }
-        }
-        for (p, source) in polys {
-            let world = p.translated(origin);
-            let volume = world.volume();
-            if world.faces.len() > cfg.max_planes {
-                diags.push(
-                    Diagnostic::new(
-                        Code::CELL_TOO_MANY_PLANES,
-                        format!(
-                            "a cell of room `{}` has {} planes (more than {})",
-                            room.name,
-                            world.faces.len(),
-                            cfg.max_planes
-                        ),
-                        loc(room.node).with_position(world.interior_point().to_array()),
-                    )
-                    .hint("simplify the room's outline or give it a simpler bound mesh; raise [cells] max_planes if the engine copes"),
-                );
-            }
-            cells.push(Cell {
-                room: ri,
-                source,
-                bounds: world.bounds(),
-                poly: world,
-                volume,
-                nodes: Vec::new(),
-            });
-        }
-        RoomCells { cells, diags, props }
-        })
+        .map(|(ri, room)| b.room(ri, room))
         .collect();
     for (ri, room) in built.into_iter().enumerate() {
         for c in room.cells {
@@ -507,6 +318,268 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         c.nodes = l;
     }
     set
+}
+
+/// The highest point of the level along up, over its vertices: the corners of the
+/// world-axis box overshoot when the level is turned off its axes, which raised outdoor
+/// footprints higher on a turned level (tests/metamorphic.rs, panda3d_culling).
+fn level_top(scene: &Scene, origin: DVec3, frame: &Frame) -> f64 {
+    scene
+        .walk()
+        .into_par_iter()
+        .map(|n| {
+            scene
+                .world_positions_used_iter(n)
+                .map(|p| (p - origin).dot(frame.up))
+                .fold(f64::NEG_INFINITY, f64::max)
+        })
+        .reduce(|| f64::NEG_INFINITY, f64::max)
+}
+
+/// The nodes that are no obstacle to a rising footprint, and the nodes that will be extruded:
+/// what the footprint context needs to know before any room is built.
+fn footprint_nodes(
+    scene: &Scene,
+    tagging: &Tagging,
+    origin: DVec3,
+    frame: &Frame,
+) -> (std::collections::HashSet<NodeId>, Vec<NodeId>) {
+    // Structure of rooms made only of floor: extruded like footprints (see `floor_only`).
+    let floors: Vec<NodeId> = tagging
+        .rooms
+        .par_iter()
+        .filter(|r| r.bounds.is_empty() && r.footprints.is_empty())
+        .filter(|r| floor_only(&node_triangles(scene, &r.structure, origin), frame.up))
+        .flat_map_iter(|r| r.structure.iter().copied())
+        .collect();
+    // Footprints (tagged, or rooms made only of floor) are where cells start, not what they
+    // rise to; portals, bounds and ignored nodes block nothing.
+    let skip: std::collections::HashSet<NodeId> = tagging
+        .footprints
+        .iter()
+        .map(|f| f.node)
+        .chain(floors.iter().copied())
+        .chain(tagging.portals.iter().map(|p| p.node))
+        .chain(tagging.bounds.iter().map(|b| b.node))
+        .chain(tagging.ignored.iter().map(|n| n.node))
+        .collect();
+    let extruded: Vec<NodeId> = tagging
+        .footprints
+        .iter()
+        .map(|f| f.node)
+        .chain(floors.iter().copied())
+        .collect();
+    (skip, extruded)
+}
+
+/// What building any one room reads, shared by every room built in parallel.
+struct RoomBuilder<'a> {
+    scene: &'a Scene,
+    cfg: &'a CellsConfig,
+    ctx: &'a footprint::Context<'a>,
+    /// The level's centre: rooms are built about it and moved back at the end.
+    origin: DVec3,
+    eps: f64,
+    /// The level's diagonal, what the prop test's touching distance is relative to.
+    extent: f64,
+    frame: Frame,
+}
+
+impl RoomBuilder<'_> {
+    fn loc(&self, n: NodeId) -> Location {
+        Location::file(&self.scene.path)
+            .with_source(self.scene.nodes[n].source.clone())
+            .with_node(self.scene.node_path(n))
+    }
+
+    /// Room `ri`'s cells, in world coordinates, from whichever source gives its volume first:
+    /// bounds, then footprints, then its structure.
+    fn room(&self, ri: RoomId, room: &Room) -> RoomCells {
+        let mut diags: Vec<Diagnostic> = Vec::new();
+        let mut props: Vec<NodeId> = Vec::new();
+        let mut cells: Vec<Cell> = Vec::new();
+        let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
+        if !room.bounds.is_empty() {
+            self.bound_polys(room, &mut polys, &mut diags);
+        } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
+            self.extrude_all(room, &room.footprints, "footprint", &mut polys, &mut diags);
+        } else {
+            self.structure_polys(room, &mut polys, &mut props, &mut diags);
+        }
+        for (p, source) in polys {
+            let world = p.translated(self.origin);
+            let volume = world.volume();
+            if world.faces.len() > self.cfg.max_planes {
+                diags.push(
+                    Diagnostic::new(
+                        Code::CELL_TOO_MANY_PLANES,
+                        format!(
+                            "a cell of room `{}` has {} planes (more than {})",
+                            room.name,
+                            world.faces.len(),
+                            self.cfg.max_planes
+                        ),
+                        self.loc(room.node).with_position(world.interior_point().to_array()),
+                    )
+                    .hint("simplify the room's outline or give it a simpler bound mesh; raise [cells] max_planes if the engine copes"),
+                );
+            }
+            cells.push(Cell {
+                room: ri,
+                source,
+                bounds: world.bounds(),
+                poly: world,
+                volume,
+                nodes: Vec::new(),
+            });
+        }
+        RoomCells {
+            cells,
+            diags,
+            props,
+        }
+    }
+
+    /// One cell per bound mesh, its convex hull; a bound that is not convex is reported,
+    /// since the hull then claims more than the mesh drew.
+    fn bound_polys(
+        &self,
+        room: &Room,
+        polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        diags: &mut Vec<Diagnostic>,
+    ) {
+        let (scene, origin, eps) = (self.scene, self.origin, self.eps);
+        for &b in &room.bounds {
+            let tris = node_triangles(scene, &[b], origin);
+            let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+            match hull(&pts, eps) {
+                Ok(h) => {
+                    if let Some(bad) = tris
+                        .iter()
+                        .position(|t| !on_hull_boundary(&h, t, eps * 10.0))
+                    {
+                        let c = (tris[bad][0] + tris[bad][1] + tris[bad][2]) / 3.0 + origin;
+                        diags.push(
+                            Diagnostic::new(
+                                Code::CELL_BOUND_NOT_CONVEX,
+                                format!(
+                                    "bound mesh `{}` of room `{}` is not convex; its convex hull is used",
+                                    scene.node_label(b),
+                                    room.name
+                                ),
+                                self.loc(b).with_position(c.to_array()),
+                            )
+                            .hint("model the bound as a convex mesh, or split it into several convex bound meshes"),
+                        );
+                    }
+                    polys.push((h, CellSource::Bound));
+                }
+                Err(e) => diags.push(degenerate(scene, room.name.as_str(), b, &e, &|n| {
+                    self.loc(n)
+                })),
+            }
+        }
+    }
+
+    /// Extrudes each of `nodes` (the room's footprints or floors, called `what` in what is
+    /// reported) upward into cells.
+    fn extrude_all(
+        &self,
+        room: &Room,
+        nodes: &[NodeId],
+        what: &str,
+        polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        diags: &mut Vec<Diagnostic>,
+    ) {
+        let scene = self.scene;
+        for &f in nodes {
+            match self
+                .ctx
+                .extrude(f, footprint::extras_height(scene, &[f, room.node]))
+            {
+                Ok(ps) => polys.extend(ps.into_iter().map(|p| (p, CellSource::Footprint))),
+                Err(msg) => diags.push(
+                    Diagnostic::new(
+                        Code::CELL_ROOM_DEGENERATE,
+                        format!(
+                            "{what} `{}` of room `{}`: {msg}",
+                            scene.node_label(f),
+                            room.name
+                        ),
+                        self.loc(f),
+                    )
+                    .hint("a footprint must be a floor polygon with area, not vertical"),
+                ),
+            }
+        }
+    }
+
+    /// The cells of the air the room's structure encloses (props set aside first): its hull
+    /// when convex, else its convex pieces; a room of only floor is extruded instead.
+    fn structure_polys(
+        &self,
+        room: &Room,
+        polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        props: &mut Vec<NodeId>,
+        diags: &mut Vec<Diagnostic>,
+    ) {
+        let (scene, origin, eps, frame) = (self.scene, self.origin, self.eps, &self.frame);
+        let mut structure: Vec<NodeId> = room.structure.clone();
+        if self.cfg.detect_props && structure.len() >= 2 {
+            let found = detect_props(scene, &structure, origin, self.extent, frame);
+            structure.retain(|n| !found.contains(n));
+            props.extend(found);
+        }
+        if structure.is_empty() {
+            diags.push(
+                Diagnostic::new(
+                    Code::CELL_ROOM_EMPTY,
+                    format!("room `{}` has no geometry, bound or footprint to give it a volume", room.name),
+                    self.loc(room.node),
+                )
+                .hint("put the room's floor, walls and ceiling under the room node, or add a bound mesh"),
+            );
+            return;
+        }
+        let tris = canonical_triangles(scene, &structure, origin);
+        if floor_only(&tris, frame.up) {
+            // Only floor (no wall, no ceiling): the room is its footprint, as Panda3D's
+            // `cellN` meshes are even without the panda3d preset.
+            diags.push(
+                Diagnostic::new(
+                    Code::CELL_ROOM_FROM_FLOOR,
+                    format!(
+                        "room `{}` has only upward-facing geometry; it was extruded upward as a footprint",
+                        room.name
+                    ),
+                    self.loc(room.node).with_position((mean(tris.iter().flatten()) + origin).to_array()),
+                )
+                .hint("tag the floor as a footprint (extras `\"footprint\"`, or --tags panda3d for cellN) to say so"),
+            );
+            self.extrude_all(room, &structure, "floor", polys, diags);
+            return;
+        }
+        let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+        match hull(&pts, eps) {
+            Ok(h) => {
+                let cells = prism::cells(&tris, &h, eps, frame)
+                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps));
+                let source = if cells.len() == 1 && cells[0] == h {
+                    CellSource::Hull
+                } else {
+                    CellSource::Split
+                };
+                polys.extend(cells.into_iter().map(|c| (c, source)));
+            }
+            Err(e) => {
+                let mut d = degenerate(scene, room.name.as_str(), room.node, &e, &|n| self.loc(n));
+                if !pts.is_empty() {
+                    d.location.position = Some((mean(pts.iter()) + origin).to_array());
+                }
+                diags.push(d)
+            }
+        }
+    }
 }
 
 /// One room's cells, with what building them reported and the props found in it.

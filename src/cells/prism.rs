@@ -28,28 +28,7 @@ pub(crate) fn cells(
     frame: &Frame,
 ) -> Option<Vec<ConvexPolyhedron>> {
     let height = |p: &DVec3| p.dot(frame.up);
-    // The flat triangles by level (within the tolerance of the first one there, in input
-    // order); a prism has its floor on one level and perhaps its ceiling on another.
-    let mut levels: Vec<(f64, Vec<[DVec2; 3]>)> = Vec::new();
-    for t in tris {
-        let flat = t.map(|p| frame.plan(p));
-        let (a, b, c) = (flat[0], flat[1], flat[2]);
-        let perimeter = a.distance(b) + b.distance(c) + c.distance(a);
-        // Upright (its plan is a segment, mean width under the tolerance): a wall.
-        if (b - a).perp_dot(c - a).abs() <= eps * perimeter {
-            continue;
-        }
-        let y = height(&t[0]);
-        if t.iter().any(|p| (height(p) - y).abs() > eps) {
-            return None; // sloped
-        }
-        match levels.iter().position(|(h, _)| (h - y).abs() <= eps) {
-            Some(k) => levels[k].1.push(flat),
-            None if levels.len() < 2 => levels.push((y, vec![flat])),
-            None => return None, // a third level: a step, a soffit, a slab
-        }
-    }
-    levels.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let levels = flat_levels(tris, eps, frame)?;
     let (lo, hi) = tris
         .iter()
         .flatten()
@@ -63,21 +42,9 @@ pub(crate) fn cells(
         [(f, floor), (c, top)] => (floor, Some((*f, *c, top))),
         _ => return None,
     };
-    let area = |ts: &[[DVec2; 3]]| -> f64 {
-        ts.iter()
-            .map(|t| 0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0]).abs())
-            .sum()
-    };
     // The usual box room: floor and ceiling each fill the hull's face there, so the plan is
     // the hull's and the hull is the one cell (no plan partition needed).
-    let fills = |ts: &[[DVec2; 3]], dir: DVec3| {
-        hull.faces.iter().any(|f| {
-            f.plane.normal.dot(dir) > 1.0 - 1e-9 && {
-                let face = polygon_area(&f.points, f.plane.normal);
-                (area(ts) - face).abs() <= 1e-9 * face + eps * face.sqrt()
-            }
-        })
-    };
+    let fills = |ts: &[[DVec2; 3]], dir: DVec3| fills_hull_face(hull, ts, dir, eps);
     match slab {
         None if fills(
             plan,
@@ -103,21 +70,7 @@ pub(crate) fn cells(
     let pieces = plan_pieces(plan, eps).ok()?;
     let mut region = hull.clone();
     if let Some((f, c, top)) = slab {
-        // The ceiling must cover the floor, no more and no less: a ceiling over part of the
-        // floor (a soffit whose other part is missing) or beyond it is not a prism's.
-        let plan_area = area(plan);
-        let slack = eps * plan.iter().map(|t| t[0].distance(t[1])).sum::<f64>() + 1e-9 * plan_area;
-        let inside = |q: DVec2| {
-            pieces.iter().any(|piece| {
-                piece.iter().enumerate().all(|(i, a)| {
-                    let e = piece[(i + 1) % piece.len()] - *a;
-                    e.perp_dot(q - *a) >= -eps * e.length()
-                })
-            })
-        };
-        if (area(top) - plan_area).abs() > slack
-            || !top.iter().all(|t| inside((t[0] + t[1] + t[2]) / 3.0))
-        {
+        if !ceiling_covers_floor(&pieces, plan, top, eps) {
             return None;
         }
         // Walls reaching past the floor or the ceiling (a Doom sector's walls up to its
@@ -132,8 +85,96 @@ pub(crate) fn cells(
     if pieces.len() <= 1 {
         return Some(vec![region]);
     }
+    let out = cut_into_pieces(&region, &pieces, eps, frame);
+    (!out.is_empty()).then_some(out)
+}
+
+/// The flat triangles by level (within the tolerance of the first one there, in input
+/// order), lowest first; a prism has its floor on one level and perhaps its ceiling on another,
+/// so a slope or a third level says the room is no prism (`None`).
+fn flat_levels(
+    tris: &[[DVec3; 3]],
+    eps: f64,
+    frame: &Frame,
+) -> Option<Vec<(f64, Vec<[DVec2; 3]>)>> {
+    let height = |p: &DVec3| p.dot(frame.up);
+    let mut levels: Vec<(f64, Vec<[DVec2; 3]>)> = Vec::new();
+    for t in tris {
+        let flat = t.map(|p| frame.plan(p));
+        let (a, b, c) = (flat[0], flat[1], flat[2]);
+        let perimeter = a.distance(b) + b.distance(c) + c.distance(a);
+        // Upright (its plan is a segment, mean width under the tolerance): a wall.
+        if (b - a).perp_dot(c - a).abs() <= eps * perimeter {
+            continue;
+        }
+        let y = height(&t[0]);
+        if t.iter().any(|p| (height(p) - y).abs() > eps) {
+            return None; // sloped
+        }
+        match levels.iter().position(|(h, _)| (h - y).abs() <= eps) {
+            Some(k) => levels[k].1.push(flat),
+            None if levels.len() < 2 => levels.push((y, vec![flat])),
+            None => return None, // a third level: a step, a soffit, a slab
+        }
+    }
+    levels.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Some(levels)
+}
+
+/// The area of plan triangles.
+fn plan_area(ts: &[[DVec2; 3]]) -> f64 {
+    ts.iter()
+        .map(|t| 0.5 * (t[1] - t[0]).perp_dot(t[2] - t[0]).abs())
+        .sum()
+}
+
+/// Whether the plan triangles `ts` fill the hull's face facing `dir`: then that face is the
+/// room's floor or ceiling whole, and the hull needs no cutting there.
+fn fills_hull_face(hull: &ConvexPolyhedron, ts: &[[DVec2; 3]], dir: DVec3, eps: f64) -> bool {
+    hull.faces.iter().any(|f| {
+        f.plane.normal.dot(dir) > 1.0 - 1e-9 && {
+            let face = polygon_area(&f.points, f.plane.normal);
+            (plan_area(ts) - face).abs() <= 1e-9 * face + eps * face.sqrt()
+        }
+    })
+}
+
+/// The ceiling must cover the floor, no more and no less: a ceiling over part of the
+/// floor (a soffit whose other part is missing) or beyond it is not a prism's.
+fn ceiling_covers_floor(
+    pieces: &[Vec<DVec2>],
+    plan: &[[DVec2; 3]],
+    top: &[[DVec2; 3]],
+    eps: f64,
+) -> bool {
+    let floor_area = plan_area(plan);
+    let slack = eps * plan.iter().map(|t| t[0].distance(t[1])).sum::<f64>() + 1e-9 * floor_area;
+    let inside = |q: DVec2| {
+        pieces.iter().any(|piece| {
+            piece.iter().enumerate().all(|(i, a)| {
+                let e = piece[(i + 1) % piece.len()] - *a;
+                e.perp_dot(q - *a) >= -eps * e.length()
+            })
+        })
+    };
+    if (plan_area(top) - floor_area).abs() > slack
+        || !top.iter().all(|t| inside((t[0] + t[1] + t[2]) / 3.0))
+    {
+        return false;
+    }
+    true
+}
+
+/// The room's region cut along each plan piece's edges: one cell per piece (none for a piece
+/// the cuts leave empty).
+fn cut_into_pieces(
+    region: &ConvexPolyhedron,
+    pieces: &[Vec<DVec2>],
+    eps: f64,
+    frame: &Frame,
+) -> Vec<ConvexPolyhedron> {
     let mut out = Vec::new();
-    for piece in &pieces {
+    for piece in pieces {
         let mut cell = Some(region.clone());
         for (i, a) in piece.iter().enumerate() {
             let e = piece[(i + 1) % piece.len()] - *a;
@@ -145,7 +186,7 @@ pub(crate) fn cells(
         }
         out.extend(cell);
     }
-    (!out.is_empty()).then_some(out)
+    out
 }
 
 #[cfg(test)]

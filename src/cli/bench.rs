@@ -398,44 +398,13 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             eprintln!("error: cannot write the {n}-room building: {e}");
             return 2;
         }
-        let child = |what: &str| {
-            let out = std::process::Command::new(&exe)
-                .args([
-                    "bench",
-                    what,
-                    &n.to_string(),
-                    "--seed",
-                    &a.seed.to_string(),
-                    "--methods",
-                    &a.methods.join(","),
-                    "--keep",
-                ])
-                .arg(dir)
-                .output();
-            match out {
-                Ok(o) if o.status.success() => Ok(o.stdout),
-                Ok(o) => Err(String::from_utf8_lossy(&o.stderr).into_owned()),
-                Err(e) => Err(format!("error: cannot run `{}`: {e}\n", exe.display())),
-            }
-        };
-        let mut best: Option<Row> = None;
-        for _ in 0..a.runs {
-            let row = child("--one").and_then(|out| {
-                let mut r: Row = serde_json::from_slice(&out)
-                    .map_err(|e| format!("error: unreadable measurements for {n} rooms: {e}\n"))?;
-                r.process = convert_process(&exe, dir, n, a.seed)?;
-                r.floor = floor(&exe, dir, n, a.seed)?;
-                Ok(r)
-            });
-            match row {
-                Ok(r) => best = Some(fastest(best, r)),
-                Err(e) => {
-                    eprint!("{e}");
-                    return 2;
-                }
+        match fastest_of_runs(a, dir, &exe, n) {
+            Ok(best) => rows.extend(best),
+            Err(e) => {
+                eprint!("{e}");
+                return 2;
             }
         }
-        rows.extend(best);
     }
     let one_room = match one_room(dir, a.room_planes, a.runs) {
         Ok(r) => r,
@@ -458,9 +427,55 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
     if methods.is_empty() {
         return 0;
     }
+    print_vis_table(&rows);
+    0
+}
+
+/// The fastest of `a.runs` measurements of the `n`-room building, each in a child process of
+/// its own (so one run's memory and caches do not flatter the next), with the floor measured
+/// the same way; `None` for no runs. The error is the text to print, a line or a child's
+/// stderr.
+fn fastest_of_runs(a: &BenchArgs, dir: &Path, exe: &Path, n: usize) -> Result<Option<Row>, String> {
+    let child = |what: &str| {
+        let out = std::process::Command::new(exe)
+            .args([
+                "bench",
+                what,
+                &n.to_string(),
+                "--seed",
+                &a.seed.to_string(),
+                "--methods",
+                &a.methods.join(","),
+                "--keep",
+            ])
+            .arg(dir)
+            .output();
+        match out {
+            Ok(o) if o.status.success() => Ok(o.stdout),
+            Ok(o) => Err(String::from_utf8_lossy(&o.stderr).into_owned()),
+            Err(e) => Err(format!("error: cannot run `{}`: {e}\n", exe.display())),
+        }
+    };
+    let mut best: Option<Row> = None;
+    for _ in 0..a.runs {
+        let row = child("--one").and_then(|out| {
+            let mut r: Row = serde_json::from_slice(&out)
+                .map_err(|e| format!("error: unreadable measurements for {n} rooms: {e}\n"))?;
+            r.process = convert_process(exe, dir, n, a.seed)?;
+            r.floor = floor(exe, dir, n, a.seed)?;
+            Ok(r)
+        });
+        best = Some(fastest(best, row?));
+    }
+    Ok(best)
+}
+
+/// The visibility table: each method's time and pairs per size, and how far the full
+/// method's pairs exceed the sampled lower bound.
+fn print_vis_table(rows: &[Row]) {
     println!("\nVisibility (PVS) per method: time, and the visible (cell, cell) pairs it finds; sampled is a lower bound, every other method must contain it.\n");
     println!("| rooms | cells | flood | fast | full | sampled | full over sampled | peak memory (all methods) |\n|---|---|---|---|---|---|---|---|");
-    for r in &rows {
+    for r in rows {
         let cell = |m: &str| {
             r.vis
                 .iter()
@@ -487,7 +502,6 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
             cell("sampled")
         );
     }
-    0
 }
 
 /// The cells of one room of at least `planes` distinct planes ([`gen::stair_hall`]): the 3D

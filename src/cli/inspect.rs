@@ -561,245 +561,25 @@ fn render_human(r: &FileReport, style: &Style) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "{}", style.bold(&r.path.display().to_string()));
     if let Some(p) = &r.prt {
-        let _ = writeln!(
-            out,
-            "  portal file ({}): {} cells, {} leaves, {} portals, {} without a portal",
-            p.format,
-            p.cells,
-            p.leaves,
-            p.portals,
-            match p.isolated {
-                1 => "1 cell".to_string(),
-                n => format!("{n} cells"),
-            }
-        );
-        let _ = writeln!(
-            out,
-            "  {}",
-            style.dim("`portcullis vis` computes its PVS; the level it came from is not here")
-        );
+        render_prt(&mut out, p, style);
     }
     if let Some(s) = &r.scene {
-        let _ = writeln!(
-            out,
-            "  scene ({}): {} nodes ({} with meshes), {} meshes, {} triangles, {} materials",
-            s.format.name(),
-            s.nodes,
-            s.mesh_nodes,
-            s.meshes,
-            s.triangles,
-            s.materials.len()
-        );
-        if let Some(b) = &s.bounds {
-            let _ = writeln!(
-                out,
-                "  bounds: {} .. {} (size {})",
-                fmt3(b.min),
-                fmt3(b.max),
-                fmt3(b.size)
-            );
-        }
-        if !s.materials.is_empty() {
-            let _ = writeln!(out, "  materials: {}", s.materials.join(", "));
-        }
+        render_scene(&mut out, s);
     }
     if let Some(a) = &r.annotation {
-        let _ = writeln!(
-            out,
-            "  annotation: {} cells, {} portals, by {}{}",
-            a.cells,
-            a.portals,
-            a.generator,
-            if a.stale {
-                " (stale: the level changed since)"
-            } else {
-                ""
-            }
-        );
-        if let Some(v) = &a.visibility {
-            let _ = writeln!(
-                out,
-                "  visibility: {}, {} visible pairs ({})",
-                v.method, v.pairs, v.encoding
-            );
-        }
+        render_annotation(&mut out, a);
     }
     if let Some(c) = &r.config {
         let _ = writeln!(out, "  config: {}", c.display());
     }
     if let Some(t) = &r.tags {
-        let _ = writeln!(out, "  tags (preset {}):", t.preset);
-        let rooms: Vec<String> = t
-            .rooms
-            .iter()
-            .map(|rm| {
-                let vol = match rm.volume {
-                    VolumeHint::Geometry => String::new(),
-                    v => format!(
-                        ", volume from {}",
-                        serde_json::to_value(v)
-                            .ok()
-                            .and_then(|v| v.as_str().map(str::to_string))
-                            .unwrap_or_default()
-                    ),
-                };
-                format!(
-                    "{}  `{}` ({}; {} structure, {} detail{vol}{})",
-                    rm.name,
-                    rm.node,
-                    rm.rule,
-                    rm.structure.len(),
-                    rm.detail.len(),
-                    rm.group
-                        .as_ref()
-                        .map(|g| format!(", group {g}"))
-                        .unwrap_or_default()
-                )
-            })
-            .collect();
-        list(&mut out, "rooms", &rooms, style);
-        let portals: Vec<String> = t
-            .portals
-            .iter()
-            .map(|p| {
-                let side = |r: &Option<String>, n: Option<&String>| match (r, n) {
-                    (Some(r), _) => r.clone(),
-                    (None, Some(n)) => format!("{n}?"),
-                    (None, None) => "?".to_string(),
-                };
-                let flags = portal_flags(p.kind, p.one_way, p.closed, false);
-                let flags = if flags.is_empty() {
-                    String::new()
-                } else {
-                    format!(", {}", flags.join(", "))
-                };
-                format!(
-                    "`{}`  {} -> {} ({}{flags})",
-                    p.node,
-                    side(&p.source, None),
-                    side(&p.target, p.target_name.as_ref()),
-                    p.rule
-                )
-            })
-            .collect();
-        list(&mut out, "authored portals", &portals, style);
-        let vol = |v: &[VolumeView]| -> Vec<String> {
-            v.iter()
-                .map(|b| {
-                    format!(
-                        "`{}` room {} ({})",
-                        b.node,
-                        b.room.as_deref().unwrap_or("?"),
-                        b.rule
-                    )
-                })
-                .collect()
-        };
-        list(&mut out, "bounds", &vol(&t.bounds), style);
-        list(&mut out, "footprints", &vol(&t.footprints), style);
-        if !t.room_groups.is_empty() {
-            let groups: Vec<String> = t
-                .room_groups
-                .iter()
-                .map(|g| format!("{} `{}`: {}", g.name, g.node, g.rooms.join(", ")))
-                .collect();
-            list(&mut out, "room groups", &groups, style);
-        }
-        list(&mut out, "ignored", &t.ignored, style);
-        list(&mut out, "detail (outside rooms)", &t.detail, style);
-        if !t.player_starts.is_empty() {
-            list(&mut out, "player starts", &t.player_starts, style);
-        }
-        list(&mut out, "mesh nodes in no room", &t.unassigned, style);
-        let misses: Vec<String> = t
-            .near_misses
-            .iter()
-            .map(|m| {
-                format!(
-                    "`{}` almost matches {} ({}); `{}` would",
-                    m.node, m.rule, m.slip, m.suggestion
-                )
-            })
-            .collect();
-        list(&mut out, "near misses", &misses, style);
+        render_tags(&mut out, t, style);
     }
     if let Some(cells) = &r.cells {
-        let rows: Vec<String> = cells
-            .iter()
-            .enumerate()
-            .map(|(i, c)| {
-                let src = serde_json::to_value(c.source)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_default();
-                let split = c
-                    .split_triangles
-                    .map(|n| format!(", {n} split triangles"))
-                    .unwrap_or_default();
-                let renders = match c.nodes.len() {
-                    1 => "renders 1 node".to_string(),
-                    n => format!("renders {n} nodes"),
-                };
-                format!(
-                    "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, {renders}{split}",
-                    c.room,
-                    c.volume,
-                    c.planes,
-                    fmt3(c.bounds.min),
-                    fmt3(c.bounds.max),
-                )
-            })
-            .collect();
-        let mut title = "cells".to_string();
-        if let Some(t) = r.tolerance {
-            title = format!("cells (tolerance {t:.1e} m)");
-        }
-        list(&mut out, &title, &rows, style);
+        render_cells(&mut out, cells, r.tolerance, style);
     }
     if let Some(portals) = &r.portals {
-        let (exterior, linked): (Vec<&DerivedPortalView>, Vec<&DerivedPortalView>) =
-            portals.iter().partition(|p| p.to.is_none());
-        let rows: Vec<String> = linked
-            .iter()
-            .map(|p| {
-                let mut flags = portal_flags(p.kind, p.one_way, p.closed, p.internal);
-                if let Some(a) = &p.authored {
-                    flags.push(format!("authored `{a}`"));
-                }
-                let b = portcullis::geom::aabb::Aabb::from_points(
-                    p.polygon
-                        .iter()
-                        .map(|v| glam::DVec3::from_array(*v))
-                        .collect::<Vec<_>>()
-                        .iter(),
-                );
-                format!(
-                    "cell {} ({}) -> cell {} ({}): {:.3} m², {} .. {}{}",
-                    p.from,
-                    p.from_room,
-                    p.to.unwrap_or(0),
-                    p.to_room.as_deref().unwrap_or(""),
-                    p.area,
-                    fmt3(b.min.to_array()),
-                    fmt3(b.max.to_array()),
-                    if flags.is_empty() {
-                        String::new()
-                    } else {
-                        format!(" [{}]", flags.join(", "))
-                    }
-                )
-            })
-            .collect();
-        list(&mut out, "portals between cells", &rows, style);
-        if !exterior.is_empty() {
-            let area: f64 = exterior.iter().map(|p| p.area).sum();
-            let _ = writeln!(
-                out,
-                "    exterior openings: {} portals, {:.3} m² in all",
-                exterior.len(),
-                area
-            );
-        }
+        render_portals(&mut out, portals, style);
     }
     if !r.diagnostics.is_empty() {
         for d in &r.diagnostics {
@@ -812,4 +592,254 @@ fn render_human(r: &FileReport, style: &Style) -> String {
         let _ = writeln!(out, "  {}", style.dim(&format!("note: {c}")));
     }
     out
+}
+
+/// A Quake portal file's graph, and that inspecting it can say no more (no level behind it).
+fn render_prt(out: &mut String, p: &PrtView, style: &Style) {
+    let _ = writeln!(
+        out,
+        "  portal file ({}): {} cells, {} leaves, {} portals, {} without a portal",
+        p.format,
+        p.cells,
+        p.leaves,
+        p.portals,
+        match p.isolated {
+            1 => "1 cell".to_string(),
+            n => format!("{n} cells"),
+        }
+    );
+    let _ = writeln!(
+        out,
+        "  {}",
+        style.dim("`portcullis vis` computes its PVS; the level it came from is not here")
+    );
+}
+
+/// What the scene holds: counts, bounds and material names.
+fn render_scene(out: &mut String, s: &SceneSummary) {
+    let _ = writeln!(
+        out,
+        "  scene ({}): {} nodes ({} with meshes), {} meshes, {} triangles, {} materials",
+        s.format.name(),
+        s.nodes,
+        s.mesh_nodes,
+        s.meshes,
+        s.triangles,
+        s.materials.len()
+    );
+    if let Some(b) = &s.bounds {
+        let _ = writeln!(
+            out,
+            "  bounds: {} .. {} (size {})",
+            fmt3(b.min),
+            fmt3(b.max),
+            fmt3(b.size)
+        );
+    }
+    if !s.materials.is_empty() {
+        let _ = writeln!(out, "  materials: {}", s.materials.join(", "));
+    }
+}
+
+/// What a stored annotation says, and whether the level changed since it was written.
+fn render_annotation(out: &mut String, a: &AnnotationView) {
+    let _ = writeln!(
+        out,
+        "  annotation: {} cells, {} portals, by {}{}",
+        a.cells,
+        a.portals,
+        a.generator,
+        if a.stale {
+            " (stale: the level changed since)"
+        } else {
+            ""
+        }
+    );
+    if let Some(v) = &a.visibility {
+        let _ = writeln!(
+            out,
+            "  visibility: {}, {} visible pairs ({})",
+            v.method, v.pairs, v.encoding
+        );
+    }
+}
+
+/// Everything the tags recognised, one list per kind; lists that are usually empty are
+/// left out when they are.
+fn render_tags(out: &mut String, t: &TagsView, style: &Style) {
+    let _ = writeln!(out, "  tags (preset {}):", t.preset);
+    let rooms: Vec<String> = t.rooms.iter().map(room_row).collect();
+    list(out, "rooms", &rooms, style);
+    let portals: Vec<String> = t.portals.iter().map(authored_portal_row).collect();
+    list(out, "authored portals", &portals, style);
+    let vol = |v: &[VolumeView]| -> Vec<String> {
+        v.iter()
+            .map(|b| {
+                format!(
+                    "`{}` room {} ({})",
+                    b.node,
+                    b.room.as_deref().unwrap_or("?"),
+                    b.rule
+                )
+            })
+            .collect()
+    };
+    list(out, "bounds", &vol(&t.bounds), style);
+    list(out, "footprints", &vol(&t.footprints), style);
+    if !t.room_groups.is_empty() {
+        let groups: Vec<String> = t
+            .room_groups
+            .iter()
+            .map(|g| format!("{} `{}`: {}", g.name, g.node, g.rooms.join(", ")))
+            .collect();
+        list(out, "room groups", &groups, style);
+    }
+    list(out, "ignored", &t.ignored, style);
+    list(out, "detail (outside rooms)", &t.detail, style);
+    if !t.player_starts.is_empty() {
+        list(out, "player starts", &t.player_starts, style);
+    }
+    list(out, "mesh nodes in no room", &t.unassigned, style);
+    let misses: Vec<String> = t
+        .near_misses
+        .iter()
+        .map(|m| {
+            format!(
+                "`{}` almost matches {} ({}); `{}` would",
+                m.node, m.rule, m.slip, m.suggestion
+            )
+        })
+        .collect();
+    list(out, "near misses", &misses, style);
+}
+
+/// One room: its node, rule, what it holds and where its volume comes from.
+fn room_row(rm: &RoomView) -> String {
+    let vol = match rm.volume {
+        VolumeHint::Geometry => String::new(),
+        v => format!(
+            ", volume from {}",
+            serde_json::to_value(v)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default()
+        ),
+    };
+    format!(
+        "{}  `{}` ({}; {} structure, {} detail{vol}{})",
+        rm.name,
+        rm.node,
+        rm.rule,
+        rm.structure.len(),
+        rm.detail.len(),
+        rm.group
+            .as_ref()
+            .map(|g| format!(", group {g}"))
+            .unwrap_or_default()
+    )
+}
+
+/// One authored portal: the rooms it leads between (a name with `?` when it named a room
+/// that was not found) and what is not plain about it.
+fn authored_portal_row(p: &AuthoredPortalView) -> String {
+    let side = |r: &Option<String>, n: Option<&String>| match (r, n) {
+        (Some(r), _) => r.clone(),
+        (None, Some(n)) => format!("{n}?"),
+        (None, None) => "?".to_string(),
+    };
+    let flags = portal_flags(p.kind, p.one_way, p.closed, false);
+    let flags = if flags.is_empty() {
+        String::new()
+    } else {
+        format!(", {}", flags.join(", "))
+    };
+    format!(
+        "`{}`  {} -> {} ({}{flags})",
+        p.node,
+        side(&p.source, None),
+        side(&p.target, p.target_name.as_ref()),
+        p.rule
+    )
+}
+
+/// One row per cell, under a title that gives the tolerance the cells were built with.
+fn render_cells(out: &mut String, cells: &[CellView], tolerance: Option<f64>, style: &Style) {
+    let rows: Vec<String> = cells
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let src = serde_json::to_value(c.source)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default();
+            let split = c
+                .split_triangles
+                .map(|n| format!(", {n} split triangles"))
+                .unwrap_or_default();
+            let renders = match c.nodes.len() {
+                1 => "renders 1 node".to_string(),
+                n => format!("renders {n} nodes"),
+            };
+            format!(
+                "#{i} room {}: {src}, {:.3} m³, {} planes, {} .. {}, {renders}{split}",
+                c.room,
+                c.volume,
+                c.planes,
+                fmt3(c.bounds.min),
+                fmt3(c.bounds.max),
+            )
+        })
+        .collect();
+    let mut title = "cells".to_string();
+    if let Some(t) = tolerance {
+        title = format!("cells (tolerance {t:.1e} m)");
+    }
+    list(out, &title, &rows, style);
+}
+
+/// The portals between cells one per row; those to the exterior, often many, as one total.
+fn render_portals(out: &mut String, portals: &[DerivedPortalView], style: &Style) {
+    let (exterior, linked): (Vec<&DerivedPortalView>, Vec<&DerivedPortalView>) =
+        portals.iter().partition(|p| p.to.is_none());
+    let rows: Vec<String> = linked
+        .iter()
+        .map(|p| {
+            let mut flags = portal_flags(p.kind, p.one_way, p.closed, p.internal);
+            if let Some(a) = &p.authored {
+                flags.push(format!("authored `{a}`"));
+            }
+            let b = portcullis::geom::aabb::Aabb::from_points(
+                p.polygon
+                    .iter()
+                    .map(|v| glam::DVec3::from_array(*v))
+                    .collect::<Vec<_>>()
+                    .iter(),
+            );
+            format!(
+                "cell {} ({}) -> cell {} ({}): {:.3} m², {} .. {}{}",
+                p.from,
+                p.from_room,
+                p.to.unwrap_or(0),
+                p.to_room.as_deref().unwrap_or(""),
+                p.area,
+                fmt3(b.min.to_array()),
+                fmt3(b.max.to_array()),
+                if flags.is_empty() {
+                    String::new()
+                } else {
+                    format!(" [{}]", flags.join(", "))
+                }
+            )
+        })
+        .collect();
+    list(out, "portals between cells", &rows, style);
+    if !exterior.is_empty() {
+        let area: f64 = exterior.iter().map(|p| p.area).sum();
+        let _ = writeln!(
+            out,
+            "    exterior openings: {} portals, {:.3} m² in all",
+            exterior.len(),
+            area
+        );
+    }
 }

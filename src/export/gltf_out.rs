@@ -108,8 +108,8 @@ pub fn write_to_with<'s>(
         Err(Failed::Io(e)) => return Err(failed(e)),
         Err(Failed::Declined) => sink.reset().map_err(failed)?,
     }
-    let text = serde_json::to_string(&src.document().map_err(failed)?)
-        .map_err(|e| failed(e.into()))?;
+    let text =
+        serde_json::to_string(&src.document().map_err(failed)?).map_err(|e| failed(e.into()))?;
     let buffers = src.buffer_data().map_err(failed)?.into_owned();
     let parsed = GltfSource::in_memory(text, buffers, &src.base_dir);
     match super::rewrite::write(&parsed, None, &mut ann, format, out_dir, sink) {

@@ -844,9 +844,14 @@ mod tests {
                 assert!(ann.root["inputHash"].is_string());
                 let out = Path::new("/nonexistent/out/level.glb");
                 for format in FORMATS {
-                    let whole =
-                        crate::export::oracle::write_whole(scene, &ann, out, out.parent().unwrap(), format)
-                            .unwrap();
+                    let whole = crate::export::oracle::write_whole(
+                        scene,
+                        &ann,
+                        out,
+                        out.parent().unwrap(),
+                        format,
+                    )
+                    .unwrap();
                     let mine = crate::pipeline::write_annotated(&t, &cells, &portals, out, format)
                         .unwrap();
                     assert!(mine == whole, "{} ({format:?})", f.display());

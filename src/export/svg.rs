@@ -139,31 +139,98 @@ pub fn svg_map(
     portals: &PortalSet,
     pvs_of: Option<(usize, &[usize])>,
 ) -> String {
-    let mut bounds = Aabb::EMPTY;
-    for c in &cells.cells {
-        bounds = bounds.union(&c.poly.bounds());
+    let page = Page::of(cells, pvs_of);
+    let u = page.u;
+    let mut s = String::new();
+    write_header(&mut s, &page, cells, portals);
+
+    let outlines: Vec<Vec<DVec2>> = cells
+        .cells
+        .iter()
+        .map(|c| {
+            hull2(
+                c.poly
+                    .faces
+                    .iter()
+                    .flat_map(|f| f.points.iter().map(|p| plan_point(*p)))
+                    .collect(),
+            )
+        })
+        .collect();
+
+    write_cells(&mut s, cells, &outlines, pvs_of, u);
+    write_portals(&mut s, portals, u);
+    write_labels(&mut s, tagging, cells, &outlines, u);
+    write_legend(&mut s, &page, pvs_of);
+    let _ = writeln!(s, "</svg>");
+    s
+}
+
+/// Where the plan sits on the page: the cells' box in (x, z), the drawing unit and the
+/// margin, and the band below for the legend.
+struct Page {
+    x0: f64,
+    z0: f64,
+    w: f64,
+    h: f64,
+    /// One drawing unit: text and strokes scale with the level, so a 5 m room and a 5 km
+    /// terrain look alike.
+    u: f64,
+    margin: f64,
+    /// The height of one legend row.
+    row: f64,
+    legend_h: f64,
+}
+
+impl Page {
+    fn of(cells: &CellSet, pvs_of: Option<(usize, &[usize])>) -> Page {
+        let mut bounds = Aabb::EMPTY;
+        for c in &cells.cells {
+            bounds = bounds.union(&c.poly.bounds());
+        }
+        let (x0, z0, w, h) = if bounds.is_empty() {
+            (0.0, 0.0, 1.0, 1.0)
+        } else {
+            (
+                bounds.min.x,
+                bounds.min.z,
+                bounds.max.x - bounds.min.x,
+                bounds.max.z - bounds.min.z,
+            )
+        };
+        let u = (w.max(h) / 100.0).max(0.01);
+        let margin = 5.0 * u;
+        let legend_rows = PortalStyle::ALL.len() + if pvs_of.is_some() { 3 } else { 0 };
+        let row = 3.0 * u;
+        let legend_h = row * legend_rows as f64 + u;
+        Page {
+            x0,
+            z0,
+            w,
+            h,
+            u,
+            margin,
+            row,
+            legend_h,
+        }
     }
-    let (x0, z0, w, h) = if bounds.is_empty() {
-        (0.0, 0.0, 1.0, 1.0)
-    } else {
-        (
-            bounds.min.x,
-            bounds.min.z,
-            bounds.max.x - bounds.min.x,
-            bounds.max.z - bounds.min.z,
-        )
-    };
-    // One drawing unit: text and strokes scale with the level, so a 5 m room and a 5 km
-    // terrain look alike.
-    let u = (w.max(h) / 100.0).max(0.01);
-    let margin = 5.0 * u;
-    let legend_rows = PortalStyle::ALL.len() + if pvs_of.is_some() { 3 } else { 0 };
-    let row = 3.0 * u;
-    let legend_h = row * legend_rows as f64 + u;
+}
+
+/// The XML prolog, the `<svg>` element sized to the page, its title and description, and the
+/// white background.
+fn write_header(s: &mut String, page: &Page, cells: &CellSet, portals: &PortalSet) {
+    let Page {
+        x0,
+        z0,
+        w,
+        h,
+        u,
+        margin,
+        legend_h,
+        ..
+    } = *page;
     let (vx, vy) = (x0 - margin, z0 - margin);
     let (vw, vh) = (w + 2.0 * margin, h + 2.0 * margin + legend_h);
-
-    let mut s = String::new();
     let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         s,
@@ -190,28 +257,22 @@ pub fn svg_map(
         num(vw),
         num(vh)
     );
+}
 
-    let room_name = |r: usize| tagging.rooms.get(r).map_or("?", |room| room.name.as_str());
-    let outlines: Vec<Vec<DVec2>> = cells
-        .cells
-        .iter()
-        .map(|c| {
-            hull2(
-                c.poly
-                    .faces
-                    .iter()
-                    .flat_map(|f| f.points.iter().map(|p| plan_point(*p)))
-                    .collect(),
-            )
-        })
-        .collect();
-
+/// The cells' outlines, filled by room or by the visible set shown.
+fn write_cells(
+    s: &mut String,
+    cells: &CellSet,
+    outlines: &[Vec<DVec2>],
+    pvs_of: Option<(usize, &[usize])>,
+    u: f64,
+) {
     let _ = writeln!(
         s,
         r##"<g id="cells" stroke="#404040" stroke-width="{}" stroke-linejoin="round">"##,
         num(0.15 * u)
     );
-    for (i, (cell, outline)) in cells.cells.iter().zip(&outlines).enumerate() {
+    for (i, (cell, outline)) in cells.cells.iter().zip(outlines).enumerate() {
         let fill = match pvs_of {
             Some((src, _)) if src == i => PVS_SOURCE_FILL.to_string(),
             Some((_, vis)) if vis.contains(&i) => PVS_VISIBLE_FILL.to_string(),
@@ -229,7 +290,10 @@ pub fn svg_map(
         );
     }
     let _ = writeln!(s, "</g>");
+}
 
+/// The portals that show from above, one line per pair, with a tick for one-way ones.
+fn write_portals(s: &mut String, portals: &PortalSet, u: f64) {
     let _ = writeln!(s, r#"<g id="portals" stroke-linecap="round">"#);
     for (i, p) in portals.portals.iter().enumerate() {
         // A pair is one opening on the plan; its first portal stands for both.
@@ -283,13 +347,24 @@ pub fn svg_map(
         }
     }
     let _ = writeln!(s, "</g>");
+}
 
+/// Each cell's label at its centroid: its number and room, or the number alone where that
+/// would not fit.
+fn write_labels(
+    s: &mut String,
+    tagging: &Tagging,
+    cells: &CellSet,
+    outlines: &[Vec<DVec2>],
+    u: f64,
+) {
+    let room_name = |r: usize| tagging.rooms.get(r).map_or("?", |room| room.name.as_str());
     let _ = writeln!(
         s,
         r##"<g id="labels" font-family="sans-serif" font-size="{}" text-anchor="middle" fill="#000000">"##,
         num(2.0 * u)
     );
-    for (i, (cell, outline)) in cells.cells.iter().zip(&outlines).enumerate() {
+    for (i, (cell, outline)) in cells.cells.iter().zip(outlines).enumerate() {
         let c = centroid(outline);
         // A narrow cell (a door reveal) gets its number alone, where `N room` would spill over
         // its neighbours (a glyph is about 1.1 units wide at this size).
@@ -313,15 +388,18 @@ pub fn svg_map(
         );
     }
     let _ = writeln!(s, "</g>");
+}
 
-    // Legend: swatches in the band below the plan.
+/// Legend: swatches in the band below the plan.
+fn write_legend(s: &mut String, page: &Page, pvs_of: Option<(usize, &[usize])>) {
+    let (u, row) = (page.u, page.row);
     let _ = writeln!(
         s,
         r##"<g id="legend" font-family="sans-serif" font-size="{}" fill="#000000">"##,
         num(1.8 * u)
     );
-    let mut y = z0 + h + margin;
-    let lx = x0;
+    let mut y = page.z0 + page.h + page.margin;
+    let lx = page.x0;
     if let Some((src, vis)) = pvs_of {
         let entries = [
             (PVS_SOURCE_FILL, format!("cell {src}")),
@@ -364,8 +442,6 @@ pub fn svg_map(
         y += row;
     }
     let _ = writeln!(s, "</g>");
-    let _ = writeln!(s, "</svg>");
-    s
 }
 
 /// The two points farthest apart: a door seen from above is a segment between its jambs, and

@@ -153,6 +153,37 @@ fn frame(q: &Quad) -> DMat4 {
     )
 }
 
+/// What every step of linking the authored portals reads: the level, its tags and cells, and
+/// the tolerances, so each step takes the one context instead of a long list of arguments.
+struct Linking<'a> {
+    scene: &'a Scene,
+    tagging: &'a Tagging,
+    cells: &'a CellSet,
+    eps: f64,
+    /// How far in front of and behind a quad its cells are looked for.
+    probe: f64,
+}
+
+/// Which derived portals the authored ones claimed so far: the one-way flag each claimed with
+/// (which decides, once all are linked, which partners go) and the node that claimed it (to
+/// spot two quads in one opening).
+struct Claims {
+    one_way: Vec<Option<bool>>,
+    by: Vec<Option<NodeId>>,
+}
+
+impl Linking<'_> {
+    fn loc(&self, n: NodeId) -> Location {
+        Location::file(&self.scene.path)
+            .with_source(self.scene.nodes[n].source.clone())
+            .with_node(self.scene.node_path(n))
+    }
+
+    fn room_of(&self, c: usize) -> usize {
+        self.cells.cells[c].room
+    }
+}
+
 pub(crate) fn link(
     scene: &Scene,
     tagging: &Tagging,
@@ -163,17 +194,49 @@ pub(crate) fn link(
     let eps = cells.tolerance.distance;
     let grid = eps * 0.5;
     let probe = (cfg.max_wall_thickness * 0.5).max(100.0 * eps);
+    let l = Linking {
+        scene,
+        tagging,
+        cells,
+        eps,
+        probe,
+    };
+    let mut claims = Claims {
+        one_way: vec![None; set.portals.len()],
+        by: vec![None; set.portals.len()],
+    };
+    let mut transformed_done: Vec<NodeId> = Vec::new();
+    let prepared = prepare_quads(scene, tagging, cfg, set, eps, grid);
+    for (ap, (q, candidates)) in tagging.portals.iter().zip(prepared) {
+        let Some(q) = q else {
+            l.report_no_area(ap, set);
+            continue;
+        };
+        l.report_outline(ap, &q, set);
+        if ap.kind != PortalKind::Plain {
+            if !transformed_done.contains(&ap.node) {
+                l.transformed(ap, &q, set, &mut transformed_done);
+            }
+            continue;
+        }
+        l.link_plain(ap, &q, &candidates, &mut claims, set);
+    }
+    drop_unclaimed_partners(set, &claims.one_way);
+}
+
+/// Each quad's outline and the derived portals it overlaps depend on nothing the linking
+/// changes (it flags derived portals and appends transformed ones the grid never holds), so
+/// they are found first, on every thread.
+fn prepare_quads(
+    scene: &Scene,
+    tagging: &Tagging,
+    cfg: &PortalsConfig,
+    set: &PortalSet,
+    eps: f64,
+    grid: f64,
+) -> Vec<(Option<Quad>, Vec<usize>)> {
     // Authored portals are drawn by hand: a few degrees off the wall still means that wall.
     let cos_tol = (0.05f64).cos();
-    let loc = |n: NodeId| {
-        Location::file(&scene.path)
-            .with_source(scene.nodes[n].source.clone())
-            .with_node(scene.node_path(n))
-    };
-    let room_of = |c: usize| cells.cells[c].room;
-    // Which derived portals an authored portal claimed, and with which one-way flag.
-    let mut one_way_claim: Vec<Option<bool>> = vec![None; set.portals.len()];
-    let mut transformed_done: Vec<NodeId> = Vec::new();
     // The derived portals, by their bounds: an authored quad is compared with those near it.
     let near = BoxGrid::new(
         set.portals
@@ -181,12 +244,7 @@ pub(crate) fn link(
             .map(|p| Aabb::from_points(p.polygon.iter()))
             .collect(),
     );
-    // Which authored node claimed each derived portal, to spot two quads in one opening.
-    let mut claimed_by: Vec<Option<NodeId>> = vec![None; set.portals.len()];
-    // Each quad's outline and the derived portals it overlaps depend on nothing the loop below
-    // changes (it flags derived portals and appends transformed ones the grid never holds), so
-    // they are found first, on every thread.
-    let prepared: Vec<(Option<Quad>, Vec<usize>)> = tagging
+    tagging
         .portals
         .par_iter()
         .map(|ap| {
@@ -204,28 +262,35 @@ pub(crate) fn link(
             };
             (q, candidates)
         })
-        .collect();
-    for (ap, (q, candidates)) in tagging.portals.iter().zip(prepared) {
-        let Some(q) = q else {
-            // No mesh is a tag problem, reported there; a mesh without area is reported here.
-            let node = &scene.nodes[ap.node];
-            if let Some(m) = node.mesh {
-                let pts = &scene.meshes[m].positions;
-                let centre = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
-                set.diagnostics.push(
-                    Diagnostic::new(
-                        Code::PORTAL_TOO_FEW_POINTS,
-                        format!(
-                            "portal `{}` has no area: its mesh has fewer than 3 distinct points off one line",
-                            scene.node_label(ap.node)
-                        ),
-                        loc(ap.node).with_position(node.world.transform_point3(centre).to_array()),
-                    )
-                    .hint("give the portal a quad (or polygon) covering the opening"),
-                );
-            }
-            continue;
-        };
+        .collect()
+}
+
+impl Linking<'_> {
+    /// No mesh is a tag problem, reported there; a mesh without area is reported here.
+    fn report_no_area(&self, ap: &AuthoredPortal, set: &mut PortalSet) {
+        let scene = self.scene;
+        let node = &scene.nodes[ap.node];
+        if let Some(m) = node.mesh {
+            let pts = &scene.meshes[m].positions;
+            let centre = pts.iter().copied().sum::<DVec3>() / pts.len().max(1) as f64;
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_TOO_FEW_POINTS,
+                    format!(
+                        "portal `{}` has no area: its mesh has fewer than 3 distinct points off one line",
+                        scene.node_label(ap.node)
+                    ),
+                    self.loc(ap.node).with_position(node.world.transform_point3(centre).to_array()),
+                )
+                .hint("give the portal a quad (or polygon) covering the opening"),
+            );
+        }
+    }
+
+    /// Warns where the quad used differs from the mesh drawn: a convex hull stands in for a
+    /// concave outline, and off-plane vertices were flattened.
+    fn report_outline(&self, ap: &AuthoredPortal, q: &Quad, set: &mut PortalSet) {
+        let (scene, eps) = (self.scene, self.eps);
         let ring_area = polygon_area(&q.ring, q.normal);
         if ring_area > q.mesh_area * 1.001 + eps * eps {
             set.diagnostics.push(
@@ -237,7 +302,7 @@ pub(crate) fn link(
                         ring_area,
                         q.mesh_area
                     ),
-                    loc(ap.node).with_position(q.centre.to_array()),
+                    self.loc(ap.node).with_position(q.centre.to_array()),
                 )
                 .hint("split it into convex portals, one per opening, or make it convex"),
             );
@@ -251,85 +316,119 @@ pub(crate) fn link(
                         scene.node_label(ap.node),
                         q.max_off_plane
                     ),
-                    loc(ap.node).with_position(q.centre.to_array()),
+                    self.loc(ap.node).with_position(q.centre.to_array()),
                 )
                 .hint(
                     "flatten the portal mesh; its vertices were projected onto the average plane",
                 ),
             );
         }
-        if ap.kind != PortalKind::Plain {
-            if !transformed_done.contains(&ap.node) {
-                transformed(
-                    scene,
-                    cells,
-                    ap,
-                    &q,
-                    probe,
-                    eps,
-                    set,
-                    &mut transformed_done,
-                    &loc,
-                );
-            }
-            continue;
-        }
+    }
+
+    /// Links a plain authored portal to the derived portals it covers that lead the way its
+    /// tags (or its facing) say, or reports why it covers none.
+    fn link_plain(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        candidates: &[usize],
+        claims: &mut Claims,
+        set: &mut PortalSet,
+    ) {
         // Direction: the named source room, else the named target, else the way it faces
         // (Godot's convention: a portal faces out of the room it belongs to).
         let dir_ok = |i: usize| -> bool {
             let p = &set.portals[i];
             let to = p.to.unwrap_or(p.from);
-            let source_ok = ap.source_room.is_none_or(|s| room_of(p.from) == s);
-            let target_ok = ap.target_room.is_none_or(|t| room_of(to) == t);
+            let source_ok = ap.source_room.is_none_or(|s| self.room_of(p.from) == s);
+            let target_ok = ap.target_room.is_none_or(|t| self.room_of(to) == t);
             let named = ap.source_room.is_some() || ap.target_room.is_some();
             source_ok && target_ok && (named || p.normal.dot(q.normal) > 0.0)
         };
         let chosen: Vec<usize> = candidates.iter().copied().filter(|&i| dir_ok(i)).collect();
         if chosen.is_empty() {
-            let front = cell_at(cells, q.centre + q.normal * probe, eps);
-            let back = cell_at(cells, q.centre - q.normal * probe, eps);
-            let side = |c: Option<usize>| match c {
-                Some(c) => format!("cell {c} (room `{}`)", tagging.rooms[room_of(c)].name),
-                None => "no cell".to_string(),
-            };
-            if front.is_some() && front == back {
-                set.diagnostics.push(
-                    Diagnostic::new(
-                        Code::PORTAL_SEPARATES_NOTHING,
-                        format!(
-                            "portal `{}` has {} on both sides ({probe:.3} m in front and behind): it separates nothing",
-                            scene.node_label(ap.node),
-                            side(front)
-                        ),
-                        loc(ap.node).with_position(q.centre.to_array()),
-                    )
-                    .hint("move the portal into the opening between two rooms, or remove it"),
-                );
-                continue;
+            self.report_unmatched(ap, q, candidates.is_empty(), set);
+            return;
+        }
+        self.report_ambiguous(ap, q, &chosen, set);
+        self.claim(ap, q, &chosen, claims, set);
+        for &i in &chosen {
+            if let Some(j) = set.portals[i].partner {
+                if ap.closed {
+                    set.portals[j].closed = true;
+                }
+                if set.portals[j].authored.is_none() && !ap.one_way {
+                    set.portals[j].authored = Some(ap.node);
+                }
             }
-            let n = q.normal;
+        }
+    }
+
+    /// Says what lies on either side of a quad that covers no opening it may lead through,
+    /// which tells a quad in a solid wall from one floating inside a room.
+    fn report_unmatched(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        no_candidates: bool,
+        set: &mut PortalSet,
+    ) {
+        let (scene, cells, eps, probe) = (self.scene, self.cells, self.eps, self.probe);
+        let front = cell_at(cells, q.centre + q.normal * probe, eps);
+        let back = cell_at(cells, q.centre - q.normal * probe, eps);
+        let side = |c: Option<usize>| match c {
+            Some(c) => format!(
+                "cell {c} (room `{}`)",
+                self.tagging.rooms[self.room_of(c)].name
+            ),
+            None => "no cell".to_string(),
+        };
+        if front.is_some() && front == back {
             set.diagnostics.push(
                 Diagnostic::new(
-                    Code::PORTAL_AUTHORED_UNMATCHED,
+                    Code::PORTAL_SEPARATES_NOTHING,
                     format!(
-                        "portal `{}` covers no opening between cells{}: it faces ({:.3}, {:.3}, {:.3}); probed {:.3} m in front: {}, behind: {}",
+                        "portal `{}` has {} on both sides ({probe:.3} m in front and behind): it separates nothing",
                         scene.node_label(ap.node),
-                        if candidates.is_empty() { "" } else { " leading where its tags say" },
-                        n.x, n.y, n.z, probe, side(front), side(back)
+                        side(front)
                     ),
-                    loc(ap.node).with_position(q.centre.to_array()),
+                    self.loc(ap.node).with_position(q.centre.to_array()),
                 )
-                .hint("move the portal into the wall opening between its two rooms (or open the wall behind it), and check its source and target names"),
+                .hint("move the portal into the opening between two rooms, or remove it"),
             );
-            continue;
+            return;
         }
-        // One authored quad should open one way between two rooms; more means the link is a
-        // guess.
+        let n = q.normal;
+        set.diagnostics.push(
+            Diagnostic::new(
+                Code::PORTAL_AUTHORED_UNMATCHED,
+                format!(
+                    "portal `{}` covers no opening between cells{}: it faces ({:.3}, {:.3}, {:.3}); probed {:.3} m in front: {}, behind: {}",
+                    scene.node_label(ap.node),
+                    if no_candidates { "" } else { " leading where its tags say" },
+                    n.x, n.y, n.z, probe, side(front), side(back)
+                ),
+                self.loc(ap.node).with_position(q.centre.to_array()),
+            )
+            .hint("move the portal into the wall opening between its two rooms (or open the wall behind it), and check its source and target names"),
+        );
+    }
+
+    /// One authored quad should open one way between two rooms; more means the link is a
+    /// guess.
+    fn report_ambiguous(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        chosen: &[usize],
+        set: &mut PortalSet,
+    ) {
+        let tagging = self.tagging;
         let mut links: Vec<(usize, usize)> = chosen
             .iter()
             .map(|&i| {
                 let p = &set.portals[i];
-                (room_of(p.from), room_of(p.to.unwrap_or(p.from)))
+                (self.room_of(p.from), self.room_of(p.to.unwrap_or(p.from)))
             })
             .filter(|(a, b)| a != b)
             .collect();
@@ -350,16 +449,29 @@ pub(crate) fn link(
                     Code::PORTAL_AUTHORED_AMBIGUOUS,
                     format!(
                         "portal `{}` covers openings between several pairs of rooms ({}); it was linked to all of them",
-                        scene.node_label(ap.node),
+                        self.scene.node_label(ap.node),
                         names.join(", ")
                     ),
-                    loc(ap.node).with_position(q.centre.to_array()),
+                    self.loc(ap.node).with_position(q.centre.to_array()),
                 )
                 .hint("name its source and target rooms (e.g. `portal_TARGET` inside the source room), or split it into one quad per opening"),
             );
         }
-        for &i in &chosen {
-            if let Some(other) = claimed_by[i].filter(|&o| o != ap.node) {
+    }
+
+    /// Gives each chosen derived portal the authored node, its closed and one-way flags, and
+    /// reports an opening claimed twice or a quad facing against its convention.
+    fn claim(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        chosen: &[usize],
+        claims: &mut Claims,
+        set: &mut PortalSet,
+    ) {
+        let (scene, tagging) = (self.scene, self.tagging);
+        for &i in chosen {
+            if let Some(other) = claims.by[i].filter(|&o| o != ap.node) {
                 let p = &set.portals[i];
                 set.diagnostics.push(
                     Diagnostic::new(
@@ -368,19 +480,19 @@ pub(crate) fn link(
                             "portals `{}` and `{}` both cover the opening from `{}` to `{}`",
                             scene.node_label(other),
                             scene.node_label(ap.node),
-                            tagging.rooms[room_of(p.from)].name,
-                            tagging.rooms[room_of(p.to.unwrap_or(p.from))].name
+                            tagging.rooms[self.room_of(p.from)].name,
+                            tagging.rooms[self.room_of(p.to.unwrap_or(p.from))].name
                         ),
-                        loc(ap.node).with_position(q.centre.to_array()),
+                        self.loc(ap.node).with_position(q.centre.to_array()),
                     )
                     .hint("remove one of them; one portal per opening is enough"),
                 );
             }
-            claimed_by[i] = Some(ap.node);
+            claims.by[i] = Some(ap.node);
             let p = &mut set.portals[i];
             p.authored = Some(ap.node);
             p.closed |= ap.closed;
-            one_way_claim[i] = Some(ap.one_way);
+            claims.one_way[i] = Some(ap.one_way);
             let facing = p.normal.dot(q.normal);
             let wrong = match ap.faces {
                 Facing::Out => facing < 0.0,
@@ -395,27 +507,20 @@ pub(crate) fn link(
                             scene.node_label(ap.node),
                             if ap.faces == Facing::Out { "front out of the source room" } else { "front into the source room" },
                             if ap.faces == Facing::Out { "back into" } else { "out of" },
-                            tagging.rooms[room_of(set.portals[i].from)].name
+                            tagging.rooms[self.room_of(set.portals[i].from)].name
                         ),
-                        loc(ap.node).with_position(q.centre.to_array()),
+                        self.loc(ap.node).with_position(q.centre.to_array()),
                     )
                     .hint("flip the portal's faces (reverse its winding)"),
                 );
             }
         }
-        for &i in &chosen {
-            if let Some(j) = set.portals[i].partner {
-                if ap.closed {
-                    set.portals[j].closed = true;
-                }
-                if set.portals[j].authored.is_none() && !ap.one_way {
-                    set.portals[j].authored = Some(ap.node);
-                }
-            }
-        }
     }
-    // One-way: a claimed direction whose partner no authored portal claimed loses the partner;
-    // two one-way quads covering both directions (Panda3D) make one two-way pair.
+}
+
+/// One-way: a claimed direction whose partner no authored portal claimed loses the partner;
+/// two one-way quads covering both directions (Panda3D) make one two-way pair.
+fn drop_unclaimed_partners(set: &mut PortalSet, one_way_claim: &[Option<bool>]) {
     let mut remove = vec![false; set.portals.len()];
     for i in 0..one_way_claim.len() {
         if one_way_claim[i] == Some(true) {
@@ -451,143 +556,167 @@ fn compact(set: &mut PortalSet, remove: &[bool]) {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn transformed(
-    scene: &Scene,
-    cells: &CellSet,
-    ap: &AuthoredPortal,
-    q: &Quad,
-    probe: f64,
-    eps: f64,
-    set: &mut PortalSet,
-    done: &mut Vec<NodeId>,
-    loc: &dyn Fn(NodeId) -> Location,
-) {
-    let Some(from) = cell_at(cells, q.centre + q.normal * probe, eps) else {
-        set.diagnostics.push(
-            Diagnostic::new(
-                Code::PORTAL_AUTHORED_UNMATCHED,
-                format!(
-                    "{} `{}` faces no cell: probed {:.3} m in front of it",
-                    if ap.kind == PortalKind::Mirror {
-                        "mirror"
-                    } else {
-                        "teleporter"
-                    },
-                    scene.node_label(ap.node),
-                    probe
+impl Linking<'_> {
+    /// Makes a mirror or teleporter into a transformed portal of its own, out of the cell its
+    /// front faces; `done` keeps the nodes used, so a teleporter's exit is not made again.
+    fn transformed(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        set: &mut PortalSet,
+        done: &mut Vec<NodeId>,
+    ) {
+        let (scene, probe) = (self.scene, self.probe);
+        let Some(from) = cell_at(self.cells, q.centre + q.normal * probe, self.eps) else {
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_AUTHORED_UNMATCHED,
+                    format!(
+                        "{} `{}` faces no cell: probed {:.3} m in front of it",
+                        if ap.kind == PortalKind::Mirror {
+                            "mirror"
+                        } else {
+                            "teleporter"
+                        },
+                        scene.node_label(ap.node),
+                        probe
+                    ),
+                    self.loc(ap.node).with_position(q.centre.to_array()),
+                )
+                .hint(
+                    "the front of a mirror or teleporter (its winding's normal) must face into a cell",
                 ),
-                loc(ap.node).with_position(q.centre.to_array()),
-            )
-            .hint(
-                "the front of a mirror or teleporter (its winding's normal) must face into a cell",
-            ),
-        );
-        return;
-    };
-    done.push(ap.node);
-    // Seen from the source cell, which lies in front of it.
-    let polygon = q.ring.clone();
-    let area = polygon_area(&q.ring, q.normal);
-    match ap.kind {
-        PortalKind::Mirror => {
-            let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
-                normal: q.normal,
-                d: 0.0,
-            });
-            let i = set.portals.len();
+            );
+            return;
+        };
+        done.push(ap.node);
+        match ap.kind {
+            PortalKind::Mirror => mirror(ap, q, from, set),
+            PortalKind::Teleporter => self.teleporter(ap, q, from, set, done),
+            PortalKind::Plain => {}
+        }
+    }
+
+    /// A teleporter from cell `from` to the cell its exit faces: two portals, one each way,
+    /// unless it is one-way or exits at itself.
+    fn teleporter(
+        &self,
+        ap: &AuthoredPortal,
+        q: &Quad,
+        from: usize,
+        set: &mut PortalSet,
+        done: &mut Vec<NodeId>,
+    ) {
+        let (scene, eps, probe) = (self.scene, self.eps, self.probe);
+        // Seen from the source cell, which lies in front of it.
+        let polygon = q.ring.clone();
+        let area = polygon_area(&q.ring, q.normal);
+        let Some(exit) = ap.teleport_exit else {
+            return;
+        };
+        let Some(xq) = quad(scene, exit, eps) else {
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_AUTHORED_UNMATCHED,
+                    format!(
+                        "teleporter `{}` exits at `{}`, which has no mesh",
+                        scene.node_label(ap.node),
+                        scene.node_label(exit)
+                    ),
+                    self.loc(ap.node),
+                )
+                .hint(
+                    "the exit of a teleporter must be a portal mesh (a quad) facing into its cell",
+                ),
+            );
+            return;
+        };
+        let Some(to) = cell_at(self.cells, xq.centre + xq.normal * probe, eps) else {
+            set.diagnostics.push(
+                Diagnostic::new(
+                    Code::PORTAL_AUTHORED_UNMATCHED,
+                    format!(
+                        "the exit `{}` of teleporter `{}` faces no cell",
+                        scene.node_label(exit),
+                        scene.node_label(ap.node)
+                    ),
+                    self.loc(exit),
+                )
+                .hint("turn the exit so its front faces into a cell"),
+            );
+            return;
+        };
+        done.push(exit);
+        // Walking into the entry (against its normal) comes out of the exit along its
+        // normal: entry frame, half a turn about up, exit frame.
+        let half_turn = DMat4::from_rotation_y(std::f64::consts::PI);
+        let t = frame(&xq) * half_turn * frame(q).inverse();
+        // A teleporter whose exit is itself: the transform is a half turn about the
+        // portal's own axis, its own inverse, so the portal is its own partner (as a mirror
+        // is) rather than a second copy of itself, which was reported as PORTAL_DUPLICATE
+        // (tests/stiff.rs, teleporter_into_itself).
+        let into_itself = exit == ap.node;
+        let i = set.portals.len();
+        set.portals.push(Portal {
+            from,
+            to: Some(to),
+            polygon,
+            normal: -q.normal,
+            area,
+            kind: PortalKind::Teleporter,
+            one_way: ap.one_way,
+            closed: ap.closed,
+            internal: false,
+            transform: Some(t),
+            authored: Some(ap.node),
+            partner: if into_itself {
+                Some(i)
+            } else {
+                (!ap.one_way).then_some(i + 1)
+            },
+        });
+        if !ap.one_way && !into_itself {
             set.portals.push(Portal {
-                from,
+                from: to,
                 to: Some(from),
-                polygon,
-                normal: -q.normal,
-                area,
-                kind: PortalKind::Mirror,
+                polygon: xq.ring.clone(),
+                normal: -xq.normal,
+                area: polygon_area(&xq.ring, xq.normal),
+                kind: PortalKind::Teleporter,
                 one_way: false,
                 closed: ap.closed,
                 internal: false,
-                transform: Some(plane.reflection()),
-                authored: Some(ap.node),
-                // A reflection is its own inverse: the mirror is its own partner.
+                transform: Some(t.inverse()),
+                authored: Some(exit),
                 partner: Some(i),
             });
         }
-        PortalKind::Teleporter => {
-            let Some(exit) = ap.teleport_exit else {
-                return;
-            };
-            let Some(xq) = quad(scene, exit, eps) else {
-                set.diagnostics.push(
-                    Diagnostic::new(
-                        Code::PORTAL_AUTHORED_UNMATCHED,
-                        format!("teleporter `{}` exits at `{}`, which has no mesh", scene.node_label(ap.node), scene.node_label(exit)),
-                        loc(ap.node),
-                    )
-                    .hint("the exit of a teleporter must be a portal mesh (a quad) facing into its cell"),
-                );
-                return;
-            };
-            let Some(to) = cell_at(cells, xq.centre + xq.normal * probe, eps) else {
-                set.diagnostics.push(
-                    Diagnostic::new(
-                        Code::PORTAL_AUTHORED_UNMATCHED,
-                        format!(
-                            "the exit `{}` of teleporter `{}` faces no cell",
-                            scene.node_label(exit),
-                            scene.node_label(ap.node)
-                        ),
-                        loc(exit),
-                    )
-                    .hint("turn the exit so its front faces into a cell"),
-                );
-                return;
-            };
-            done.push(exit);
-            // Walking into the entry (against its normal) comes out of the exit along its
-            // normal: entry frame, half a turn about up, exit frame.
-            let half_turn = DMat4::from_rotation_y(std::f64::consts::PI);
-            let t = frame(&xq) * half_turn * frame(q).inverse();
-            // A teleporter whose exit is itself: the transform is a half turn about the
-            // portal's own axis, its own inverse, so the portal is its own partner (as a mirror
-            // is) rather than a second copy of itself, which was reported as PORTAL_DUPLICATE
-            // (tests/stiff.rs, teleporter_into_itself).
-            let into_itself = exit == ap.node;
-            let i = set.portals.len();
-            set.portals.push(Portal {
-                from,
-                to: Some(to),
-                polygon,
-                normal: -q.normal,
-                area,
-                kind: PortalKind::Teleporter,
-                one_way: ap.one_way,
-                closed: ap.closed,
-                internal: false,
-                transform: Some(t),
-                authored: Some(ap.node),
-                partner: if into_itself {
-                    Some(i)
-                } else {
-                    (!ap.one_way).then_some(i + 1)
-                },
-            });
-            if !ap.one_way && !into_itself {
-                set.portals.push(Portal {
-                    from: to,
-                    to: Some(from),
-                    polygon: xq.ring.clone(),
-                    normal: -xq.normal,
-                    area: polygon_area(&xq.ring, xq.normal),
-                    kind: PortalKind::Teleporter,
-                    one_way: false,
-                    closed: ap.closed,
-                    internal: false,
-                    transform: Some(t.inverse()),
-                    authored: Some(exit),
-                    partner: Some(i),
-                });
-            }
-        }
-        PortalKind::Plain => {}
     }
+}
+
+/// A mirror in cell `from`: a portal back into the same cell through the mirror's reflection.
+fn mirror(ap: &AuthoredPortal, q: &Quad, from: usize, set: &mut PortalSet) {
+    // Seen from the source cell, which lies in front of it.
+    let polygon = q.ring.clone();
+    let area = polygon_area(&q.ring, q.normal);
+    let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
+        normal: q.normal,
+        d: 0.0,
+    });
+    let i = set.portals.len();
+    set.portals.push(Portal {
+        from,
+        to: Some(from),
+        polygon,
+        normal: -q.normal,
+        area,
+        kind: PortalKind::Mirror,
+        one_way: false,
+        closed: ap.closed,
+        internal: false,
+        transform: Some(plane.reflection()),
+        authored: Some(ap.node),
+        // A reflection is its own inverse: the mirror is its own partner.
+        partner: Some(i),
+    });
 }

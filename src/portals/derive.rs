@@ -162,10 +162,10 @@ pub(crate) fn derive(
     set: &mut PortalSet,
 ) {
     let k = Limits::new(cells.tolerance.distance, cfg);
-    let (eps, min_width, reach) = (k.eps, k.min_width, k.reach);
+    let reach = k.reach;
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
-        || Opaque::new(scene, tagging, cells, reach + 3.0 * eps),
+        || Opaque::new(scene, tagging, cells, reach + 3.0 * k.eps),
         || cells.pairs_in_order(reach),
     );
     // Each pair's openings are computed in parallel; they are applied in pair order, so the
@@ -177,29 +177,75 @@ pub(crate) fn derive(
     // the second's, so which cell goes first is taken from an order of the cells that does
     // not depend on the order the rooms are listed in (their names); numbers follow the
     // cells' (the lower first).
-    let rank = &set.cell_rank;
-    // Without a rank (a set not made by `portals::build`), the cells' numbers.
-    let rank_of = |c: usize| rank.get(c).map_or(c as u64, |&r| u64::from(r));
-    let first = |(a, b): (usize, usize)| {
-        if rank_of(a) <= rank_of(b) {
-            (a, b)
-        } else {
-            (b, a)
-        }
+    let order = PairOrder {
+        rank: &set.cell_rank,
+    };
+    let cx = PairContext {
+        cells,
+        opaque: &opaque,
+        near_cells: &near_cells,
+        cfg,
+        k: &k,
     };
     let mut found: Vec<PairOpenings> = pairs
         .par_iter()
         .with_max_len(JOB)
         .map(|&pair| {
-            let (x, y) = first(pair);
-            Shadows::with(|shadows| {
-                pair_openings(x, y, cells, &opaque, &near_cells, cfg, &k, shadows)
-            })
+            let (x, y) = order.first(pair);
+            Shadows::with(|shadows| pair_openings(x, y, &cx, shadows))
         })
         .collect();
+    add_pair_portals(&mut set.portals, cells, &pairs, &mut found, &order);
+    if !cfg.exterior {
+        return;
+    }
+    let claims = sorted_claims(&found, &pairs, &order);
+    let claimed = ClaimIndex {
+        sorted: &claims,
+        found: &found,
+    };
+    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed);
+    crate::free::drop_elsewhere((found, claims, opaque));
+    for (c, list) in exterior.into_iter().enumerate() {
+        for (polygon, normal, area) in list {
+            set.portals
+                .push(Portal::plain(c, None, polygon, normal, area, false, None));
+        }
+    }
+}
+
+/// Which cell of a pair goes first: the one earlier in the cells' name order.
+struct PairOrder<'a> {
+    rank: &'a [u32],
+}
+
+impl PairOrder<'_> {
+    /// Without a rank (a set not made by `portals::build`), the cells' numbers.
+    fn rank_of(&self, c: usize) -> u64 {
+        self.rank.get(c).map_or(c as u64, |&r| u64::from(r))
+    }
+
+    fn first(&self, (a, b): (usize, usize)) -> (usize, usize) {
+        if self.rank_of(a) <= self.rank_of(b) {
+            (a, b)
+        } else {
+            (b, a)
+        }
+    }
+}
+
+/// Turns each pair's openings into two portals, one each way, numbered in pair order (the
+/// lower cell of the pair first) whichever cell the openings were found from.
+fn add_pair_portals(
+    portals: &mut Vec<Portal>,
+    cells: &CellSet,
+    pairs: &[(usize, usize)],
+    found: &mut [PairOpenings],
+    order: &PairOrder,
+) {
     for (&(a, b), found) in pairs.iter().zip(found.iter_mut()) {
         let internal = cells.cells[a].room == cells.cells[b].room;
-        let swapped = first((a, b)).0 != a;
+        let swapped = order.first((a, b)).0 != a;
         for (on_x, on_y, nx, area) in std::mem::take(&mut found.portals) {
             // As seen from `a`: its side of the opening and the normal from it to `b`.
             let (on_a, on_b, na) = if swapped {
@@ -207,10 +253,10 @@ pub(crate) fn derive(
             } else {
                 (on_x, on_y, nx)
             };
-            let i = set.portals.len();
+            let i = portals.len();
             let back = Portal::plain(b, Some(a), on_b, -na, area, internal, Some(i));
             let polygon = reversed(&on_a);
-            set.portals.push(Portal::plain(
+            portals.push(Portal::plain(
                 a,
                 Some(b),
                 polygon,
@@ -219,43 +265,87 @@ pub(crate) fn derive(
                 internal,
                 Some(i + 1),
             ));
-            set.portals.push(back);
+            portals.push(back);
         }
     }
-    if !cfg.exterior {
-        return;
-    }
-    // For each cell face, the regions other cells claim (in that face's frame). The claims
-    // stay where the pairs put them and are found through a list sorted by cell and face,
-    // and within a face by the claiming cell's room name, then its place in its room: the
-    // order the claims are cut and unioned in (and their vertices put back) is then the same
-    // when the rooms are listed in another order (cell numbers follow the room order).
+}
+
+/// For each cell face, the regions other cells claim (in that face's frame). The claims
+/// stay where the pairs put them and are found through a list sorted by cell and face,
+/// and within a face by the claiming cell's room name, then its place in its room: the
+/// order the claims are cut and unioned in (and their vertices put back) is then the same
+/// when the rooms are listed in another order (cell numbers follow the room order).
+fn sorted_claims(
+    found: &[PairOpenings],
+    pairs: &[(usize, usize)],
+    order: &PairOrder,
+) -> Vec<(u32, u32, u64, u32, u32)> {
     let mut claims: Vec<(u32, u32, u64, u32, u32)> = found
         .iter()
         .enumerate()
         .flat_map(|(p, f)| {
-            let (a, b) = first(pairs[p]);
-            let rank_of = &rank_of;
+            let (a, b) = order.first(pairs[p]);
             f.claims
                 .iter()
                 .enumerate()
                 .map(move |(k, &(cell, face, _))| {
                     let other = if cell == a { b } else { a };
-                    (cell as u32, face as u32, rank_of(other), p as u32, k as u32)
+                    (
+                        cell as u32,
+                        face as u32,
+                        order.rank_of(other),
+                        p as u32,
+                        k as u32,
+                    )
                 })
         })
         .collect();
     claims.par_sort_unstable();
-    let claimed = |c: usize, i: usize| {
+    claims
+}
+
+/// The claims on each cell face, through the sorted list of [`sorted_claims`].
+struct ClaimIndex<'a> {
+    sorted: &'a [(u32, u32, u64, u32, u32)],
+    found: &'a [PairOpenings],
+}
+
+impl<'a> ClaimIndex<'a> {
+    /// The rings other cells claim of face `i` of cell `c`, in their sorted order.
+    fn on(&self, c: usize, i: usize) -> impl Iterator<Item = &'a [DVec2]> + 'a {
+        let (sorted, found) = (self.sorted, self.found);
         let key = (c as u32, i as u32);
-        let from = claims.partition_point(|&(cell, face, ..)| (cell, face) < key);
-        claims[from..]
+        let from = sorted.partition_point(|&(cell, face, ..)| (cell, face) < key);
+        sorted[from..]
             .iter()
             .take_while(move |&&(cell, face, ..)| (cell, face) == key)
-            .map(|&(_, _, _, p, k)| found[p as usize].claims[k as usize].2.as_slice())
-    };
+            .map(move |&(_, _, _, p, k)| found[p as usize].claims[k as usize].2.as_slice())
+    }
+}
 
-    let exterior: Vec<Vec<(Vec<DVec3>, DVec3, f64)>> = cells
+/// What the openings of cell faces to the exterior read, shared by every cell in parallel.
+struct ExteriorContext<'a> {
+    opaque: &'a Opaque,
+    cfg: &'a PortalsConfig,
+    k: &'a Limits,
+    claimed: &'a ClaimIndex<'a>,
+}
+
+/// Every cell's openings to the exterior (polygon, normal, area), by cell.
+fn exterior_openings(
+    cells: &CellSet,
+    opaque: &Opaque,
+    cfg: &PortalsConfig,
+    k: &Limits,
+    claimed: &ClaimIndex,
+) -> Vec<Vec<(Vec<DVec3>, DVec3, f64)>> {
+    let cx = ExteriorContext {
+        opaque,
+        cfg,
+        k,
+        claimed,
+    };
+    cells
         .cells
         .par_iter()
         .enumerate()
@@ -264,76 +354,82 @@ pub(crate) fn derive(
             Shadows::with(|shadows| {
                 let mut out = Vec::new();
                 for (i, face) in cell.poly.faces.iter().enumerate() {
-                    let f = Frame2::of_face(face);
-                    let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
-                    let grid = face_grid(&ring);
-                    // Claims first: a face between two rooms is claimed whole by its neighbour,
-                    // and then no shadow is needed to know it has no opening to the exterior.
-                    let mut left = Remainder::new(&ring, k.grow, k.sliver);
-                    for claim in claimed(c, i) {
-                        left.cut(claim);
-                    }
-                    if left.at_most(k.closed) {
-                        continue;
-                    }
-                    let near = NEAR * diagonal(ring_bounds(ring.iter()));
-                    let bb = Aabb::from_points(face.points.iter()).grown(eps + near);
-                    let d = face.plane.d;
-                    let slab = Slab {
-                        n: face.plane.normal,
-                        lo: d - eps,
-                        hi: d + eps,
-                        frame: &f,
-                        thin: true,
-                        near,
-                    };
-                    opaque.shadows(&bb, &slab, shadows);
-                    let mut covered: Vec<&[DVec2]> = claimed(c, i).collect();
-                    let claimed_len = covered.len();
-                    covered.extend(shadows.rings());
-                    for shadow in &covered[claimed_len..] {
-                        left.cut(shadow);
-                    }
-                    if left.at_most(k.closed) {
-                        continue;
-                    }
-                    let whole = intersection(
-                        std::slice::from_ref(&ring),
-                        std::slice::from_ref(&ring),
-                        grid,
-                    );
-                    let exact = ExactVertices::new(
-                        ring.iter()
-                            .copied()
-                            .chain(covered.iter().flat_map(|r| r.iter()).copied()),
-                        grid,
-                    )
-                    .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
-                    for o in difference(&whole, &covered, grid)
-                        .iter()
-                        .filter(|o| o.mean_width() >= min_width)
-                    {
-                        for piece in pieces(o, cfg.conservative, eps) {
-                            let piece = exact.restore(piece);
-                            let pts: Vec<DVec3> =
-                                piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                            let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
-                                continue;
-                            };
-                            let area = polygon_area(&pts, face.plane.normal);
-                            out.push((reversed(&pts), face.plane.normal, area));
-                        }
-                    }
+                    face_exterior(&cx, c, i, face, shadows, &mut out);
                 }
                 out
             })
         })
-        .collect();
-    crate::free::drop_elsewhere((found, claims, opaque));
-    for (c, list) in exterior.into_iter().enumerate() {
-        for (polygon, normal, area) in list {
-            set.portals
-                .push(Portal::plain(c, None, polygon, normal, area, false, None));
+        .collect()
+}
+
+/// The openings to the exterior of face `i` of cell `c`: what neither another cell claims
+/// nor anything opaque covers, added to `out`.
+fn face_exterior(
+    cx: &ExteriorContext,
+    c: usize,
+    i: usize,
+    face: &crate::geom::polyhedron::Face,
+    shadows: &mut Shadows,
+    out: &mut Vec<(Vec<DVec3>, DVec3, f64)>,
+) {
+    let (k, eps) = (cx.k, cx.k.eps);
+    let f = Frame2::of_face(face);
+    let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
+    let grid = face_grid(&ring);
+    // Claims first: a face between two rooms is claimed whole by its neighbour,
+    // and then no shadow is needed to know it has no opening to the exterior.
+    let mut left = Remainder::new(&ring, k.grow, k.sliver);
+    for claim in cx.claimed.on(c, i) {
+        left.cut(claim);
+    }
+    if left.at_most(k.closed) {
+        return;
+    }
+    let near = NEAR * diagonal(ring_bounds(ring.iter()));
+    let bb = Aabb::from_points(face.points.iter()).grown(eps + near);
+    let d = face.plane.d;
+    let slab = Slab {
+        n: face.plane.normal,
+        lo: d - eps,
+        hi: d + eps,
+        frame: &f,
+        thin: true,
+        near,
+    };
+    cx.opaque.shadows(&bb, &slab, shadows);
+    let mut covered: Vec<&[DVec2]> = cx.claimed.on(c, i).collect();
+    let claimed_len = covered.len();
+    covered.extend(shadows.rings());
+    for shadow in &covered[claimed_len..] {
+        left.cut(shadow);
+    }
+    if left.at_most(k.closed) {
+        return;
+    }
+    let whole = intersection(
+        std::slice::from_ref(&ring),
+        std::slice::from_ref(&ring),
+        grid,
+    );
+    let exact = ExactVertices::new(
+        ring.iter()
+            .copied()
+            .chain(covered.iter().flat_map(|r| r.iter()).copied()),
+        grid,
+    )
+    .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
+    for o in difference(&whole, &covered, grid)
+        .iter()
+        .filter(|o| o.mean_width() >= k.min_width)
+    {
+        for piece in pieces(o, cx.cfg.conservative, eps) {
+            let piece = exact.restore(piece);
+            let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
+            let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
+                continue;
+            };
+            let area = polygon_area(&pts, face.plane.normal);
+            out.push((reversed(&pts), face.plane.normal, area));
         }
     }
 }
@@ -391,23 +487,22 @@ fn plane_meets_box(plane: &Plane, b: &Aabb, pad: f64) -> bool {
     d - r <= pad && d + r >= -pad
 }
 
-#[allow(clippy::too_many_arguments)]
-fn pair_openings(
-    a: usize,
-    b: usize,
-    cells: &CellSet,
-    opaque: &Opaque,
-    near_cells: &BoxGrid,
-    cfg: &PortalsConfig,
-    k: &Limits,
-    shadows: &mut Shadows,
-) -> PairOpenings {
-    let (eps, min_width, reach) = (k.eps, k.min_width, k.reach);
+/// What finding the openings between cells reads, shared by every pair looked at in parallel.
+struct PairContext<'a> {
+    cells: &'a CellSet,
+    opaque: &'a Opaque,
+    near_cells: &'a BoxGrid,
+    cfg: &'a PortalsConfig,
+    k: &'a Limits,
+}
+
+fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) -> PairOpenings {
+    let (eps, reach) = (cx.k.eps, cx.k.reach);
     // Faces this close to opposite are treated as facing each other.
     let cos_tol = (1e-4f64).cos();
     let mut out = PairOpenings::default();
-    let ca = &cells.cells[a];
-    let cb = &cells.cells[b];
+    let ca = &cx.cells.cells[a];
+    let cb = &cx.cells.cells[b];
     // Two faces that share a region are nearer each other than the wall reach, plus what a
     // tilt within the angle tolerance (1e-4 rad) can add across either cell, plus snapping;
     // a face whose plane is further than that from the other cell's box is not looked at (a
@@ -448,194 +543,316 @@ fn pair_openings(
                 continue;
             }
             let gap = gap.max(0.0);
-            let f = Frame2::of_face(fa);
-            let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
-            let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
-            let grid = face_grid(&ra);
-            // Rings whose boxes, snapped to the boolean's grid, do not overlap with some area
-            // have an intersection without area, which the boolean drops: most face pairs of
-            // neighbouring cells (a diagonal neighbour's wall is in the same plane, further
-            // along it, touching at most along an edge).
-            if !snapped_boxes_overlap(&ra, &rb, grid) {
-                continue;
-            }
-            let shared = intersection(std::slice::from_ref(&ra), std::slice::from_ref(&rb), grid);
-            if shared.is_empty() {
-                continue;
-            }
-            // A wall is bridged only if no other cell fills the gap (then the faces do
-            // not face each other across a wall, but across that cell).
-            if gap > eps {
-                let big = shared.iter().max_by(|x, y| x.area().total_cmp(&y.area()));
-                if let Some(big) = big {
-                    let c2 = big.outer.iter().copied().sum::<DVec2>() / big.outer.len() as f64;
-                    let mid = f.to3(c2, na * (gap * 0.5));
-                    let probe = Aabb { min: mid, max: mid };
-                    let filled = near_cells.query(&probe, 0.0).into_iter().any(|k| {
-                        k != a && k != b && cells.cells[k].poly.contains_strictly(mid, eps)
-                    });
-                    if filled {
-                        continue;
-                    }
-                }
-            }
-            let fb2 = Frame2::of_face(fb);
-            // Claims are cut from the faces' other openings and the exterior: with their
-            // corners left on the grid, those openings' corners moved with it.
-            let exact_shared = ExactVertices::new(ra.iter().chain(rb.iter()).copied(), grid)
-                .with_rings([ra.as_slice(), rb.as_slice()]);
-            let mut claim = |cell: usize, piece: Vec<DVec2>| {
-                if cell == a {
-                    out.claims.push((a, ia, piece));
-                } else {
-                    let back = piece.iter().map(|q| fb2.to2(f.to3(*q, na * gap))).collect();
-                    out.claims.push((b, ib, back));
-                }
-            };
-            // Faces on one plane claim all they share: whatever is open there opens onto the
-            // other cell. Faces across a wall, below, each what is not a hole into the wall.
-            let bridged = gap > eps;
-            if !bridged {
-                for s in &shared {
-                    let piece = exact_shared.restore(s.outer.clone());
-                    claim(a, piece.clone());
-                    claim(b, piece);
-                }
-            }
-            // What blocks: everything on the plane, or inside the wall slab, within 2·eps of
-            // the shared region: the others (the next room's wall, in the same plane past the
-            // corner) leave the same region open, and none of their points is near enough to
-            // be put back as an exact vertex. The grid is asked for the box around that part
-            // of the slab, which holds every triangle whose shadow can be kept (a long wall
-            // shared with a short room's asks for the short room's part only).
-            let (lo, hi) = (fa.plane.d - eps, fa.plane.d + gap + eps);
-            let (slo, shi) = ring_bounds(shared.iter().flat_map(|s| s.outer.iter()));
-            let thin = gap <= eps;
-            let beside = NEAR * diagonal((slo, shi));
-            let reach = 2.0 * eps;
-            let (slo, shi) = (slo - DVec2::splat(reach), shi + DVec2::splat(reach));
-            let mut near = Aabb::EMPTY;
-            for t in [-eps - beside, gap + eps + beside] {
-                for c in [slo, DVec2::new(shi.x, slo.y), shi, DVec2::new(slo.x, shi.y)] {
-                    near.add(f.to3(c, na * t));
-                }
-            }
-            // Never more than the faces' own box, as ever (the 2·eps reach can pass it).
-            let bb = Aabb::from_points(fa.points.iter().chain(fb.points.iter()))
-                .grown(eps + beside)
-                .intersection(&near);
-            let slab = Slab {
-                n: na,
-                lo,
-                hi,
-                frame: &f,
-                thin,
-                near: beside,
-            };
-            opaque.shadows(&bb, &slab, shadows);
-            let between = if gap > 4.0 * eps {
-                cells_between(a, b, cells, near_cells, &fa.plane, &f, gap, &bb, eps)
-            } else {
-                Vec::new()
-            };
-            let blockers: Vec<&[DVec2]> = shadows
-                .rings()
-                .into_iter()
-                .chain(between.iter().map(|r| r.as_slice()))
-                .filter(|r| {
-                    let (lo, hi) = ring_bounds(r.iter());
-                    lo.x <= shi.x && lo.y <= shi.y && hi.x >= slo.x && hi.y >= slo.y
-                })
-                .collect();
-            let closed = shared.iter().all(|s| {
-                s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
-            });
-            let exact = || {
-                ExactVertices::new(
-                    ra.iter()
-                        .chain(rb.iter())
-                        .chain(blockers.iter().flat_map(|r| r.iter()))
-                        .copied(),
-                    grid,
-                )
-                .with_rings(
-                    [ra.as_slice(), rb.as_slice()]
-                        .into_iter()
-                        .chain(blockers.iter().copied()),
-                )
-            };
-            let mut through: Vec<Vec<DVec2>> = Vec::new();
-            if !closed {
-                let open = difference(&shared, &blockers, grid);
-                let exact = exact();
-                for o in open.iter().filter(|o| o.mean_width() >= min_width) {
-                    for piece in pieces(o, cfg.conservative, eps) {
-                        let piece = exact.restore(piece);
-                        // CCW about na in 2D: seen from A (behind the plane) it turns the
-                        // other way, so A's polygon is the reversed ring.
-                        let on_a: Vec<DVec3> =
-                            piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
-                        let Some(on_a) = usable_polygon(&on_a, na, eps) else {
-                            continue;
-                        };
-                        let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
-                        let area = polygon_area(&on_a, na);
-                        out.portals.push((on_a, on_b, na, area));
-                        through.push(piece);
-                    }
-                }
-            }
-            if bridged {
-                // Each face of the wall on its own: what lies on it and what was bridged
-                // through; what is left is a hole into the wall that does not go through it
-                // (the doors of two rooms' walls, offset along the hollow between them). The
-                // face claims the rest, and the exterior stage finds the hole open unless
-                // another cell's claim covers it.
-                let sides = [
-                    (a, lo - beside, lo + 2.0 * eps + beside),
-                    (b, hi - 2.0 * eps - beside, hi + beside),
-                ];
-                for (cell, from, to) in sides {
-                    let mut cover: Vec<&[DVec2]> = shadows
-                        .rings_with_spans()
-                        .filter(|(_, (x, y))| *x >= from && *y <= to)
-                        .map(|(r, _)| r)
-                        .collect();
-                    cover.extend(through.iter().map(Vec::as_slice));
-                    let whole = !cfg.exterior
-                        || shared.iter().all(|s| {
-                            s.holes.is_empty()
-                                && is_covered(&s.outer, &cover, k.grow, k.sliver, k.closed)
-                        });
-                    // Holes narrower than the wall is thick are where two doors' jambs miss
-                    // each other by a modelling error, not a way into the wall.
-                    let holes: Vec<Vec<DVec2>> = if whole {
-                        Vec::new()
-                    } else {
-                        difference(&shared, &cover, grid)
-                            .into_iter()
-                            .filter(|o| o.mean_width() >= gap.max(min_width))
-                            .map(|o| o.outer)
-                            .collect()
-                    };
-                    if holes.is_empty() {
-                        for s in &shared {
-                            claim(cell, exact_shared.restore(s.outer.clone()));
-                        }
-                        continue;
-                    }
-                    let exact = exact();
-                    for o in difference(&shared, &holes, grid) {
-                        for piece in pieces(&o, false, eps) {
-                            claim(cell, exact.restore(piece));
-                        }
-                    }
-                }
+            if let Some(fp) = FacePair::new(cx, (a, ia, fa), (b, ib, fb), gap) {
+                fp.open(cx, shadows, &mut out);
             }
         }
     }
 
     out
+}
+
+/// Two faces of a pair of cells that face each other, on one plane or across a wall `gap`
+/// thick, and the region they share (in A's face frame): what their openings and claims are
+/// cut from.
+struct FacePair<'f> {
+    a: usize,
+    b: usize,
+    ia: usize,
+    ib: usize,
+    fa: &'f crate::geom::polyhedron::Face,
+    fb: &'f crate::geom::polyhedron::Face,
+    na: DVec3,
+    gap: f64,
+    f: Frame2,
+    fb2: Frame2,
+    ra: Vec<DVec2>,
+    rb: Vec<DVec2>,
+    grid: f64,
+    shared: Vec<Polygon2>,
+    exact_shared: ExactVertices,
+}
+
+impl<'f> FacePair<'f> {
+    /// The two faces and what they share, or `None` when they share nothing with area or
+    /// another cell fills the gap between them.
+    fn new(
+        cx: &PairContext,
+        (a, ia, fa): (usize, usize, &'f crate::geom::polyhedron::Face),
+        (b, ib, fb): (usize, usize, &'f crate::geom::polyhedron::Face),
+        gap: f64,
+    ) -> Option<Self> {
+        let eps = cx.k.eps;
+        let na = fa.plane.normal;
+        let f = Frame2::of_face(fa);
+        let ra: Vec<DVec2> = fa.points.iter().map(|p| f.to2(*p)).collect();
+        let rb: Vec<DVec2> = fb.points.iter().map(|p| f.to2(*p)).collect();
+        let grid = face_grid(&ra);
+        // Rings whose boxes, snapped to the boolean's grid, do not overlap with some area
+        // have an intersection without area, which the boolean drops: most face pairs of
+        // neighbouring cells (a diagonal neighbour's wall is in the same plane, further
+        // along it, touching at most along an edge).
+        if !snapped_boxes_overlap(&ra, &rb, grid) {
+            return None;
+        }
+        let shared = intersection(std::slice::from_ref(&ra), std::slice::from_ref(&rb), grid);
+        if shared.is_empty() {
+            return None;
+        }
+        // A wall is bridged only if no other cell fills the gap (then the faces do
+        // not face each other across a wall, but across that cell).
+        if gap > eps {
+            let big = shared.iter().max_by(|x, y| x.area().total_cmp(&y.area()));
+            if let Some(big) = big {
+                let c2 = big.outer.iter().copied().sum::<DVec2>() / big.outer.len() as f64;
+                let mid = f.to3(c2, na * (gap * 0.5));
+                let probe = Aabb { min: mid, max: mid };
+                let filled = cx.near_cells.query(&probe, 0.0).into_iter().any(|k| {
+                    k != a && k != b && cx.cells.cells[k].poly.contains_strictly(mid, eps)
+                });
+                if filled {
+                    return None;
+                }
+            }
+        }
+        let fb2 = Frame2::of_face(fb);
+        // Claims are cut from the faces' other openings and the exterior: with their
+        // corners left on the grid, those openings' corners moved with it.
+        let exact_shared = ExactVertices::new(ra.iter().chain(rb.iter()).copied(), grid)
+            .with_rings([ra.as_slice(), rb.as_slice()]);
+        Some(FacePair {
+            a,
+            b,
+            ia,
+            ib,
+            fa,
+            fb,
+            na,
+            gap,
+            f,
+            fb2,
+            ra,
+            rb,
+            grid,
+            shared,
+            exact_shared,
+        })
+    }
+
+    /// Records that `cell` claims `piece` (in A's face frame) of its face, moved onto B's
+    /// face and frame when the cell is B.
+    fn claim(&self, out: &mut PairOpenings, cell: usize, piece: Vec<DVec2>) {
+        if cell == self.a {
+            out.claims.push((self.a, self.ia, piece));
+        } else {
+            let back = piece
+                .iter()
+                .map(|q| self.fb2.to2(self.f.to3(*q, self.na * self.gap)))
+                .collect();
+            out.claims.push((self.b, self.ib, back));
+        }
+    }
+
+    /// The openings through the shared region and the claims on the two faces.
+    fn open(&self, cx: &PairContext, shadows: &mut Shadows, out: &mut PairOpenings) {
+        let eps = cx.k.eps;
+        let gap = self.gap;
+        // Faces on one plane claim all they share: whatever is open there opens onto the
+        // other cell. Faces across a wall, below, each what is not a hole into the wall.
+        let bridged = gap > eps;
+        if !bridged {
+            for s in &self.shared {
+                let piece = self.exact_shared.restore(s.outer.clone());
+                self.claim(out, self.a, piece.clone());
+                self.claim(out, self.b, piece);
+            }
+        }
+        let (lo, hi) = (self.fa.plane.d - eps, self.fa.plane.d + gap + eps);
+        let (slo, shi, bb, beside) = self.cast_shadows(cx, lo, hi, shadows);
+        let between = if gap > 4.0 * eps {
+            cells_between(
+                self.a,
+                self.b,
+                cx.cells,
+                cx.near_cells,
+                &self.fa.plane,
+                &self.f,
+                gap,
+                &bb,
+                eps,
+            )
+        } else {
+            Vec::new()
+        };
+        let blockers: Vec<&[DVec2]> = shadows
+            .rings()
+            .into_iter()
+            .chain(between.iter().map(|r| r.as_slice()))
+            .filter(|r| {
+                let (lo, hi) = ring_bounds(r.iter());
+                lo.x <= shi.x && lo.y <= shi.y && hi.x >= slo.x && hi.y >= slo.y
+            })
+            .collect();
+        let k = cx.k;
+        let closed = self.shared.iter().all(|s| {
+            s.holes.is_empty() && is_covered(&s.outer, &blockers, k.grow, k.sliver, k.closed)
+        });
+        let mut through: Vec<Vec<DVec2>> = Vec::new();
+        if !closed {
+            through = self.openings(cx, &blockers, out);
+        }
+        if bridged {
+            self.claim_wall_sides(cx, shadows, &blockers, &through, (lo, hi, beside), out);
+        }
+    }
+
+    /// What blocks: everything on the plane, or inside the wall slab (from `lo` to `hi` along
+    /// A's normal), within 2·eps of the shared region, cast into `shadows`. Returns the
+    /// bounds of that region, grown by 2·eps, the box asked for, and how far off a thin slab
+    /// a blocker may lie.
+    fn cast_shadows(
+        &self,
+        cx: &PairContext,
+        lo: f64,
+        hi: f64,
+        shadows: &mut Shadows,
+    ) -> (DVec2, DVec2, Aabb, f64) {
+        let (eps, gap, f, na) = (cx.k.eps, self.gap, &self.f, self.na);
+        // The others (the next room's wall, in the same plane past the
+        // corner) leave the same region open, and none of their points is near enough to
+        // be put back as an exact vertex. The grid is asked for the box around that part
+        // of the slab, which holds every triangle whose shadow can be kept (a long wall
+        // shared with a short room's asks for the short room's part only).
+        let (slo, shi) = ring_bounds(self.shared.iter().flat_map(|s| s.outer.iter()));
+        let thin = gap <= eps;
+        let beside = NEAR * diagonal((slo, shi));
+        let reach = 2.0 * eps;
+        let (slo, shi) = (slo - DVec2::splat(reach), shi + DVec2::splat(reach));
+        let mut near = Aabb::EMPTY;
+        for t in [-eps - beside, gap + eps + beside] {
+            for c in [slo, DVec2::new(shi.x, slo.y), shi, DVec2::new(slo.x, shi.y)] {
+                near.add(f.to3(c, na * t));
+            }
+        }
+        // Never more than the faces' own box, as ever (the 2·eps reach can pass it).
+        let bb = Aabb::from_points(self.fa.points.iter().chain(self.fb.points.iter()))
+            .grown(eps + beside)
+            .intersection(&near);
+        let slab = Slab {
+            n: na,
+            lo,
+            hi,
+            frame: f,
+            thin,
+            near: beside,
+        };
+        cx.opaque.shadows(&bb, &slab, shadows);
+        (slo, shi, bb, beside)
+    }
+
+    /// Exact vertices of the two faces and the blockers, to put the corners of what is cut
+    /// from the shared region back where they were before snapping.
+    fn exact(&self, blockers: &[&[DVec2]]) -> ExactVertices {
+        ExactVertices::new(
+            self.ra
+                .iter()
+                .chain(self.rb.iter())
+                .chain(blockers.iter().flat_map(|r| r.iter()))
+                .copied(),
+            self.grid,
+        )
+        .with_rings(
+            [self.ra.as_slice(), self.rb.as_slice()]
+                .into_iter()
+                .chain(blockers.iter().copied()),
+        )
+    }
+
+    /// The portals through what the blockers leave open of the shared region, added to `out`;
+    /// returns their pieces (in A's face frame), which the wall's faces count as covered.
+    fn openings(
+        &self,
+        cx: &PairContext,
+        blockers: &[&[DVec2]],
+        out: &mut PairOpenings,
+    ) -> Vec<Vec<DVec2>> {
+        let (eps, na, gap) = (cx.k.eps, self.na, self.gap);
+        let mut through: Vec<Vec<DVec2>> = Vec::new();
+        let open = difference(&self.shared, blockers, self.grid);
+        let exact = self.exact(blockers);
+        for o in open.iter().filter(|o| o.mean_width() >= cx.k.min_width) {
+            for piece in pieces(o, cx.cfg.conservative, eps) {
+                let piece = exact.restore(piece);
+                // CCW about na in 2D: seen from A (behind the plane) it turns the
+                // other way, so A's polygon is the reversed ring.
+                let on_a: Vec<DVec3> = piece.iter().map(|q| self.f.to3(*q, DVec3::ZERO)).collect();
+                let Some(on_a) = usable_polygon(&on_a, na, eps) else {
+                    continue;
+                };
+                let on_b: Vec<DVec3> = on_a.iter().map(|p| *p + na * gap).collect();
+                let area = polygon_area(&on_a, na);
+                out.portals.push((on_a, on_b, na, area));
+                through.push(piece);
+            }
+        }
+        through
+    }
+
+    /// Each face of the wall on its own: what lies on it and what was bridged
+    /// through; what is left is a hole into the wall that does not go through it
+    /// (the doors of two rooms' walls, offset along the hollow between them). The
+    /// face claims the rest, and the exterior stage finds the hole open unless
+    /// another cell's claim covers it.
+    fn claim_wall_sides(
+        &self,
+        cx: &PairContext,
+        shadows: &Shadows,
+        blockers: &[&[DVec2]],
+        through: &[Vec<DVec2>],
+        (lo, hi, beside): (f64, f64, f64),
+        out: &mut PairOpenings,
+    ) {
+        let (eps, k, gap, grid) = (cx.k.eps, cx.k, self.gap, self.grid);
+        let sides = [
+            (self.a, lo - beside, lo + 2.0 * eps + beside),
+            (self.b, hi - 2.0 * eps - beside, hi + beside),
+        ];
+        for (cell, from, to) in sides {
+            let mut cover: Vec<&[DVec2]> = shadows
+                .rings_with_spans()
+                .filter(|(_, (x, y))| *x >= from && *y <= to)
+                .map(|(r, _)| r)
+                .collect();
+            cover.extend(through.iter().map(Vec::as_slice));
+            let whole = !cx.cfg.exterior
+                || self.shared.iter().all(|s| {
+                    s.holes.is_empty() && is_covered(&s.outer, &cover, k.grow, k.sliver, k.closed)
+                });
+            // Holes narrower than the wall is thick are where two doors' jambs miss
+            // each other by a modelling error, not a way into the wall.
+            let holes: Vec<Vec<DVec2>> = if whole {
+                Vec::new()
+            } else {
+                difference(&self.shared, &cover, grid)
+                    .into_iter()
+                    .filter(|o| o.mean_width() >= gap.max(k.min_width))
+                    .map(|o| o.outer)
+                    .collect()
+            };
+            if holes.is_empty() {
+                for s in &self.shared {
+                    self.claim(out, cell, self.exact_shared.restore(s.outer.clone()));
+                }
+                continue;
+            }
+            let exact = self.exact(blockers);
+            for o in difference(&self.shared, &holes, grid) {
+                for piece in pieces(&o, false, eps) {
+                    self.claim(out, cell, exact.restore(piece));
+                }
+            }
+        }
+    }
 }
 
 /// The cross-sections, on `plane`'s frame, of the cells other than `a` and `b` that lie in the

@@ -140,121 +140,19 @@ pub fn parse(text: &str, path: &Path) -> Result<(PrtFile, Vec<Diagnostic>), Diag
         lines: text.lines().enumerate().peekable(),
         last: 0,
     };
-    let (hl, header) = ls.next().ok_or_else(|| {
-        Diagnostic::new(
-            Code::INPUT_EMPTY,
-            format!("`{}` is empty", path.display()),
-            Location::file(path),
-        )
-        .hint("a .prt file starts with PRT1, PRT2 or PRT1-AM")
-    })?;
-    let format = match header.trim() {
-        "PRT1" => PrtFormat::Prt1,
-        "PRT2" => PrtFormat::Prt2,
-        "PRT1-AM" => PrtFormat::Prt1Am,
-        other => {
-            return Err(ls.err(
-                Code::PRT_UNKNOWN_FORMAT,
-                hl,
-                format!("`{}` is not a portal file format portcullis reads", short(other)),
-                "the first line must be PRT1, PRT2 or PRT1-AM (Quake 3's PRT1 with hint portals is not supported)",
-            ))
-        }
-    };
-    let (cells, leaves, nportals) = match format {
-        PrtFormat::Prt1 => {
-            let c = ls.count("cells")?;
-            (c, c, ls.count("portals")?)
-        }
-        PrtFormat::Prt2 => {
-            let l = ls.count("leaves")?;
-            let c = ls.count("clusters")?;
-            (c, l, ls.count("portals")?)
-        }
-        PrtFormat::Prt1Am => {
-            let c = ls.count("clusters")?;
-            let p = ls.count("portals")?;
-            (c, ls.count("leaves")?, p)
-        }
-    };
+    let format = ls.format()?;
+    let (cells, leaves, nportals) = ls.counts(format)?;
     let mut diags = Vec::new();
     let mut portals = Vec::with_capacity(nportals.min(1 << 16));
     for _ in 0..nportals {
         let (n, l) = ls.need("a portal line")?;
         portals.push(portal_line(&ls, n, l, cells)?);
     }
-    let mut leaf_cluster = Vec::new();
-    match format {
-        PrtFormat::Prt1 => {}
-        PrtFormat::Prt2 => {
-            leaf_cluster = vec![usize::MAX; leaves];
-            for c in 0..cells {
-                let (n, l) = ls.need("a cluster's leaf list")?;
-                let mut ended = false;
-                for t in l.split_whitespace() {
-                    if ended {
-                        return Err(ls.err(
-                            Code::PRT_SYNTAX,
-                            n,
-                            format!("`{}` after the -1 that ends cluster {c}'s leaves", short(t)),
-                            "one line per cluster: its leaves, then -1",
-                        ));
-                    }
-                    if t == "-1" {
-                        ended = true;
-                        continue;
-                    }
-                    let leaf: usize = t.parse().map_err(|_| {
-                        ls.err(
-                            Code::PRT_SYNTAX,
-                            n,
-                            format!("`{}` is not a leaf number", short(t)),
-                            "one line per cluster: its leaves, then -1",
-                        )
-                    })?;
-                    if leaf >= leaves {
-                        return Err(ls.err(Code::PRT_BAD_INDEX, n, format!("cluster {c} lists leaf {leaf}; the file has {leaves} leaves"), "the header's leaf count and the cluster lines disagree; write the file again with qbsp"));
-                    }
-                    leaf_cluster[leaf] = c;
-                }
-                if !ended {
-                    return Err(ls.err(
-                        Code::PRT_SYNTAX,
-                        n,
-                        format!("cluster {c}'s leaf list does not end with -1"),
-                        "one line per cluster: its leaves, then -1",
-                    ));
-                }
-            }
-        }
-        PrtFormat::Prt1Am => {
-            while leaf_cluster.len() < leaves {
-                let (n, l) = ls.need("the cluster of each leaf")?;
-                for t in l.split_whitespace() {
-                    let c: i64 = t.parse().map_err(|_| {
-                        ls.err(
-                            Code::PRT_SYNTAX,
-                            n,
-                            format!("`{}` is not a cluster number", short(t)),
-                            "after the portals, one cluster number per leaf",
-                        )
-                    })?;
-                    if c < -1 || c >= cells as i64 {
-                        return Err(ls.err(
-                            Code::PRT_BAD_INDEX,
-                            n,
-                            format!(
-                                "leaf {} is in cluster {c}; the file has {cells} clusters",
-                                leaf_cluster.len()
-                            ),
-                            "the header's cluster count and the leaf table disagree",
-                        ));
-                    }
-                    leaf_cluster.push(if c < 0 { usize::MAX } else { c as usize });
-                }
-            }
-        }
-    }
+    let leaf_cluster = match format {
+        PrtFormat::Prt1 => Vec::new(),
+        PrtFormat::Prt2 => ls.cluster_leaves(cells, leaves)?,
+        PrtFormat::Prt1Am => ls.leaf_clusters(cells, leaves)?,
+    };
     if let Some((n, _)) = ls.next() {
         diags.push(ls.err(
             Code::PRT_TRAILING_DATA,
@@ -287,6 +185,131 @@ pub fn parse(text: &str, path: &Path) -> Result<(PrtFile, Vec<Diagnostic>), Diag
         },
         diags,
     ))
+}
+
+impl Lines<'_> {
+    /// The format line, which decides how the rest of the file reads.
+    fn format(&mut self) -> Result<PrtFormat, Diagnostic> {
+        let path = self.path;
+        let (hl, header) = self.next().ok_or_else(|| {
+            Diagnostic::new(
+                Code::INPUT_EMPTY,
+                format!("`{}` is empty", path.display()),
+                Location::file(path),
+            )
+            .hint("a .prt file starts with PRT1, PRT2 or PRT1-AM")
+        })?;
+        Ok(match header.trim() {
+            "PRT1" => PrtFormat::Prt1,
+            "PRT2" => PrtFormat::Prt2,
+            "PRT1-AM" => PrtFormat::Prt1Am,
+            other => {
+                return Err(self.err(
+                    Code::PRT_UNKNOWN_FORMAT,
+                    hl,
+                    format!("`{}` is not a portal file format portcullis reads", short(other)),
+                    "the first line must be PRT1, PRT2 or PRT1-AM (Quake 3's PRT1 with hint portals is not supported)",
+                ))
+            }
+        })
+    }
+
+    /// The header's counts as (cells, leaves, portals), in the order each format lists them.
+    fn counts(&mut self, format: PrtFormat) -> Result<(usize, usize, usize), Diagnostic> {
+        Ok(match format {
+            PrtFormat::Prt1 => {
+                let c = self.count("cells")?;
+                (c, c, self.count("portals")?)
+            }
+            PrtFormat::Prt2 => {
+                let l = self.count("leaves")?;
+                let c = self.count("clusters")?;
+                (c, l, self.count("portals")?)
+            }
+            PrtFormat::Prt1Am => {
+                let c = self.count("clusters")?;
+                let p = self.count("portals")?;
+                (c, self.count("leaves")?, p)
+            }
+        })
+    }
+
+    /// PRT2's cluster of each leaf, from one line per cluster listing its leaves up to -1
+    /// (`usize::MAX` for a leaf no cluster lists).
+    fn cluster_leaves(&mut self, cells: usize, leaves: usize) -> Result<Vec<usize>, Diagnostic> {
+        let mut leaf_cluster = vec![usize::MAX; leaves];
+        for c in 0..cells {
+            let (n, l) = self.need("a cluster's leaf list")?;
+            let mut ended = false;
+            for t in l.split_whitespace() {
+                if ended {
+                    return Err(self.err(
+                        Code::PRT_SYNTAX,
+                        n,
+                        format!("`{}` after the -1 that ends cluster {c}'s leaves", short(t)),
+                        "one line per cluster: its leaves, then -1",
+                    ));
+                }
+                if t == "-1" {
+                    ended = true;
+                    continue;
+                }
+                let leaf: usize = t.parse().map_err(|_| {
+                    self.err(
+                        Code::PRT_SYNTAX,
+                        n,
+                        format!("`{}` is not a leaf number", short(t)),
+                        "one line per cluster: its leaves, then -1",
+                    )
+                })?;
+                if leaf >= leaves {
+                    return Err(self.err(Code::PRT_BAD_INDEX, n, format!("cluster {c} lists leaf {leaf}; the file has {leaves} leaves"), "the header's leaf count and the cluster lines disagree; write the file again with qbsp"));
+                }
+                leaf_cluster[leaf] = c;
+            }
+            if !ended {
+                return Err(self.err(
+                    Code::PRT_SYNTAX,
+                    n,
+                    format!("cluster {c}'s leaf list does not end with -1"),
+                    "one line per cluster: its leaves, then -1",
+                ));
+            }
+        }
+        Ok(leaf_cluster)
+    }
+
+    /// PRT1-AM's cluster of each leaf, one number per leaf over as many lines as it takes
+    /// (-1, no cluster, is `usize::MAX`).
+    fn leaf_clusters(&mut self, cells: usize, leaves: usize) -> Result<Vec<usize>, Diagnostic> {
+        let mut leaf_cluster = Vec::new();
+        while leaf_cluster.len() < leaves {
+            let (n, l) = self.need("the cluster of each leaf")?;
+            for t in l.split_whitespace() {
+                let c: i64 = t.parse().map_err(|_| {
+                    self.err(
+                        Code::PRT_SYNTAX,
+                        n,
+                        format!("`{}` is not a cluster number", short(t)),
+                        "after the portals, one cluster number per leaf",
+                    )
+                })?;
+                if c < -1 || c >= cells as i64 {
+                    return Err(self.err(
+                        Code::PRT_BAD_INDEX,
+                        n,
+                        format!(
+                            "leaf {} is in cluster {c}; the file has {cells} clusters",
+                            leaf_cluster.len()
+                        ),
+                        "the header's cluster count and the leaf table disagree",
+                    ));
+                }
+                leaf_cluster.push(if c < 0 { usize::MAX } else { c as usize });
+            }
+        }
+        Ok(leaf_cluster)
+    }
 }
 
 fn short(s: &str) -> String {

@@ -559,110 +559,156 @@ impl Level {
             } else {
                 first + k
             }];
-            out.stats.portals_tested += 1;
-            let p = &self.portals[link.portal as usize];
-            if ctx.doors.is_closed(link.portal as usize) {
-                out.stats.closed_skipped += 1;
-                continue;
-            }
-            let plane = if link.reversed {
-                p.plane.flipped()
-            } else {
-                p.plane
-            };
-            // Positive on the side sight enters from.
-            let dist = -plane.dist(eye_here);
-            let reach = ctx.near_radius + ctx.tol;
-            if dist < -reach {
-                out.stats.portals_culled += 1;
-                continue;
-            }
-            let poly = self.polygon(link.portal as usize);
-            // A camera in the doorway (or between a portal a hair off its wall and the wall)
-            // sees through it whichever side of its plane the eye is on.
-            let standing_in =
-                dist <= reach && clip::distance_to_polygon(eye_here, poly, plane.n) <= reach;
-            if dist < -ctx.tol && !standing_in {
-                out.stats.portals_culled += 1;
-                continue;
-            }
-            let transform = match p.transform {
-                Some(t) if !link.reversed => Some(&self.transforms[t as usize]),
-                _ => None,
-            };
-            let again = frame.draw.is_none()
-                && transform.is_none()
-                && out
-                    .on_path_cells
-                    .get(link.to as usize)
-                    .is_some_and(|&n| n > 0);
-            if transform.is_none() && (again || out.on_path(link.portal)) {
-                out.stats.on_path_skipped += 1;
-                continue;
-            }
-            let target = link.to as usize;
-            if let Some(row) = ctx.pvs_row {
-                let untransformed = frame.draw.is_none() && transform.is_none();
-                if untransformed && target < self.cells.len() && !self.pvs_sees(row, target) {
-                    out.stats.pvs_skipped += 1;
-                    continue;
-                }
-            }
-            if frame.depth as usize >= ctx.opts.max_depth {
-                out.stats.depth_limit_hits += 1;
-                continue;
-            }
-            if transform.is_some() && frame.transforms as usize >= ctx.opts.max_transform_depth {
-                out.stats.transform_limit_hits += 1;
-                continue;
-            }
-            let (view, clips, rect) = if standing_in {
-                out.stats.passed_through += 1;
-                (frame.view.clone(), frame.clips.clone(), frame.rect)
-            } else if dist <= ctx.tol {
-                out.stats.portals_culled += 1;
-                continue;
-            } else {
-                match self.narrow(ctx, &frame, poly, transform.is_some(), out) {
-                    Narrowed::Seen(view, clips, rect) => (view, clips, rect),
-                    Narrowed::Culled => {
-                        out.stats.portals_culled += 1;
-                        continue;
-                    }
-                }
-            };
-            let (draw, mirrored, transforms) = match transform {
-                None => (frame.draw, frame.mirrored, frame.transforms),
-                Some(&(m, inv)) => {
-                    let (d, d_inv) = frame.draw.unwrap_or((DMat4::IDENTITY, DMat4::IDENTITY));
-                    (
-                        Some((d * inv, m * d_inv)),
-                        frame.mirrored ^ (m.determinant() < 0.0),
-                        frame.transforms + 1,
-                    )
-                }
-            };
-            out.path.push(Step {
-                portal: link.portal,
-                transformed: transform.is_some(),
-            });
-            let child = Frame {
-                region: link.to,
-                cell: (target < self.cells.len()).then_some(target),
-                view,
-                clips,
-                rect,
-                depth: frame.depth + 1,
-                transforms,
-                draw,
-                mirrored,
-            };
-            self.walk(ctx, child, out);
-            out.path.pop();
+            self.cross(ctx, &frame, link, eye_here, out);
         }
         if convex {
             out.on_path_cells[frame.region as usize] -= 1;
         }
+    }
+
+    /// Tests one link out of `frame`'s region and, where sight passes it, walks on beyond it
+    /// with the view narrowed to the portal (`eye_here`: the eye in the frame's cell space).
+    /// Every way a link is passed over is counted in the stats.
+    fn cross(
+        &self,
+        ctx: &Ctx,
+        frame: &Frame,
+        link: &super::Link,
+        eye_here: DVec3,
+        out: &mut Trace,
+    ) {
+        out.stats.portals_tested += 1;
+        let p = &self.portals[link.portal as usize];
+        if ctx.doors.is_closed(link.portal as usize) {
+            out.stats.closed_skipped += 1;
+            return;
+        }
+        let plane = if link.reversed {
+            p.plane.flipped()
+        } else {
+            p.plane
+        };
+        // Positive on the side sight enters from.
+        let dist = -plane.dist(eye_here);
+        let reach = ctx.near_radius + ctx.tol;
+        if dist < -reach {
+            out.stats.portals_culled += 1;
+            return;
+        }
+        let poly = self.polygon(link.portal as usize);
+        // A camera in the doorway (or between a portal a hair off its wall and the wall)
+        // sees through it whichever side of its plane the eye is on.
+        let standing_in =
+            dist <= reach && clip::distance_to_polygon(eye_here, poly, plane.n) <= reach;
+        if dist < -ctx.tol && !standing_in {
+            out.stats.portals_culled += 1;
+            return;
+        }
+        let transform = match p.transform {
+            Some(t) if !link.reversed => Some(&self.transforms[t as usize]),
+            _ => None,
+        };
+        if self.passed_over(ctx, frame, link, transform.is_some(), out) {
+            return;
+        }
+        let (view, clips, rect) = if standing_in {
+            out.stats.passed_through += 1;
+            (frame.view.clone(), frame.clips.clone(), frame.rect)
+        } else if dist <= ctx.tol {
+            out.stats.portals_culled += 1;
+            return;
+        } else {
+            match self.narrow(ctx, frame, poly, transform.is_some(), out) {
+                Narrowed::Seen(view, clips, rect) => (view, clips, rect),
+                Narrowed::Culled => {
+                    out.stats.portals_culled += 1;
+                    return;
+                }
+            }
+        };
+        self.descend(ctx, frame, link, transform, (view, clips, rect), out);
+    }
+
+    /// Whether the walk must not go through `link` whatever is seen through it: it would come
+    /// back along its own path, the PVS says the cell beyond is hidden, or a depth limit is
+    /// reached. Counted in the stats.
+    fn passed_over(
+        &self,
+        ctx: &Ctx,
+        frame: &Frame,
+        link: &super::Link,
+        transformed: bool,
+        out: &mut Trace,
+    ) -> bool {
+        let again = frame.draw.is_none()
+            && !transformed
+            && out
+                .on_path_cells
+                .get(link.to as usize)
+                .is_some_and(|&n| n > 0);
+        if !transformed && (again || out.on_path(link.portal)) {
+            out.stats.on_path_skipped += 1;
+            return true;
+        }
+        let target = link.to as usize;
+        if let Some(row) = ctx.pvs_row {
+            let untransformed = frame.draw.is_none() && !transformed;
+            if untransformed && target < self.cells.len() && !self.pvs_sees(row, target) {
+                out.stats.pvs_skipped += 1;
+                return true;
+            }
+        }
+        if frame.depth as usize >= ctx.opts.max_depth {
+            out.stats.depth_limit_hits += 1;
+            return true;
+        }
+        if transformed && frame.transforms as usize >= ctx.opts.max_transform_depth {
+            out.stats.transform_limit_hits += 1;
+            return true;
+        }
+        false
+    }
+
+    /// Walks the region beyond `link` with the view seen through it, the portal on the
+    /// path meanwhile; a mirror or teleporter's `transform` carries the draw transform on.
+    fn descend(
+        &self,
+        ctx: &Ctx,
+        frame: &Frame,
+        link: &super::Link,
+        transform: Option<&(DMat4, DMat4)>,
+        (view, clips, rect): (Range<u32>, Range<u32>, [f64; 4]),
+        out: &mut Trace,
+    ) {
+        let target = link.to as usize;
+        let (draw, mirrored, transforms) = match transform {
+            None => (frame.draw, frame.mirrored, frame.transforms),
+            Some(&(m, inv)) => {
+                let (d, d_inv) = frame.draw.unwrap_or((DMat4::IDENTITY, DMat4::IDENTITY));
+                (
+                    Some((d * inv, m * d_inv)),
+                    frame.mirrored ^ (m.determinant() < 0.0),
+                    frame.transforms + 1,
+                )
+            }
+        };
+        out.path.push(Step {
+            portal: link.portal,
+            transformed: transform.is_some(),
+        });
+        let child = Frame {
+            region: link.to,
+            cell: (target < self.cells.len()).then_some(target),
+            view,
+            clips,
+            rect,
+            depth: frame.depth + 1,
+            transforms,
+            draw,
+            mirrored,
+        };
+        self.walk(ctx, child, out);
+        out.path.pop();
     }
 
     /// The view through portal polygon `poly` (in the frame's cell space): clipped to the

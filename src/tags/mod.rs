@@ -167,327 +167,418 @@ impl Class {
 
 /// Applies `rules` to `scene`.
 pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
-    let mut diags = Diagnostics::default();
-    let order = scene.walk();
-    // Each node is classified on its own (on every thread: a big level has tens of thousands),
-    // what that reports kept in node order; so are the near misses of unclassified names.
-    use rayon::prelude::*;
-    let classified: Vec<(Option<Class>, Option<near_miss::Miss>, Diagnostics)> =
-        (0..scene.nodes.len())
-            .into_par_iter()
-            .map(|n| {
-                let mut d = Diagnostics::default();
-                let class = classify(scene, rules, n, &mut d);
-                let miss = match (&class, scene.nodes[n].name.as_deref()) {
-                    (None, Some(name)) => near_miss::check(rules, name),
-                    _ => None,
-                };
-                (class, miss, d)
-            })
-            .collect();
-    let mut classes: Vec<Option<Class>> = Vec::with_capacity(classified.len());
-    let mut misses: Vec<Option<near_miss::Miss>> = Vec::with_capacity(classified.len());
-    for (class, miss, d) in classified {
-        classes.push(class);
-        misses.push(miss);
-        diags.extend(d.0);
+    let mut r = Recognition::new(scene, rules);
+    r.collect_rooms();
+    r.declare_volume_rooms();
+    r.assign_members();
+    r.finish()
+}
+
+/// What `recognise` carries from pass to pass: every node's classification, which room each
+/// node belongs to so far, and the tagging and diagnostics being built, so that each pass is
+/// one function over the same facts and the diagnostics keep the order the passes make them.
+struct Recognition<'a> {
+    scene: &'a Scene,
+    rules: &'a RuleSet,
+    order: Vec<NodeId>,
+    classes: Vec<Option<Class>>,
+    misses: Vec<Option<near_miss::Miss>>,
+    room_of_node: Vec<Option<RoomId>>,
+    t: Tagging,
+    diags: Diagnostics,
+}
+
+impl<'a> Recognition<'a> {
+    /// Classifies every node before any is placed, because placing needs rooms that may be
+    /// declared after the nodes that name them.
+    fn new(scene: &'a Scene, rules: &'a RuleSet) -> Self {
+        let mut diags = Diagnostics::default();
+        let order = scene.walk();
+        // Each node is classified on its own (on every thread: a big level has tens of thousands),
+        // what that reports kept in node order; so are the near misses of unclassified names.
+        use rayon::prelude::*;
+        let classified: Vec<(Option<Class>, Option<near_miss::Miss>, Diagnostics)> =
+            (0..scene.nodes.len())
+                .into_par_iter()
+                .map(|n| {
+                    let mut d = Diagnostics::default();
+                    let class = classify(scene, rules, n, &mut d);
+                    let miss = match (&class, scene.nodes[n].name.as_deref()) {
+                        (None, Some(name)) => near_miss::check(rules, name),
+                        _ => None,
+                    };
+                    (class, miss, d)
+                })
+                .collect();
+        let mut classes: Vec<Option<Class>> = Vec::with_capacity(classified.len());
+        let mut misses: Vec<Option<near_miss::Miss>> = Vec::with_capacity(classified.len());
+        for (class, miss, d) in classified {
+            classes.push(class);
+            misses.push(miss);
+            diags.extend(d.0);
+        }
+        let t = Tagging {
+            preset: rules.name.clone(),
+            rooms: Vec::new(),
+            room_groups: Vec::new(),
+            portals: Vec::new(),
+            bounds: Vec::new(),
+            footprints: Vec::new(),
+            ignored: Vec::new(),
+            detail: Vec::new(),
+            player_starts: Vec::new(),
+            unassigned: Vec::new(),
+            near_misses: Vec::new(),
+            settings: Vec::new(),
+            diagnostics: Diagnostics::default(),
+            room_index: Default::default(),
+        };
+        Recognition {
+            scene,
+            rules,
+            order,
+            classes,
+            misses,
+            room_of_node: vec![None; scene.nodes.len()],
+            t,
+            diags,
+        }
     }
-    let rule_id = |c: &Class| rules.rules[c.rule].spec.id.clone();
-    let loc = |n: NodeId| {
-        Location::file(&scene.path)
-            .with_source(scene.nodes[n].source.clone())
-            .with_node(scene.node_path(n))
-    };
 
-    let mut t = Tagging {
-        preset: rules.name.clone(),
-        rooms: Vec::new(),
-        room_groups: Vec::new(),
-        portals: Vec::new(),
-        bounds: Vec::new(),
-        footprints: Vec::new(),
-        ignored: Vec::new(),
-        detail: Vec::new(),
-        player_starts: Vec::new(),
-        unassigned: Vec::new(),
-        near_misses: Vec::new(),
-        settings: Vec::new(),
-        diagnostics: Diagnostics::default(),
-        room_index: Default::default(),
-    };
+    /// Pass 1: rooms and groups, so later references by name can resolve in any order.
+    fn collect_rooms(&mut self) {
+        let (scene, rules) = (self.scene, self.rules);
+        for &n in &self.order {
+            let Some(c) = &self.classes[n] else { continue };
+            match c.kind {
+                TagKind::Room => {
+                    let name = c
+                        .first(|m| m.room.clone())
+                        .unwrap_or_else(|| scene.node_label(n));
+                    let volume = rules.rules[c.rule].spec.volume.unwrap_or_default();
+                    let id = add_room(
+                        scene,
+                        rules,
+                        &mut self.t,
+                        &mut self.diags,
+                        name,
+                        n,
+                        rule_id(rules, c),
+                        volume,
+                    );
+                    self.room_of_node[n] = Some(id);
+                    let r = &mut self.t.rooms[id];
+                    if let Some(p) = extras::read_number(scene.nodes[n].extras.as_ref(), "priority")
+                    {
+                        r.priority = p as i64;
+                    }
+                }
+                TagKind::Roomgroup => {
+                    let name = c
+                        .first(|m| m.room.clone())
+                        .unwrap_or_else(|| scene.node_label(n));
+                    self.t.room_groups.push(RoomGroup {
+                        name,
+                        node: n,
+                        rooms: Vec::new(),
+                    });
+                }
+                _ => {}
+            }
+        }
+    }
 
-    // Pass 1: rooms and groups, so later references by name can resolve in any order.
-    let mut room_of_node: Vec<Option<RoomId>> = vec![None; scene.nodes.len()];
-    for &n in &order {
-        let Some(c) = &classes[n] else { continue };
-        match c.kind {
-            TagKind::Room => {
-                let name = c
-                    .first(|m| m.room.clone())
-                    .unwrap_or_else(|| scene.node_label(n));
-                let volume = rules.rules[c.rule].spec.volume.unwrap_or_default();
+    /// Standalone footprints and `-cell` bounds that name a room nobody declared declare it.
+    fn declare_volume_rooms(&mut self) {
+        let (scene, rules) = (self.scene, self.rules);
+        for &n in &self.order {
+            let Some(c) = &self.classes[n] else { continue };
+            if !matches!(c.kind, TagKind::Footprint | TagKind::Bound) {
+                continue;
+            }
+            let named = c.first(|m| m.room.clone());
+            let ancestor = ancestor_room(scene, &self.room_of_node, n);
+            if ancestor.is_some() {
+                continue;
+            }
+            let name = match (&named, c.kind) {
+                (Some(name), _) => name.clone(),
+                (None, TagKind::Footprint) => scene.node_label(n),
+                _ => continue,
+            };
+            if self.t.room_by_name(rules, &name).is_none() {
+                let volume = if c.kind == TagKind::Footprint {
+                    VolumeHint::Footprint
+                } else {
+                    VolumeHint::Bound
+                };
                 let id = add_room(
                     scene,
                     rules,
-                    &mut t,
-                    &mut diags,
+                    &mut self.t,
+                    &mut self.diags,
                     name,
                     n,
-                    rule_id(c),
+                    rule_id(rules, c),
                     volume,
                 );
-                room_of_node[n] = Some(id);
-                let r = &mut t.rooms[id];
-                if let Some(p) = extras::read_number(scene.nodes[n].extras.as_ref(), "priority") {
-                    r.priority = p as i64;
-                }
+                self.room_of_node[n] = Some(id);
             }
-            TagKind::Roomgroup => {
-                let name = c
-                    .first(|m| m.room.clone())
-                    .unwrap_or_else(|| scene.node_label(n));
-                t.room_groups.push(RoomGroup {
-                    name,
-                    node: n,
-                    rooms: Vec::new(),
-                });
-            }
-            _ => {}
-        }
-    }
-    // Standalone footprints and `-cell` bounds that name a room nobody declared declare it.
-    for &n in &order {
-        let Some(c) = &classes[n] else { continue };
-        if !matches!(c.kind, TagKind::Footprint | TagKind::Bound) {
-            continue;
-        }
-        let named = c.first(|m| m.room.clone());
-        let ancestor = ancestor_room(scene, &room_of_node, n);
-        if ancestor.is_some() {
-            continue;
-        }
-        let name = match (&named, c.kind) {
-            (Some(name), _) => name.clone(),
-            (None, TagKind::Footprint) => scene.node_label(n),
-            _ => continue,
-        };
-        if t.room_by_name(rules, &name).is_none() {
-            let volume = if c.kind == TagKind::Footprint {
-                VolumeHint::Footprint
-            } else {
-                VolumeHint::Bound
-            };
-            let id = add_room(
-                scene,
-                rules,
-                &mut t,
-                &mut diags,
-                name,
-                n,
-                rule_id(c),
-                volume,
-            );
-            room_of_node[n] = Some(id);
         }
     }
 
-    // Pass 2: membership, in pre-order so the nearest room ancestor is known.
-    let mut group_of_node: Vec<Option<usize>> = vec![None; scene.nodes.len()];
-    for (gi, g) in t.room_groups.iter().enumerate() {
-        group_of_node[g.node] = Some(gi);
-    }
-    for &n in &order {
-        let parent = scene.nodes[n].parent;
-        if room_of_node[n].is_none() {
-            room_of_node[n] = parent.and_then(|p| room_of_node[p]);
+    /// Pass 2: membership, in pre-order so the nearest room ancestor is known.
+    fn assign_members(&mut self) {
+        let scene = self.scene;
+        let mut group_of_node: Vec<Option<usize>> = vec![None; scene.nodes.len()];
+        for (gi, g) in self.t.room_groups.iter().enumerate() {
+            group_of_node[g.node] = Some(gi);
         }
-        if group_of_node[n].is_none() {
-            group_of_node[n] = parent.and_then(|p| group_of_node[p]);
-        }
-        let has_mesh = scene.nodes[n].mesh.is_some();
-        let nref = || NodeRef {
-            node: n,
-            path: scene.node_path(n),
-        };
-        match classes[n].as_ref().map(|c| c.kind) {
-            Some(TagKind::Room) => {
-                let id = room_of_node[n].unwrap_or(0);
-                if let Some(g) = parent.and_then(|p| group_of_node[p]) {
-                    t.rooms[id].group = Some(g);
-                    if !t.room_groups[g].rooms.contains(&id) {
-                        t.room_groups[g].rooms.push(id);
-                    }
-                }
-                match t.rooms[id].volume {
-                    VolumeHint::Footprint if t.rooms[id].node == n && has_mesh => {
-                        t.rooms[id].footprints.push(n);
-                        t.footprints.push(VolumeNode {
-                            node: n,
-                            path: scene.node_path(n),
-                            rule: t.rooms[id].rule.clone(),
-                            room: Some(id),
-                        });
-                    }
-                    VolumeHint::Bound if t.rooms[id].node == n && has_mesh => {
-                        t.rooms[id].bounds.push(n);
-                        t.bounds.push(VolumeNode {
-                            node: n,
-                            path: scene.node_path(n),
-                            rule: t.rooms[id].rule.clone(),
-                            room: Some(id),
-                        });
-                    }
-                    _ if has_mesh => t.rooms[id].structure.push(n),
-                    _ => {}
-                }
+        for i in 0..self.order.len() {
+            let n = self.order[i];
+            let parent = scene.nodes[n].parent;
+            if self.room_of_node[n].is_none() {
+                self.room_of_node[n] = parent.and_then(|p| self.room_of_node[p]);
             }
-            Some(kind @ (TagKind::Bound | TagKind::Footprint)) => {
-                let Some(c) = &classes[n] else { continue };
-                let room = c
-                    .first(|m| m.room.clone())
-                    .and_then(|name| t.room_by_name(rules, &name))
-                    .or(room_of_node[n]);
-                if !has_mesh {
-                    diags.push(
-                        Diagnostic::new(
-                            Code::TAG_BOUND_NO_MESH,
-                            format!(
-                                "`{}` is tagged as a {} but has no mesh",
-                                scene.node_label(n),
-                                kind.as_str()
-                            ),
-                            loc(n),
-                        )
-                        .hint("give the node a mesh, or remove the tag"),
-                    );
-                    // Nothing to bound with: the room keeps its own geometry's volume.
-                    continue;
+            if group_of_node[n].is_none() {
+                group_of_node[n] = parent.and_then(|p| group_of_node[p]);
+            }
+            let has_mesh = scene.nodes[n].mesh.is_some();
+            let nref = || NodeRef {
+                node: n,
+                path: scene.node_path(n),
+            };
+            match self.classes[n].as_ref().map(|c| c.kind) {
+                Some(TagKind::Room) => {
+                    let group = parent.and_then(|p| group_of_node[p]);
+                    self.place_room_node(n, group, has_mesh);
                 }
-                if room.is_none() {
-                    diags.push(
-                        Diagnostic::new(
-                            Code::TAG_BOUND_NO_ROOM,
-                            format!(
-                                "{} `{}` is in no room and names none",
-                                kind.as_str(),
-                                scene.node_label(n)
-                            ),
-                            loc(n),
-                        )
-                        .hint("make it a child of its room, or name the room (`kitchen-cell`, extras `\"bound\": \"kitchen\"`)"),
-                    );
+                Some(kind @ (TagKind::Bound | TagKind::Footprint)) => {
+                    self.place_volume(n, kind, has_mesh)
                 }
-                let v = VolumeNode {
+                Some(TagKind::Portal) => {
+                    let Some(c) = &self.classes[n] else { continue };
+                    let p = make_portal(
+                        scene,
+                        self.rules,
+                        &self.t,
+                        c,
+                        n,
+                        rule_id(self.rules, c),
+                        &self.room_of_node,
+                        &mut self.diags,
+                    );
+                    self.t.portals.push(p);
+                }
+                Some(TagKind::Ignore) => self.t.ignored.push(nref()),
+                Some(TagKind::Detail) => match self.room_of_node[n] {
+                    Some(r) if has_mesh => self.t.rooms[r].detail.push(n),
+                    _ => self.t.detail.push(nref()),
+                },
+                Some(TagKind::PlayerStart) => self.t.player_starts.push(nref()),
+                Some(TagKind::Roomgroup) => {}
+                None => self.place_untagged(n, has_mesh),
+            }
+        }
+    }
+
+    /// A room's own node: it joins the group it sits in, and its mesh is the room's footprint,
+    /// bound or structure as the room's volume hint says.
+    fn place_room_node(&mut self, n: NodeId, group: Option<usize>, has_mesh: bool) {
+        let scene = self.scene;
+        let t = &mut self.t;
+        let id = self.room_of_node[n].unwrap_or(0);
+        if let Some(g) = group {
+            t.rooms[id].group = Some(g);
+            if !t.room_groups[g].rooms.contains(&id) {
+                t.room_groups[g].rooms.push(id);
+            }
+        }
+        match t.rooms[id].volume {
+            VolumeHint::Footprint if t.rooms[id].node == n && has_mesh => {
+                t.rooms[id].footprints.push(n);
+                t.footprints.push(VolumeNode {
                     node: n,
                     path: scene.node_path(n),
-                    rule: rule_id(c),
-                    room,
-                };
-                if let Some(r) = room {
-                    if kind == TagKind::Bound {
-                        t.rooms[r].bounds.push(n);
-                        if t.rooms[r].volume == VolumeHint::Geometry {
-                            t.rooms[r].volume = VolumeHint::Bound;
-                        }
-                    } else {
-                        t.rooms[r].footprints.push(n);
-                        if t.rooms[r].volume == VolumeHint::Geometry {
-                            t.rooms[r].volume = VolumeHint::Footprint;
-                        }
-                    }
-                }
-                if kind == TagKind::Bound {
-                    t.bounds.push(v);
-                } else {
-                    t.footprints.push(v);
-                }
+                    rule: t.rooms[id].rule.clone(),
+                    room: Some(id),
+                });
             }
-            Some(TagKind::Portal) => {
-                let Some(c) = &classes[n] else { continue };
-                let p = make_portal(
-                    scene,
-                    rules,
-                    &t,
-                    c,
-                    n,
-                    rule_id(c),
-                    &room_of_node,
-                    &mut diags,
-                );
-                t.portals.push(p);
+            VolumeHint::Bound if t.rooms[id].node == n && has_mesh => {
+                t.rooms[id].bounds.push(n);
+                t.bounds.push(VolumeNode {
+                    node: n,
+                    path: scene.node_path(n),
+                    rule: t.rooms[id].rule.clone(),
+                    room: Some(id),
+                });
             }
-            Some(TagKind::Ignore) => t.ignored.push(nref()),
-            Some(TagKind::Detail) => match room_of_node[n] {
-                Some(r) if has_mesh => t.rooms[r].detail.push(n),
-                _ => t.detail.push(nref()),
-            },
-            Some(TagKind::PlayerStart) => t.player_starts.push(nref()),
-            Some(TagKind::Roomgroup) => {}
-            None => {
-                if has_mesh {
-                    match room_of_node[n] {
-                        Some(r) => t.rooms[r].structure.push(n),
-                        None => t.unassigned.push(nref()),
-                    }
+            _ if has_mesh => t.rooms[id].structure.push(n),
+            _ => {}
+        }
+    }
+
+    /// A bound or footprint node: it shapes the room it names or sits in, and turns a room
+    /// that had only its geometry into one bounded by it.
+    fn place_volume(&mut self, n: NodeId, kind: TagKind, has_mesh: bool) {
+        let (scene, rules) = (self.scene, self.rules);
+        let t = &mut self.t;
+        let Some(c) = &self.classes[n] else { return };
+        let room = c
+            .first(|m| m.room.clone())
+            .and_then(|name| t.room_by_name(rules, &name))
+            .or(self.room_of_node[n]);
+        if !has_mesh {
+            self.diags.push(
+                Diagnostic::new(
+                    Code::TAG_BOUND_NO_MESH,
+                    format!(
+                        "`{}` is tagged as a {} but has no mesh",
+                        scene.node_label(n),
+                        kind.as_str()
+                    ),
+                    node_location(scene, n),
+                )
+                .hint("give the node a mesh, or remove the tag"),
+            );
+            // Nothing to bound with: the room keeps its own geometry's volume.
+            return;
+        }
+        if room.is_none() {
+            self.diags.push(
+                Diagnostic::new(
+                    Code::TAG_BOUND_NO_ROOM,
+                    format!(
+                        "{} `{}` is in no room and names none",
+                        kind.as_str(),
+                        scene.node_label(n)
+                    ),
+                    node_location(scene, n),
+                )
+                .hint("make it a child of its room, or name the room (`kitchen-cell`, extras `\"bound\": \"kitchen\"`)"),
+            );
+        }
+        let v = VolumeNode {
+            node: n,
+            path: scene.node_path(n),
+            rule: rule_id(rules, c),
+            room,
+        };
+        if let Some(r) = room {
+            if kind == TagKind::Bound {
+                t.rooms[r].bounds.push(n);
+                if t.rooms[r].volume == VolumeHint::Geometry {
+                    t.rooms[r].volume = VolumeHint::Bound;
                 }
-                if let Some(name) = scene.nodes[n].name.as_deref() {
-                    if let Some(miss) = misses[n].take() {
-                        let rule = &rules.rules[miss.rule].spec;
-                        let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
-                        diags.push(
-                            Diagnostic::new(
-                                Code::TAG_NEAR_MISS,
-                                format!(
-                                    "`{name}` looks like a {} tag but matches no rule ({}: rule `{}` accepts names like `{example}`)",
-                                    rule.kind.as_str(),
-                                    miss.slip,
-                                    rule.id
-                                ),
-                                loc(n),
-                            )
-                            .hint(format!(
-                                "rename it to `{}`, or add a rule for this spelling in portcullis.toml",
-                                miss.suggestion
-                            )),
-                        );
-                        t.near_misses.push(NearMiss {
-                            node: n,
-                            path: scene.node_path(n),
-                            name: name.to_string(),
-                            kind: rule.kind,
-                            rule: rule.id.clone(),
-                            suggestion: miss.suggestion,
-                            slip: miss.slip.to_string(),
-                        });
-                    }
+            } else {
+                t.rooms[r].footprints.push(n);
+                if t.rooms[r].volume == VolumeHint::Geometry {
+                    t.rooms[r].volume = VolumeHint::Footprint;
                 }
             }
         }
+        if kind == TagKind::Bound {
+            t.bounds.push(v);
+        } else {
+            t.footprints.push(v);
+        }
     }
-    // An empty scene is reported by the importer; "no rooms" would only repeat it.
-    let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
-    let tagged = order.iter().filter(|&&n| classes[n].is_some()).count();
-    // Only when the active rules find no room: that is how a wrong preset shows, and asking
-    // every other preset about every node cost a big level's tagging a third again.
-    let suggested = if t.rooms.is_empty() {
-        suggest::suggest_preset(scene, rules, &order, tagged)
-    } else {
-        None
-    };
-    // A suggested preset says more than "no room": it says which rules find them.
-    if t.rooms.is_empty() && has_triangles && suggested.is_none() {
-        diags.push(
-            Diagnostic::new(
-                Code::TAG_NO_ROOMS,
-                format!("no room was recognised with the `{}` tag rules", rules.name),
-                Location::file(&scene.path),
-            )
-            .hint("tag rooms (e.g. `kitchen-room`, `room_kitchen`, extras `\"room\": \"kitchen\"`) or choose a preset with --tags"),
-        );
+
+    /// A node no rule tagged: its mesh is structure of the room it sits in (or unassigned),
+    /// and a name that nearly matched a rule is reported, since that is usually a typo.
+    fn place_untagged(&mut self, n: NodeId, has_mesh: bool) {
+        let scene = self.scene;
+        if has_mesh {
+            match self.room_of_node[n] {
+                Some(r) => self.t.rooms[r].structure.push(n),
+                None => self.t.unassigned.push(NodeRef {
+                    node: n,
+                    path: scene.node_path(n),
+                }),
+            }
+        }
+        if let Some(name) = scene.nodes[n].name.as_deref() {
+            if let Some(miss) = self.misses[n].take() {
+                let rule = &self.rules.rules[miss.rule].spec;
+                let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
+                self.diags.push(
+                    Diagnostic::new(
+                        Code::TAG_NEAR_MISS,
+                        format!(
+                            "`{name}` looks like a {} tag but matches no rule ({}: rule `{}` accepts names like `{example}`)",
+                            rule.kind.as_str(),
+                            miss.slip,
+                            rule.id
+                        ),
+                        node_location(scene, n),
+                    )
+                    .hint(format!(
+                        "rename it to `{}`, or add a rule for this spelling in portcullis.toml",
+                        miss.suggestion
+                    )),
+                );
+                self.t.near_misses.push(NearMiss {
+                    node: n,
+                    path: scene.node_path(n),
+                    name: name.to_string(),
+                    kind: rule.kind,
+                    rule: rule.id.clone(),
+                    suggestion: miss.suggestion,
+                    slip: miss.slip.to_string(),
+                });
+            }
+        }
     }
-    diags.extend(suggested);
-    t.diagnostics = diags;
-    t
+
+    /// Reports a level in which no room was found, then hands the tagging over with every
+    /// diagnostic the passes made.
+    fn finish(self) -> Tagging {
+        let Recognition {
+            scene,
+            rules,
+            order,
+            classes,
+            mut t,
+            mut diags,
+            ..
+        } = self;
+        // An empty scene is reported by the importer; "no rooms" would only repeat it.
+        let has_triangles = scene.meshes.iter().any(|m| !m.triangles.is_empty());
+        let tagged = order.iter().filter(|&&n| classes[n].is_some()).count();
+        // Only when the active rules find no room: that is how a wrong preset shows, and asking
+        // every other preset about every node cost a big level's tagging a third again.
+        let suggested = if t.rooms.is_empty() {
+            suggest::suggest_preset(scene, rules, &order, tagged)
+        } else {
+            None
+        };
+        // A suggested preset says more than "no room": it says which rules find them.
+        if t.rooms.is_empty() && has_triangles && suggested.is_none() {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_NO_ROOMS,
+                    format!("no room was recognised with the `{}` tag rules", rules.name),
+                    Location::file(&scene.path),
+                )
+                .hint("tag rooms (e.g. `kitchen-room`, `room_kitchen`, extras `\"room\": \"kitchen\"`) or choose a preset with --tags"),
+            );
+        }
+        diags.extend(suggested);
+        t.diagnostics = diags;
+        t
+    }
+}
+
+/// The id of the rule that classified a node, as rooms, portals and volumes record it.
+fn rule_id(rules: &RuleSet, c: &Class) -> String {
+    rules.rules[c.rule].spec.id.clone()
+}
+
+/// Where a diagnostic about node `n` points: the file, the node's source and its path.
+fn node_location(scene: &Scene, n: NodeId) -> Location {
+    Location::file(&scene.path)
+        .with_source(scene.nodes[n].source.clone())
+        .with_node(scene.node_path(n))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -656,126 +747,27 @@ fn make_portal(
 ) -> AuthoredPortal {
     let node = &scene.nodes[n];
     let ex = node.extras.as_ref();
-    let loc = || {
-        Location::file(&scene.path)
-            .with_source(node.source.clone())
-            .with_node(scene.node_path(n))
-    };
     let spec_flags = |f: fn(&rules::RuleSpec) -> bool| {
         f(&rules.rules[c.rule].spec) || c.extra.iter().any(|m| f(&rules.rules[m.rule].spec))
     };
     let source_name =
         extras::read_string(ex, "source_room").or_else(|| c.first(|m| m.source.clone()));
     let target_name = c.first(|m| m.target.clone());
-    let mut resolve = |name: &Option<String>, what: &str| -> Option<RoomId> {
-        let name = name.as_ref()?;
-        let hits: Vec<RoomId> = t.room_by_name(rules, name).into_iter().collect();
-        match hits.as_slice() {
-            [one] => Some(*one),
-            [] => {
-                let hint = match closest(t.rooms.iter().map(|r| r.name.as_str()), name) {
-                    Some(s) => {
-                        format!("did you mean `{s}`? Rename the portal or the room so they agree")
-                    }
-                    None => {
-                        "name an existing room, or remove the name to link the portal by position"
-                            .to_string()
-                    }
-                };
-                diags.push(
-                    Diagnostic::new(
-                        Code::TAG_UNKNOWN_TARGET,
-                        format!(
-                            "portal `{}` names {what} room `{name}`, and no room has that name",
-                            scene.node_label(n)
-                        ),
-                        loc(),
-                    )
-                    .hint(hint),
-                );
-                None
-            }
-            _ => {
-                diags.push(
-                    Diagnostic::new(
-                        Code::TAG_AMBIGUOUS_TARGET,
-                        format!(
-                            "portal `{}` names {what} room `{name}`, which {} rooms match",
-                            scene.node_label(n),
-                            hits.len()
-                        ),
-                        loc(),
-                    )
-                    .hint("give the rooms distinct names"),
-                );
-                None
-            }
-        }
-    };
     let source_room = match &source_name {
-        Some(_) => resolve(&source_name, "source"),
+        Some(name) => resolve_portal_room(scene, rules, t, n, name, "source", diags),
         None => ancestor_room(scene, room_of_node, n).or(room_of_node[n]),
     };
-    let target_room = resolve(&target_name, "target");
-    if node.mesh.is_none() {
-        diags.push(
-            Diagnostic::new(
-                Code::TAG_PORTAL_NO_MESH,
-                format!(
-                    "portal `{}` has no mesh, so it has no polygon",
-                    scene.node_label(n)
-                ),
-                loc(),
-            )
-            .hint("give the portal node a planar convex mesh (a quad), or remove the portal tag"),
-        );
-    }
-    if source_room.is_none() && source_name.is_none() {
-        diags.push(
-            Diagnostic::new(
-                Code::TAG_PORTAL_NO_SOURCE,
-                format!(
-                    "portal `{}` is in no room and names no source room; it will be linked by position",
-                    scene.node_label(n)
-                ),
-                loc(),
-            )
-            .hint("put the portal under the room it leads out of, or set extras `source_room`"),
-        );
-    }
-    let kind = match extras::read_string(ex, "portal_kind") {
-        Some(k) => PortalKind::parse(&k).unwrap_or_else(|| {
-            diags.push(
-                Diagnostic::new(
-                    Code::TAG_EXTRAS_INVALID,
-                    format!("extras `portal_kind` of `{}` is `{k}`", scene.node_label(n)),
-                    loc(),
-                )
-                .hint("use `plain`, `mirror` or `teleporter`"),
-            );
-            PortalKind::Plain
-        }),
-        None => rules.rules[c.rule].spec.portal_kind.unwrap_or_default(),
-    };
-    let teleport_exit = extras::read_string(ex, "teleport_exit").and_then(|exit| {
-        let found = scene.walk().into_iter().find(|&m| {
-            scene.nodes[m].name.as_deref() == Some(exit.as_str()) || scene.node_path(m) == exit
-        });
-        if found.is_none() {
-            diags.push(
-                Diagnostic::new(
-                    Code::TAG_TELEPORT_EXIT_UNKNOWN,
-                    format!(
-                        "teleporter `{}` names exit node `{exit}`, which does not exist",
-                        scene.node_label(n)
-                    ),
-                    loc(),
-                )
-                .hint("set extras `teleport_exit` to the name or path of the exit portal's node"),
-            );
-        }
-        found
-    });
+    let target_room = target_name
+        .as_ref()
+        .and_then(|name| resolve_portal_room(scene, rules, t, n, name, "target", diags));
+    report_unplaced_portal(
+        scene,
+        n,
+        source_room.is_none() && source_name.is_none(),
+        diags,
+    );
+    let kind = portal_kind(scene, rules, c, n, diags);
+    let teleport_exit = teleport_exit(scene, n, diags);
     AuthoredPortal {
         node: n,
         path: scene.node_path(n),
@@ -793,6 +785,139 @@ fn make_portal(
             .find_map(|r| rules.rules[r].spec.faces)
             .unwrap_or_default(),
     }
+}
+
+/// The room portal `n` names as its `what` (source or target) end. A name that matches no
+/// room, or several, links nothing rather than a guess; the portal is then linked by position.
+fn resolve_portal_room(
+    scene: &Scene,
+    rules: &RuleSet,
+    t: &Tagging,
+    n: NodeId,
+    name: &str,
+    what: &str,
+    diags: &mut Diagnostics,
+) -> Option<RoomId> {
+    let hits: Vec<RoomId> = t.room_by_name(rules, name).into_iter().collect();
+    match hits.as_slice() {
+        [one] => Some(*one),
+        [] => {
+            let hint = match closest(t.rooms.iter().map(|r| r.name.as_str()), name) {
+                Some(s) => {
+                    format!("did you mean `{s}`? Rename the portal or the room so they agree")
+                }
+                None => "name an existing room, or remove the name to link the portal by position"
+                    .to_string(),
+            };
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_UNKNOWN_TARGET,
+                    format!(
+                        "portal `{}` names {what} room `{name}`, and no room has that name",
+                        scene.node_label(n)
+                    ),
+                    node_location(scene, n),
+                )
+                .hint(hint),
+            );
+            None
+        }
+        _ => {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_AMBIGUOUS_TARGET,
+                    format!(
+                        "portal `{}` names {what} room `{name}`, which {} rooms match",
+                        scene.node_label(n),
+                        hits.len()
+                    ),
+                    node_location(scene, n),
+                )
+                .hint("give the rooms distinct names"),
+            );
+            None
+        }
+    }
+}
+
+/// Warns of a portal without a polygon (no mesh) and of one with no source room
+/// (`no_source`), which the portal stage can then only link by position.
+fn report_unplaced_portal(scene: &Scene, n: NodeId, no_source: bool, diags: &mut Diagnostics) {
+    if scene.nodes[n].mesh.is_none() {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_PORTAL_NO_MESH,
+                format!(
+                    "portal `{}` has no mesh, so it has no polygon",
+                    scene.node_label(n)
+                ),
+                node_location(scene, n),
+            )
+            .hint("give the portal node a planar convex mesh (a quad), or remove the portal tag"),
+        );
+    }
+    if no_source {
+        diags.push(
+            Diagnostic::new(
+                Code::TAG_PORTAL_NO_SOURCE,
+                format!(
+                    "portal `{}` is in no room and names no source room; it will be linked by position",
+                    scene.node_label(n)
+                ),
+                node_location(scene, n),
+            )
+            .hint("put the portal under the room it leads out of, or set extras `source_room`"),
+        );
+    }
+}
+
+/// The portal's kind: extras `portal_kind` overrides the rule's; an unknown kind is reported
+/// and read as plain, so a typo never makes a mirror or teleporter.
+fn portal_kind(
+    scene: &Scene,
+    rules: &RuleSet,
+    c: &Class,
+    n: NodeId,
+    diags: &mut Diagnostics,
+) -> PortalKind {
+    match extras::read_string(scene.nodes[n].extras.as_ref(), "portal_kind") {
+        Some(k) => PortalKind::parse(&k).unwrap_or_else(|| {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_EXTRAS_INVALID,
+                    format!("extras `portal_kind` of `{}` is `{k}`", scene.node_label(n)),
+                    node_location(scene, n),
+                )
+                .hint("use `plain`, `mirror` or `teleporter`"),
+            );
+            PortalKind::Plain
+        }),
+        None => rules.rules[c.rule].spec.portal_kind.unwrap_or_default(),
+    }
+}
+
+/// The node a teleporter's extras `teleport_exit` names, by name or path; a name that finds
+/// no node is reported, and the teleporter keeps no exit.
+fn teleport_exit(scene: &Scene, n: NodeId, diags: &mut Diagnostics) -> Option<NodeId> {
+    extras::read_string(scene.nodes[n].extras.as_ref(), "teleport_exit").and_then(|exit| {
+        let found = scene.walk().into_iter().find(|&m| {
+            scene.nodes[m].name.as_deref() == Some(exit.as_str()) || scene.node_path(m) == exit
+        });
+        if found.is_none() {
+            diags.push(
+                Diagnostic::new(
+                    Code::TAG_TELEPORT_EXIT_UNKNOWN,
+                    format!(
+                        "teleporter `{}` names exit node `{exit}`, which does not exist",
+                        scene.node_label(n)
+                    ),
+                    node_location(scene, n),
+                )
+                .hint("set extras `teleport_exit` to the name or path of the exit portal's node"),
+            );
+        }
+        found
+    })
 }
 
 /// The candidate closest to `name` by edit distance, if reasonably close.

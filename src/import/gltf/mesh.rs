@@ -168,179 +168,198 @@ impl<'a> Builder<'a> {
                 )
                 .hint(super::VALIDATOR_HINT));
         };
-        let mut shared: Vec<(u64, Vertices)> = Vec::new();
-        let mut out = Mesh {
-            name: mesh.name.clone(),
-            positions: Vec::new(),
-            triangles: Vec::new(),
-            primitives: Vec::with_capacity(prims.len()),
-            extras: mesh.extras.clone(),
-            source: SourceRef::pointer(mp.clone()),
+        let mut b = MeshBuild {
+            label,
+            shared: Vec::new(),
+            out: Mesh {
+                name: mesh.name.clone(),
+                positions: Vec::new(),
+                triangles: Vec::new(),
+                primitives: Vec::with_capacity(prims.len()),
+                extras: mesh.extras.clone(),
+                source: SourceRef::pointer(mp.clone()),
+            },
         };
         for (p, prim) in prims.iter().enumerate() {
-            let pp = format!("{mp}/primitives/{p}");
-            let mode = prim.mode.unwrap_or(4);
-            match mode {
-                0..=3 => {
-                    tally.non_triangles += 1;
-                    tally.first_non_triangles.get_or_insert(pp);
-                    continue;
-                }
-                4..=6 => {}
-                _ => {
-                    return Err(self
-                        .ctx
-                        .diag(
-                            Code::GLTF_INVALID_JSON,
-                            format!("{pp}/mode"),
-                            format!("primitive {p} of {label} has mode {mode}, which is not a glTF primitive mode (0-6)"),
-                        )
-                        .hint(super::VALIDATOR_HINT));
-                }
+            self.primitive(p, prim, &mut b, tally)?;
+        }
+        Ok(b.out)
+    }
+
+    /// Adds primitive `p` of the mesh being built: its vertices (once per POSITION accessor)
+    /// and its triangles, as one [`Primitive`] run. Points, lines and primitives without
+    /// POSITION add nothing.
+    fn primitive(
+        &self,
+        p: usize,
+        prim: &super::schema::Primitive,
+        b: &mut MeshBuild,
+        tally: &mut Tally,
+    ) -> Result<(), Diagnostic> {
+        let label = &b.label;
+        let pp = format!("{}/primitives/{p}", label.1);
+        let mode = prim.mode.unwrap_or(4);
+        match mode {
+            0..=3 => {
+                tally.non_triangles += 1;
+                tally.first_non_triangles.get_or_insert(pp);
+                return Ok(());
             }
-            let material = match prim.material {
-                None => None,
-                Some(x) => Some(index(x, self.doc.materials.len()).ok_or_else(|| {
-                    self.ctx
-                        .diag(
-                            Code::GLTF_BAD_INDEX,
-                            format!("{pp}/material"),
-                            format!(
-                                "material {x} does not exist (the file has {})",
-                                self.doc.materials.len()
-                            ),
-                        )
-                        .hint(super::VALIDATOR_HINT)
-                })?),
-            };
-            let Some(attributes) = &prim.attributes else {
+            4..=6 => {}
+            _ => {
                 return Err(self
                     .ctx
                     .diag(
                         Code::GLTF_INVALID_JSON,
-                        format!("{pp}/attributes"),
-                        format!("primitive {p} of {label} has no `attributes`"),
+                        format!("{pp}/mode"),
+                        format!("primitive {p} of {label} has mode {mode}, which is not a glTF primitive mode (0-6)"),
                     )
                     .hint(super::VALIDATOR_HINT));
-            };
-            // glTF lets a primitive omit POSITION (an extension may supply it); without it there
-            // is nothing to bound space with, so it is passed over like a renderer would.
-            let Some(pos_acc) = attributes.position else {
-                continue;
-            };
-            // Primitives of one mesh often share their POSITION accessor (one per material);
-            // its vertices are stored once and each primitive indexes into them.
-            if !shared.iter().any(|(a, _)| *a == pos_acc) {
-                let positions = self
-                    .reader
-                    .positions(pos_acc, &format_args!("{pp}/attributes/POSITION"))?;
-                let whole = out.positions.is_empty()
-                    && u32::try_from(positions.len()).is_ok()
-                    && positions.iter().all(|v| v.is_finite());
-                let vertices = if whole {
-                    // The mesh's first accessor, all finite: its list becomes the mesh's.
-                    let n = positions.len();
-                    out.positions = positions;
-                    Vertices {
-                        remap: Remap::Same(n),
-                        bad: 0,
-                        first_bad: None,
-                    }
-                } else {
-                    // Non-finite vertices are left out of the mesh so every stored position
-                    // is finite. Exact room (not doubling growth): on a big level these are
-                    // most of the scene.
-                    out.positions.reserve_exact(positions.len());
-                    let mut remap = Vec::with_capacity(positions.len());
-                    let (mut bad, mut first_bad) = (0, None);
-                    for (i, v) in positions.iter().enumerate() {
-                        if v.is_finite() {
-                            let id = u32::try_from(out.positions.len())
-                                .map_err(|_| self.too_many(&pp))?;
-                            remap.push(Some(id));
-                            out.positions.push(*v);
-                        } else {
-                            remap.push(None);
-                            bad += 1;
-                            first_bad.get_or_insert((i, *v));
-                        }
-                    }
-                    Vertices {
-                        remap: Remap::Table(remap),
-                        bad,
-                        first_bad,
-                    }
-                };
-                shared.push((pos_acc, vertices));
             }
-            let Some((_, vertices)) = shared.iter().find(|(a, _)| *a == pos_acc) else {
-                continue;
-            };
-            let n = vertices.remap.len();
-            let indices = match prim.indices {
-                Some(a) => {
-                    let idx = self.reader.indices(a, &format_args!("{pp}/indices"))?;
-                    if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
-                        return Err(self
-                            .ctx
-                            .diag(
-                                Code::MESH_INDEX_OUT_OF_RANGE,
-                                pp,
-                                format!("primitive {p} of {label}: index {v} (element {k} of accessor /accessors/{a}) is not below its vertex count {n}"),
-                            )
-                            .hint("the file is damaged or the exporter is buggy; export it again"));
-                    }
-                    idx
-                }
-                None => {
-                    let n = u32::try_from(n).map_err(|_| self.too_many(&pp))?;
-                    (0..n).collect()
-                }
-            };
-            let first_triangle = out.triangles.len();
-            out.triangles.reserve_exact(match mode {
-                4 => indices.len() / 3,
-                _ => indices.len().saturating_sub(2),
-            });
-            let mut dropped = 0usize;
-            let mut degenerate = 0usize;
-            for [a, b, c] in assemble(mode, &indices) {
-                if a == b || b == c || a == c {
-                    degenerate += 1;
-                    continue;
-                }
-                let r = |i: u32| vertices.remap.get(i);
-                match (r(a), r(b), r(c)) {
-                    (Some(a), Some(b), Some(c)) => out.triangles.push([a, b, c]),
-                    _ => dropped += 1,
-                }
-            }
-            if degenerate > 0 {
-                tally.degenerate += degenerate;
-                tally.first_degenerate.get_or_insert_with(|| pp.clone());
-            }
-            if let Some((i, v)) = vertices.first_bad {
-                let bad = vertices.bad;
-                tally.found.push(
-                    self.ctx
-                        .diag(
-                            Code::GEOM_NON_FINITE,
-                            format!("/accessors/{pos_acc}"),
-                            format!(
-                                "{bad} POSITION value(s) of accessor /accessors/{pos_acc} used by primitive {p} of {label} are NaN or infinite (first: vertex {i} = {v}); the {dropped} triangle(s) using them were dropped"
-                            ),
-                        )
-                        .hint("fix or delete those vertices in the modelling tool and export again"),
-                );
-            }
-            out.primitives.push(Primitive {
-                material,
-                first_triangle,
-                triangle_count: out.triangles.len() - first_triangle,
-                source: SourceRef::pointer(pp),
+        }
+        let material = match prim.material {
+            None => None,
+            Some(x) => Some(index(x, self.doc.materials.len()).ok_or_else(|| {
+                self.ctx
+                    .diag(
+                        Code::GLTF_BAD_INDEX,
+                        format!("{pp}/material"),
+                        format!(
+                            "material {x} does not exist (the file has {})",
+                            self.doc.materials.len()
+                        ),
+                    )
+                    .hint(super::VALIDATOR_HINT)
+            })?),
+        };
+        let Some(attributes) = &prim.attributes else {
+            return Err(self
+                .ctx
+                .diag(
+                    Code::GLTF_INVALID_JSON,
+                    format!("{pp}/attributes"),
+                    format!("primitive {p} of {label} has no `attributes`"),
+                )
+                .hint(super::VALIDATOR_HINT));
+        };
+        // glTF lets a primitive omit POSITION (an extension may supply it); without it there
+        // is nothing to bound space with, so it is passed over like a renderer would.
+        let Some(pos_acc) = attributes.position else {
+            return Ok(());
+        };
+        // Primitives of one mesh often share their POSITION accessor (one per material);
+        // its vertices are stored once and each primitive indexes into them.
+        if !b.shared.iter().any(|(a, _)| *a == pos_acc) {
+            let vertices = self.vertices(pos_acc, &pp, &mut b.out)?;
+            b.shared.push((pos_acc, vertices));
+        }
+        let Some((_, vertices)) = b.shared.iter().find(|(a, _)| *a == pos_acc) else {
+            return Ok(());
+        };
+        let indices = self.indices(prim, p, &pp, label, vertices.remap.len())?;
+        let out = &mut b.out;
+        let first_triangle = out.triangles.len();
+        let (dropped, degenerate) = add_triangles(mode, &indices, vertices, out);
+        if degenerate > 0 {
+            tally.degenerate += degenerate;
+            tally.first_degenerate.get_or_insert_with(|| pp.clone());
+        }
+        if let Some((i, v)) = vertices.first_bad {
+            let bad = vertices.bad;
+            tally.found.push(
+                self.ctx
+                    .diag(
+                        Code::GEOM_NON_FINITE,
+                        format!("/accessors/{pos_acc}"),
+                        format!(
+                            "{bad} POSITION value(s) of accessor /accessors/{pos_acc} used by primitive {p} of {label} are NaN or infinite (first: vertex {i} = {v}); the {dropped} triangle(s) using them were dropped"
+                        ),
+                    )
+                    .hint("fix or delete those vertices in the modelling tool and export again"),
+            );
+        }
+        out.primitives.push(Primitive {
+            material,
+            first_triangle,
+            triangle_count: out.triangles.len() - first_triangle,
+            source: SourceRef::pointer(pp),
+        });
+        Ok(())
+    }
+
+    /// Reads POSITION accessor `pos_acc` (for primitive pointer `pp`) into `out`'s positions,
+    /// and says where each of its vertices went.
+    fn vertices(&self, pos_acc: u64, pp: &str, out: &mut Mesh) -> Result<Vertices, Diagnostic> {
+        let positions = self
+            .reader
+            .positions(pos_acc, &format_args!("{pp}/attributes/POSITION"))?;
+        let whole = out.positions.is_empty()
+            && u32::try_from(positions.len()).is_ok()
+            && positions.iter().all(|v| v.is_finite());
+        if whole {
+            // The mesh's first accessor, all finite: its list becomes the mesh's.
+            let n = positions.len();
+            out.positions = positions;
+            return Ok(Vertices {
+                remap: Remap::Same(n),
+                bad: 0,
+                first_bad: None,
             });
         }
-        Ok(out)
+        // Non-finite vertices are left out of the mesh so every stored position
+        // is finite. Exact room (not doubling growth): on a big level these are
+        // most of the scene.
+        out.positions.reserve_exact(positions.len());
+        let mut remap = Vec::with_capacity(positions.len());
+        let (mut bad, mut first_bad) = (0, None);
+        for (i, v) in positions.iter().enumerate() {
+            if v.is_finite() {
+                let id = u32::try_from(out.positions.len()).map_err(|_| self.too_many(pp))?;
+                remap.push(Some(id));
+                out.positions.push(*v);
+            } else {
+                remap.push(None);
+                bad += 1;
+                first_bad.get_or_insert((i, *v));
+            }
+        }
+        Ok(Vertices {
+            remap: Remap::Table(remap),
+            bad,
+            first_bad,
+        })
+    }
+
+    /// The primitive's vertex indices (all `n` vertices in order when it has none); an index
+    /// past the vertex count means the file is damaged, which is fatal.
+    fn indices(
+        &self,
+        prim: &super::schema::Primitive,
+        p: usize,
+        pp: &str,
+        label: &Label,
+        n: usize,
+    ) -> Result<Vec<u32>, Diagnostic> {
+        match prim.indices {
+            Some(a) => {
+                let idx = self.reader.indices(a, &format_args!("{pp}/indices"))?;
+                if let Some((k, &v)) = idx.iter().enumerate().find(|(_, &v)| v as usize >= n) {
+                    return Err(self
+                        .ctx
+                        .diag(
+                            Code::MESH_INDEX_OUT_OF_RANGE,
+                            pp,
+                            format!("primitive {p} of {label}: index {v} (element {k} of accessor /accessors/{a}) is not below its vertex count {n}"),
+                        )
+                        .hint("the file is damaged or the exporter is buggy; export it again"));
+                }
+                Ok(idx)
+            }
+            None => {
+                let n = u32::try_from(n).map_err(|_| self.too_many(pp))?;
+                Ok((0..n).collect())
+            }
+        }
     }
 
     fn too_many(&self, pp: &str) -> Diagnostic {
@@ -384,6 +403,43 @@ impl<'a> Builder<'a> {
             );
         }
     }
+}
+
+/// The mesh being built from a glTF mesh's primitives, with what it needs between them.
+struct MeshBuild<'m> {
+    label: Label<'m>,
+    /// The POSITION accessors read so far and where their vertices went.
+    shared: Vec<(u64, Vertices)>,
+    out: Mesh,
+}
+
+/// Adds the triangles `mode` makes of `indices` to `out`, through the vertices' remap;
+/// returns how many were dropped for a non-finite vertex and how many were degenerate
+/// (a corner repeated), which are reported, not stored.
+fn add_triangles(
+    mode: u64,
+    indices: &[u32],
+    vertices: &Vertices,
+    out: &mut Mesh,
+) -> (usize, usize) {
+    out.triangles.reserve_exact(match mode {
+        4 => indices.len() / 3,
+        _ => indices.len().saturating_sub(2),
+    });
+    let mut dropped = 0usize;
+    let mut degenerate = 0usize;
+    for [a, b, c] in assemble(mode, indices) {
+        if a == b || b == c || a == c {
+            degenerate += 1;
+            continue;
+        }
+        let r = |i: u32| vertices.remap.get(i);
+        match (r(a), r(b), r(c)) {
+            (Some(a), Some(b), Some(c)) => out.triangles.push([a, b, c]),
+            _ => dropped += 1,
+        }
+    }
+    (dropped, degenerate)
 }
 
 /// Triangles of an index list in `mode` 4 (list), 5 (strip) or 6 (fan), following the vertex
