@@ -118,7 +118,13 @@ fn export(b: Bencher, rooms: usize) {
     let (t, cells, portals) = with_portals(rooms);
     let out = output("export", rooms);
     b.bench(|| {
-        pipeline::write_annotated_file(&t, &cells, &portals, None, &out, OutFormat::Glb).unwrap()
+        pipeline::write(
+            &t,
+            &cells,
+            &portals,
+            &pipeline::WriteOptions::file(&out, OutFormat::Glb),
+        )
+        .unwrap()
     });
 }
 

@@ -727,7 +727,12 @@ fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
     let run = |t: &mut pipeline::Tagged, out: &Path, format| {
         let cells = pipeline::build_cells(t);
         let portals = pipeline::build_portals(t, &cells);
-        pipeline::write_annotated_file(t, &cells, &portals, None, out, format)
+        pipeline::write(
+            t,
+            &cells,
+            &portals,
+            &pipeline::WriteOptions::file(out, format),
+        )
     };
     for format in [OutFormat::Glb, OutFormat::Gltf] {
         let out = dir.path().join(match format {
@@ -757,7 +762,13 @@ fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
             t.scene.gltf = imported.scene.gltf.clone();
             let cells = pipeline::build_cells(&mut t);
             let portals = pipeline::build_portals(&mut t, &cells);
-            pipeline::write_annotated(&t, &cells, &portals, &out, format).unwrap()
+            pipeline::write(
+                &t,
+                &cells,
+                &portals,
+                &portcullis::pipeline::WriteOptions::memory(&out, format),
+            )
+            .unwrap()
         };
         assert!(released == held, "{format:?}: bytes differ");
     }
@@ -791,7 +802,12 @@ fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
     let run = |t: &mut pipeline::Tagged, out: &Path| {
         let cells = pipeline::build_cells(t);
         let portals = pipeline::build_portals(t, &cells);
-        pipeline::write_annotated_file(t, &cells, &portals, None, out, OutFormat::Glb)
+        pipeline::write(
+            t,
+            &cells,
+            &portals,
+            &pipeline::WriteOptions::file(out, OutFormat::Glb),
+        )
     };
     for (from, name) in [
         (sample("door_window.gltf"), "level.gltf"),
@@ -817,7 +833,13 @@ fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
             t.scene.gltf = imported.scene.gltf.clone();
             let cells = pipeline::build_cells(&mut t);
             let portals = pipeline::build_portals(&mut t, &cells);
-            pipeline::write_annotated(&t, &cells, &portals, &out, OutFormat::Glb).unwrap()
+            pipeline::write(
+                &t,
+                &cells,
+                &portals,
+                &portcullis::pipeline::WriteOptions::memory(&out, OutFormat::Glb),
+            )
+            .unwrap()
         };
         assert!(released == held, "{name}: bytes differ");
 

@@ -59,11 +59,6 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     portcullis::pipeline::check_level(&mut tagged, &cells, &portals, true);
-    let _ = portcullis::pipeline::write_annotated(
-        &tagged,
-        &cells,
-        &portals,
-        Path::new("fuzz.glb"),
-        portcullis::export::gltf_out::OutFormat::Glb,
-    );
+    let _ = portcullis::pipeline::write(
+        &tagged, &cells, &portals, &portcullis::pipeline::WriteOptions::memory(Path::new("fuzz.glb"), portcullis::export::gltf_out::OutFormat::Glb));
 });

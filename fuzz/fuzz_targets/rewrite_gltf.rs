@@ -27,6 +27,6 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     for (out, f) in [("fuzz.glb", OutFormat::Glb), ("fuzz.gltf", OutFormat::Gltf)] {
-        let _ = portcullis::pipeline::write_annotated(&tagged, &cells, &portals, Path::new(out), f);
+        let _ = portcullis::pipeline::write(&tagged, &cells, &portals, &portcullis::pipeline::WriteOptions::memory(Path::new(out), f));
     }
 });

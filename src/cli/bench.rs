@@ -240,13 +240,11 @@ fn one(
     row.portals = portals.portals.len();
     let out = dir.join(format!("annotated_{rooms}.glb"));
     let (written, t) = timed_cpu(&mut cpu, || {
-        portcullis::pipeline::write_annotated_file(
+        portcullis::pipeline::write(
             &tagged,
             &cells,
             &portals,
-            None,
-            &out,
-            OutFormat::Glb,
+            &portcullis::pipeline::WriteOptions::file(&out, OutFormat::Glb),
         )
         .map_err(|d| d.to_string())
     });

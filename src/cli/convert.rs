@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use portcullis::diag::{Code, Diagnostic, Location, Severity};
 use portcullis::export::gltf_out::OutFormat;
+use portcullis::export::Target;
 use portcullis::pipeline;
 use portcullis::report::{human, style::Style, Totals};
 
@@ -110,22 +111,25 @@ struct Outcome {
 
 fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let out = output_for(a, input)?;
-    if portcullis::prt::is_prt(&out) {
-        return convert_to_prt(a, input, &out);
-    }
     let to_stdout = out == Path::new("-");
-    // A .usda output is written by its own writer; the glTF format below is then unused.
-    let usda = !to_stdout && portcullis::export::usd_out::is_usda(&out);
-    let format = if usda {
-        Some(OutFormat::Glb)
-    } else if to_stdout {
+    let target = if to_stdout {
         Some(if a.out_format == "gltf" {
-            OutFormat::Gltf
+            Target::Gltf
         } else {
-            OutFormat::Glb
+            Target::Glb
         })
     } else {
-        OutFormat::from_path(&out)
+        Target::from_path(&out)
+    };
+    if target == Some(Target::Prt) {
+        return convert_to_prt(a, input, &out);
+    }
+    // A .usda output is written by its own writer; the glTF format below is then unused.
+    let usda = target == Some(Target::Usda);
+    let format = if usda {
+        Some(OutFormat::Glb)
+    } else {
+        target.and_then(Target::gltf)
     };
     let format = format.ok_or_else(|| {
         Diagnostic::new(
@@ -305,7 +309,11 @@ fn write_main(
             portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, cells, portals, stored)
                 .into_bytes()
         } else {
-            pipeline::write_annotated_with_pvs(t, cells, portals, stored, out, format)?
+            let opts = pipeline::WriteOptions {
+                pvs: stored,
+                ..pipeline::WriteOptions::memory(out, format)
+            };
+            pipeline::write(t, cells, portals, &opts)?
         };
         if to_stdout {
             use std::io::Write;
@@ -316,7 +324,11 @@ fn write_main(
         }
     } else {
         // Straight into the file: a big level's output is not held in memory first.
-        pipeline::write_annotated_file(t, cells, portals, stored, out, format)?;
+        let opts = pipeline::WriteOptions {
+            pvs: stored,
+            ..pipeline::WriteOptions::file(out, format)
+        };
+        pipeline::write(t, cells, portals, &opts)?;
         Ok(())
     };
     written.map_err(|e| portcullis::export::atomic::failed(out, e))

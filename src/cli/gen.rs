@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use portcullis::export::gltf_out::{self, OutFormat};
+use portcullis::export::gltf_out;
 use portcullis::gen::{self, GenOptions};
 
 #[derive(Debug, Args)]
@@ -28,7 +28,8 @@ pub struct GenArgs {
 }
 
 pub fn run(a: &GenArgs) -> i32 {
-    let Some(format) = OutFormat::from_path(&a.output) else {
+    let Some(format) = portcullis::export::Target::from_path(&a.output).and_then(|t| t.gltf())
+    else {
         eprintln!(
             "error[OUTPUT_FORMAT_UNKNOWN]: cannot write `{}`: portcullis writes .gltf and .glb",
             a.output.display()

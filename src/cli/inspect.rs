@@ -448,7 +448,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     let mut reports = Vec::new();
     for path in &a.files {
         totals.files += 1;
-        if portcullis::prt::is_prt(path) {
+        if portcullis::export::Target::is_prt(path) {
             let report = prt_report(path).unwrap_or_else(|d| {
                 totals.failed += 1;
                 failed_report(path, d)

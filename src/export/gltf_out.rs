@@ -24,16 +24,6 @@ pub enum OutFormat {
     Glb,
 }
 
-impl OutFormat {
-    pub fn from_path(p: &Path) -> Option<OutFormat> {
-        match p.extension()?.to_str()?.to_ascii_lowercase().as_str() {
-            "gltf" => Some(OutFormat::Gltf),
-            "glb" => Some(OutFormat::Glb),
-            _ => None,
-        }
-    }
-}
-
 /// The glTF node index a scene node is written as.
 pub fn node_index(scene: &Scene, n: NodeId) -> Option<usize> {
     if scene.gltf.is_some() {

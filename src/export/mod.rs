@@ -51,6 +51,9 @@ pub(crate) mod parallel;
 pub(crate) mod rewrite;
 pub mod sink;
 pub mod svg;
+pub mod target;
 pub(crate) mod transcode;
 pub mod usd_out;
 pub mod view;
+
+pub use target::Target;

@@ -852,8 +852,13 @@ mod tests {
                         format,
                     )
                     .unwrap();
-                    let mine = crate::pipeline::write_annotated(&t, &cells, &portals, out, format)
-                        .unwrap();
+                    let mine = crate::pipeline::write(
+                        &t,
+                        &cells,
+                        &portals,
+                        &crate::pipeline::WriteOptions::memory(out, format),
+                    )
+                    .unwrap();
                     assert!(mine == whole, "{} ({format:?})", f.display());
                     n += 1;
                 }

@@ -28,13 +28,6 @@ pub const ANNOTATION_PRIM: &str = "PortcullisAnnotation";
 /// The root scope holding the materials.
 const LOOKS_PRIM: &str = "PortcullisLooks";
 
-/// Whether `path` names a USD text layer portcullis writes.
-pub fn is_usda(path: &std::path::Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("usda"))
-}
-
 /// A valid USD identifier for `name` (letters, digits, `_`; not starting with a digit).
 fn identifier(name: &str) -> String {
     let mut s: String = name

@@ -29,7 +29,7 @@ pub struct Built {
 
 /// The portal graph of `path`, as `vis` reads it.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
-    if crate::prt::is_prt(path) {
+    if crate::export::Target::is_prt(path) {
         let config = super::config_for(path, opts)?;
         let (file, diags) = crate::prt::read(path)?;
         return Ok(Loaded {

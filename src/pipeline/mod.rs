@@ -12,6 +12,8 @@ pub mod graph;
 use crate::cells::{self, CellSet};
 use crate::config::{self, Config};
 use crate::diag::Diagnostic;
+use crate::export::gltf_out::OutFormat;
+use crate::export::Target;
 use crate::import::{self, ImportOptions};
 pub use crate::level::Tagged;
 use crate::tags::{self, rules::RuleSet};
@@ -128,74 +130,105 @@ pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> crate::portals::Po
 /// and the full PVS, written atomically to a .glb or .gltf. Diagnostics are not checked (run
 /// [`check_level`] for a gate); `Err` only when the level cannot be read or written.
 pub fn convert_file(input: &Path, output: &Path) -> Result<(), Diagnostic> {
-    let format = crate::export::gltf_out::OutFormat::from_path(output).ok_or_else(|| {
-        Diagnostic::new(
-            crate::diag::Code::OUTPUT_FORMAT_UNKNOWN,
-            "the output is neither .glb nor .gltf",
-            crate::diag::Location::file(output),
-        )
-        .hint("name the output file .glb or .gltf")
-    })?;
+    let format = Target::from_path(output)
+        .and_then(Target::gltf)
+        .ok_or_else(|| {
+            Diagnostic::new(
+                crate::diag::Code::OUTPUT_FORMAT_UNKNOWN,
+                "the output is neither .glb nor .gltf",
+                crate::diag::Location::file(output),
+            )
+            .hint("name the output file .glb or .gltf")
+        })?;
     let mut t = load_tagged(input, &LoadOptions::default())?;
     let cells = build_cells(&mut t);
     let portals = build_portals(&mut t, &cells);
     let pvs = full_pvs(&t, &cells, &portals);
-    let method = crate::vis::Method::Full;
-    write_annotated_file(&t, &cells, &portals, Some((&pvs, method)), output, format)
+    let opts = WriteOptions {
+        pvs: Some((&pvs, crate::vis::Method::Full)),
+        ..WriteOptions::file(output, format)
+    };
+    write(&t, &cells, &portals, &opts).map(drop)
 }
 
-/// The annotated level as the bytes of one glTF file (`out` decides relative URIs).
-pub fn write_annotated(
+/// How [`write`] writes an annotated level.
+#[derive(Debug, Clone, Copy)]
+pub struct WriteOptions<'a> {
+    /// The output file. Its folder decides the relative URIs of images and external buffers,
+    /// also when the bytes are kept in memory.
+    pub out: &'a Path,
+    /// .glb or .gltf (see [`Target::from_path`]).
+    pub format: OutFormat,
+    /// A PVS to store in the extension, and the method that computed it.
+    pub pvs: Option<(&'a crate::vis::Pvs, crate::vis::Method)>,
+    /// Whether the bytes go to `out` or are returned.
+    pub to: Destination,
+}
+
+/// Where [`write`] puts the bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Destination {
+    /// The file `out`, written atomically as it is made (a big level's output is never held
+    /// whole in memory; a failed write leaves no file).
+    File,
+    /// Returned, for callers that send them elsewhere (standard output, a test).
+    Memory,
+}
+
+impl<'a> WriteOptions<'a> {
+    /// The level written to the file `out` as `format`, without a PVS.
+    pub fn file(out: &'a Path, format: OutFormat) -> WriteOptions<'a> {
+        WriteOptions {
+            out,
+            format,
+            pvs: None,
+            to: Destination::File,
+        }
+    }
+
+    /// The level's bytes as `out` would hold them, kept in memory.
+    pub fn memory(out: &'a Path, format: OutFormat) -> WriteOptions<'a> {
+        WriteOptions {
+            to: Destination::Memory,
+            ..WriteOptions::file(out, format)
+        }
+    }
+}
+
+/// Writes the annotated level: the input glTF with the `PORTCULLIS_portals` extension added
+/// and nothing else changed, or a new glTF for a level read from OBJ or USD. Returns the
+/// bytes with [`Destination::Memory`], nothing with [`Destination::File`].
+pub fn write(
     tagged: &Tagged,
     cells: &CellSet,
     portals: &crate::portals::PortalSet,
-    out: &Path,
-    format: crate::export::gltf_out::OutFormat,
+    opts: &WriteOptions,
 ) -> Result<Vec<u8>, Diagnostic> {
-    write_annotated_with_pvs(tagged, cells, portals, None, out, format)
+    let out = opts.out;
+    match opts.to {
+        Destination::File => crate::export::atomic::write_with(
+            out,
+            |f| write_to(tagged, cells, portals, opts, f),
+            |e| crate::export::atomic::failed(out, e),
+        )
+        .map(|()| Vec::new()),
+        Destination::Memory => {
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            write_to(tagged, cells, portals, opts, &mut bytes)?;
+            Ok(bytes.into_inner())
+        }
+    }
 }
 
-/// [`write_annotated`], storing a PVS computed by `method` in the extension.
-pub fn write_annotated_with_pvs(
+/// [`write`] into `sink`.
+fn write_to(
     tagged: &Tagged,
     cells: &CellSet,
     portals: &crate::portals::PortalSet,
-    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
-    out: &Path,
-    format: crate::export::gltf_out::OutFormat,
-) -> Result<Vec<u8>, Diagnostic> {
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    write_annotated_to(tagged, cells, portals, pvs, out, format, &mut bytes)?;
-    Ok(bytes.into_inner())
-}
-
-/// Writes the annotated level to the file `out`, atomically, as it is made (a big level's
-/// output is never held whole in memory).
-pub fn write_annotated_file(
-    tagged: &Tagged,
-    cells: &CellSet,
-    portals: &crate::portals::PortalSet,
-    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
-    out: &Path,
-    format: crate::export::gltf_out::OutFormat,
-) -> Result<(), Diagnostic> {
-    crate::export::atomic::write_with(
-        out,
-        |f| write_annotated_to(tagged, cells, portals, pvs, out, format, f),
-        |e| crate::export::atomic::failed(out, e),
-    )
-}
-
-/// [`write_annotated_with_pvs`] into `sink`.
-fn write_annotated_to(
-    tagged: &Tagged,
-    cells: &CellSet,
-    portals: &crate::portals::PortalSet,
-    pvs: Option<(&crate::vis::Pvs, crate::vis::Method)>,
-    out: &Path,
-    format: crate::export::gltf_out::OutFormat,
+    opts: &WriteOptions,
     sink: &mut dyn crate::export::sink::Sink,
 ) -> Result<(), Diagnostic> {
+    let (out, format, pvs) = (opts.out, opts.format, opts.pvs);
     use crate::export::gltf_out;
     use crate::format as extension;
     let scene = &tagged.scene;

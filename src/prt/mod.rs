@@ -19,10 +19,3 @@ pub mod write;
 
 pub use read::{parse, read, PrtFile, PrtFormat, PrtPortal};
 pub use write::write;
-
-/// Whether a path names a portal file (by its extension, any case): inputs so named are read
-/// as one, and an output so named is written as one.
-pub fn is_prt(path: &std::path::Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("prt"))
-}
