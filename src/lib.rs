@@ -10,7 +10,7 @@ pub mod config;
 pub mod diag;
 pub mod export;
 pub mod format;
-pub mod free;
+pub(crate) mod free;
 pub mod gen;
 pub mod geom;
 pub mod import;

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use rayon::prelude::*;
 
+use portcullis::diag::policy::Policy;
 use portcullis::diag::{Code, Diagnostic, Location, Severity};
 use portcullis::export::gltf_out::OutFormat;
 use portcullis::export::Target;
@@ -111,38 +112,96 @@ struct Outcome {
 
 fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let out = output_for(a, input)?;
-    let to_stdout = out == Path::new("-");
-    let target = if to_stdout {
+    let target = target_of(a, input, &out)?;
+    if target == Target::Prt {
+        return convert_to_prt(a, input, &out);
+    }
+    let (mut t, policy) = load(a, input)?;
+    let cells = pipeline::build_cells(&mut t);
+    if let Some(c) = a.pvs_of.filter(|&c| c >= cells.cells.len()) {
+        return Err(Diagnostic::new(
+            Code::OUTPUT_FAILED,
+            format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
+            Location::file(input),
+        )
+        .hint("give a cell index from `portcullis inspect`"));
+    }
+    let portals = pipeline::build_portals(&mut t, &cells);
+    pipeline::release_free_memory();
+    let method = portcullis::vis::Method::parse(&a.vis_method);
+    let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
+    let pvs = (method.is_some() || a.pvs_of.is_some())
+        .then(|| visibility(&mut t, &cells, &portals, pvs_method, input));
+    if pvs.is_some() {
+        pipeline::release_free_memory();
+    }
+    let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
+    let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
+    let sightlines = audit_sightlines(&mut t, &cells, &portals, pvs.as_ref());
+    let prt = a.prt.as_ref().map(|path| {
+        let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, path);
+        t.diagnostics.extend(d);
+        (path, text)
+    });
+    let diagnostics = policy.apply(t.diagnostics.0.clone());
+    // The outputs that show the problem are written whatever the verdict; the products only
+    // when the run will exit 0, so a failed run never leaves one for the next step to take.
+    let shown = Shown {
+        leaks,
+        sightlines,
+        pvs: pvs.as_ref(),
+    };
+    write_shows(a, &t, &cells, &portals, shown)?;
+    let fails = diagnostics.iter().any(|d| {
+        d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
+    });
+    let summary = if fails {
+        format!(
+            "{}: {} cells, {} portals; nothing written to `{}` (the run fails)",
+            input.display(),
+            cells.cells.len(),
+            portals.portals.len(),
+            out.display()
+        )
+    } else {
+        write_main(&t, &cells, &portals, stored, &out, target)?;
+        if let Some((path, text)) = &prt {
+            write_extra(path, text.as_bytes())?;
+        }
+        summary(input, &out, cells.cells.len(), portals.portals.len())
+    };
+    let outcome = Outcome {
+        diagnostics,
+        summary,
+    };
+    pipeline::drop_elsewhere((t, cells, portals, pvs));
+    Ok(outcome)
+}
+
+/// What `out` is written as (standard output in `--out-format`), refused before any work when
+/// portcullis does not write it or it is the input itself.
+fn target_of(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Target, Diagnostic> {
+    let target = if out == Path::new("-") {
         Some(if a.out_format == "gltf" {
             Target::Gltf
         } else {
             Target::Glb
         })
     } else {
-        Target::from_path(&out)
+        Target::from_path(out)
     };
-    if target == Some(Target::Prt) {
-        return convert_to_prt(a, input, &out);
-    }
-    // A .usda output is written by its own writer; the glTF format below is then unused.
-    let usda = target == Some(Target::Usda);
-    let format = if usda {
-        Some(OutFormat::Glb)
-    } else {
-        target.and_then(Target::gltf)
-    };
-    let format = format.ok_or_else(|| {
+    let target = target.ok_or_else(|| {
         Diagnostic::new(
             Code::OUTPUT_FORMAT_UNKNOWN,
             format!(
                 "cannot write `{}`: portcullis writes .gltf, .glb and .usda",
                 out.display()
             ),
-            Location::file(&out),
+            Location::file(out),
         )
         .hint("name the output .glb, .gltf or .usda")
     })?;
-    if !a.in_place && same_file(&out, input) {
+    if target != Target::Prt && !a.in_place && same_file(out, input) {
         return Err(Diagnostic::new(
             Code::OUTPUT_WOULD_OVERWRITE_INPUT,
             format!("the output `{}` is the input file", out.display()),
@@ -150,8 +209,13 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("write somewhere else, or pass --in-place to replace the input on purpose"));
     }
+    Ok(target)
+}
+
+/// The level read and tagged, and what its configuration asks to hear.
+fn load(a: &ConvertArgs, input: &Path) -> Result<(pipeline::Tagged, Policy), Diagnostic> {
     let reading = super::huge_pages::reading(input);
-    let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    let t = pipeline::load_tagged(input, &a.level.load_options())?;
     drop(reading);
     if a.in_place && (t.scene.gltf.is_none() || input == Path::new("-")) {
         return Err(Diagnostic::new(
@@ -172,87 +236,93 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("fix the code or severity name in portcullis.toml")
     })?;
-    let cells = pipeline::build_cells(&mut t);
-    if let Some(c) = a.pvs_of.filter(|&c| c >= cells.cells.len()) {
-        return Err(Diagnostic::new(
-            Code::OUTPUT_FAILED,
-            format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
-            Location::file(input),
-        )
-        .hint("give a cell index from `portcullis inspect`"));
+    Ok((t, policy))
+}
+
+/// The PVS by `method`, through mirrors and teleporters as deep as the level allows; as `vis`
+/// does, a note says how deep when the level has any.
+fn visibility(
+    t: &mut pipeline::Tagged,
+    cells: &portcullis::cells::CellSet,
+    portals: &portcullis::portals::PortalSet,
+    method: portcullis::vis::Method,
+    input: &Path,
+) -> portcullis::vis::Pvs {
+    let depth =
+        portcullis::vis::level_transform_depth(cells, portals, t.config.vis.transform_depth);
+    if portals
+        .portals
+        .iter()
+        .any(|p| p.transform.is_some() && !p.closed && p.to.is_some())
+    {
+        t.diagnostics
+            .push(portcullis::vis::transform_depth_note(input, depth));
     }
-    let portals = pipeline::build_portals(&mut t, &cells);
-    pipeline::release_free_memory();
-    let method = portcullis::vis::Method::parse(&a.vis_method);
-    let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
-    let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
-        let depth =
-            portcullis::vis::level_transform_depth(&cells, &portals, t.config.vis.transform_depth);
-        // As `vis` does: say how far sightlines were followed through mirrors and teleporters.
-        if portals
-            .portals
-            .iter()
-            .any(|p| p.transform.is_some() && !p.closed && p.to.is_some())
-        {
-            t.diagnostics
-                .push(portcullis::vis::transform_depth_note(input, depth));
-        }
-        let opts = portcullis::vis::VisOptions {
-            method: pvs_method,
-            transform_depth: depth,
-            samples: t
-                .config
-                .vis
-                .samples
-                .unwrap_or(portcullis::vis::DEFAULT_SAMPLES),
-            ..Default::default()
-        };
-        portcullis::vis::of_level(cells.cells.len(), &portals, cells.tolerance.distance, &opts)
-    });
-    if pvs.is_some() {
-        pipeline::release_free_memory();
-    }
-    let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
-    let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
-    let mut sightlines = Vec::new();
-    if t.config.check.sightlines > 0 {
-        let fresh;
-        let audited = match &pvs {
-            Some(p) => p,
-            None => {
-                fresh = pipeline::full_pvs(&t, &cells, &portals);
-                &fresh
-            }
-        };
-        let audit =
-            pipeline::audit_sightlines(&t, &cells, &portals, audited, t.config.check.sightlines);
-        t.diagnostics.extend(audit.diagnostics);
-        sightlines = audit.lines;
-    }
-    let prt = a.prt.as_ref().map(|path| {
-        let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, path);
-        t.diagnostics.extend(d);
-        (path, text)
-    });
-    let diagnostics = policy.apply(t.diagnostics.0.clone());
-    // The outputs that show the problem are written whatever the verdict; the products only
-    // when the run will exit 0, so a failed run never leaves one for the next step to take.
-    let write_extra = |path: &Path, bytes: &[u8]| {
-        portcullis::export::atomic::write(path, bytes)
-            .map_err(|e| portcullis::export::atomic::failed(path, e))
+    let opts = portcullis::vis::VisOptions {
+        method,
+        transform_depth: depth,
+        samples: t
+            .config
+            .vis
+            .samples
+            .unwrap_or(portcullis::vis::DEFAULT_SAMPLES),
+        ..Default::default()
     };
+    portcullis::vis::of_level(cells.cells.len(), portals, cells.tolerance.distance, &opts)
+}
+
+/// `[check] sightlines`: the PVS (the full one when none was computed) audited by rays; the
+/// findings join the level's, the missed sightlines are returned for `--debug`.
+fn audit_sightlines(
+    t: &mut pipeline::Tagged,
+    cells: &portcullis::cells::CellSet,
+    portals: &portcullis::portals::PortalSet,
+    pvs: Option<&portcullis::vis::Pvs>,
+) -> Vec<Vec<glam::DVec3>> {
+    let rays = t.config.check.sightlines;
+    if rays == 0 {
+        return Vec::new();
+    }
+    let fresh;
+    let audited = match pvs {
+        Some(p) => p,
+        None => {
+            fresh = pipeline::full_pvs(t, cells, portals);
+            &fresh
+        }
+    };
+    let audit = pipeline::audit_sightlines(t, cells, portals, audited, rays);
+    t.diagnostics.extend(audit.diagnostics);
+    audit.lines
+}
+
+/// What `--debug` and `--svg` show besides the cells and portals.
+struct Shown<'a> {
+    leaks: Vec<Vec<glam::DVec3>>,
+    sightlines: Vec<Vec<glam::DVec3>>,
+    pvs: Option<&'a portcullis::vis::Pvs>,
+}
+
+/// `--debug` and `--svg`, written whatever the verdict: they show the problem.
+fn write_shows(
+    a: &ConvertArgs,
+    t: &pipeline::Tagged,
+    cells: &portcullis::cells::CellSet,
+    portals: &portcullis::portals::PortalSet,
+    shown: Shown,
+) -> Result<(), Diagnostic> {
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
             overlaps: cells.overlaps.clone(),
-            leaks,
-            sightlines,
+            leaks: shown.leaks,
+            sightlines: shown.sightlines,
         };
-        let bytes = portcullis::export::debug::debug_glb(&t.tagging, &cells, &portals, &extras);
+        let bytes = portcullis::export::debug::debug_glb(&t.tagging, cells, portals, &extras);
         write_extra(path, &bytes)?;
     }
     if let Some(path) = &a.svg {
         let visible = a.pvs_of.map(|c| {
-            let seen: Vec<usize> = match &pvs {
+            let seen: Vec<usize> = match shown.pvs {
                 Some(p) if c < p.cells() => p.visible(c).filter(|&v| v != c).collect(),
                 _ => Vec::new(),
             };
@@ -260,52 +330,34 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         });
         let svg = portcullis::export::svg::svg_map(
             &t.tagging,
-            &cells,
-            &portals,
+            cells,
+            portals,
             visible.as_ref().map(|(c, v)| (*c, v.as_slice())),
         );
         write_extra(path, svg.as_bytes())?;
     }
-    let fails = diagnostics.iter().any(|d| {
-        d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
-    });
-    let summary = if fails {
-        format!(
-            "{}: {} cells, {} portals; nothing written to `{}` (the run fails)",
-            input.display(),
-            cells.cells.len(),
-            portals.portals.len(),
-            out.display()
-        )
-    } else {
-        write_main(&t, &cells, &portals, stored, &out, format, usda, to_stdout)?;
-        if let Some((path, text)) = &prt {
-            write_extra(path, text.as_bytes())?;
-        }
-        summary(input, &out, cells.cells.len(), portals.portals.len())
-    };
-    let outcome = Outcome {
-        diagnostics,
-        summary,
-    };
-    portcullis::free::drop_elsewhere((t, cells, portals, pvs));
-    Ok(outcome)
+    Ok(())
+}
+
+/// A file besides the main output, written atomically.
+fn write_extra(path: &Path, bytes: &[u8]) -> Result<(), Diagnostic> {
+    portcullis::export::atomic::write(path, bytes)
+        .map_err(|e| portcullis::export::atomic::failed(path, e))
 }
 
 /// The annotated level, to its file or standard output.
-#[allow(clippy::too_many_arguments)]
 fn write_main(
     t: &pipeline::Tagged,
     cells: &portcullis::cells::CellSet,
     portals: &portcullis::portals::PortalSet,
     stored: Option<(&portcullis::vis::Pvs, portcullis::vis::Method)>,
     out: &Path,
-    format: OutFormat,
-    usda: bool,
-    to_stdout: bool,
+    target: Target,
 ) -> Result<(), Diagnostic> {
-    let written = if usda || to_stdout {
-        let bytes = if usda {
+    let to_stdout = out == Path::new("-");
+    let format = target.gltf().unwrap_or(OutFormat::Glb);
+    let written = if target == Target::Usda || to_stdout {
+        let bytes = if target == Target::Usda {
             portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, cells, portals, stored)
                 .into_bytes()
         } else {

@@ -15,6 +15,7 @@ use crate::diag::Diagnostic;
 use crate::export::gltf_out::OutFormat;
 use crate::export::Target;
 use crate::import::{self, ImportOptions};
+pub use crate::free::drop_elsewhere;
 pub use crate::level::Tagged;
 use crate::tags::{self, rules::RuleSet};
 
