@@ -14,8 +14,8 @@ use crate::config::{self, Config};
 use crate::diag::Diagnostic;
 use crate::export::gltf_out::OutFormat;
 use crate::export::Target;
-use crate::import::{self, ImportOptions};
 pub use crate::free::drop_elsewhere;
+use crate::import::{self, ImportOptions};
 pub use crate::level::Tagged;
 use crate::tags::{self, rules::RuleSet};
 

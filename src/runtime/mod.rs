@@ -173,126 +173,156 @@ impl Level {
             pvs,
             grid: locate::Grid::default(),
         };
-        let mut a_buf = Vec::new();
-        let mut b_buf = Vec::new();
+        let (mut a_buf, mut b_buf) = (Vec::new(), Vec::new());
         for (i, c) in a.cells.iter().enumerate() {
-            let start = level.planes.len() as u32;
-            for p in &c.planes {
-                let n = DVec3::new(p[0], p[1], p[2]);
-                let len = n.length();
-                if !(len.is_finite() && len > 0.5 && p[3].is_finite()) {
-                    return Err(format!("/cells/{i}: plane {p:?} has no unit normal"));
-                }
-                level.planes.push(Half {
-                    n: n / len,
-                    d: p[3] / len,
-                });
-            }
-            let planes = start..level.planes.len() as u32;
-            let (min, max) = (DVec3::from(c.bounds.min), DVec3::from(c.bounds.max));
-            if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
-                return Err(format!("/cells/{i}: bounds are not a box"));
-            }
-            // Faces: a square on each plane cut by the others; their corners give a point
-            // inside and the distance from outside.
-            let size = (max - min).length().max(tolerance) * 2.0;
-            let centre = (min + max) / 2.0;
-            let face_start = level.faces.len() as u32;
-            let cell_planes = &level.planes[planes.start as usize..planes.end as usize];
-            let mut sum = DVec3::ZERO;
-            let mut count = 0.0;
-            let mut volume = 0.0;
-            for (k, h) in cell_planes.iter().enumerate() {
-                a_buf.clear();
-                a_buf.extend(clip::plane_square(*h, centre, size));
-                for (j, other) in cell_planes.iter().enumerate() {
-                    if j != k {
-                        clip::clip(&a_buf, *other, tolerance, &mut b_buf);
-                        std::mem::swap(&mut a_buf, &mut b_buf);
-                    }
-                }
-                if a_buf.len() >= 3 {
-                    let from = level.points.len() as u32;
-                    level.points.extend_from_slice(&a_buf);
-                    level.faces.push(Face {
-                        points: from..level.points.len() as u32,
-                        plane: *h,
-                    });
-                    sum += a_buf.iter().copied().sum::<DVec3>();
-                    count += a_buf.len() as f64;
-                }
-            }
-            if count == 0.0 {
-                return Err(format!("/cells/{i}: its planes enclose nothing"));
-            }
-            let inner = sum / count;
-            // Divergence theorem about the inner point (so a level far from the origin keeps
-            // its digits): each face adds its area times its plane's distance, over three.
-            for f in &level.faces[face_start as usize..] {
-                let pts = &level.points[f.points.start as usize..f.points.end as usize];
-                volume += clip::newell(pts).dot(f.plane.n).abs() / 2.0 * -f.plane.dist(inner) / 3.0;
-            }
-            level.cells.push(Cell {
-                room: c.room.clone(),
-                planes,
-                faces: face_start..level.faces.len() as u32,
-                min,
-                max,
-                overlapped: false,
-                volume: volume.abs(),
-                priority: c.priority,
-            });
+            level.add_cell(i, c, &mut a_buf, &mut b_buf)?;
+        }
+        for (i, p) in a.portals.iter().enumerate() {
+            level.add_portal(i, p)?;
         }
         let cells = level.cells.len();
-        for (i, p) in a.portals.iter().enumerate() {
-            let start = level.corners.len() as u32;
-            level
-                .corners
-                .extend(p.polygon.iter().map(|v| DVec3::from(*v)));
-            let poly = &level.corners[start as usize..];
-            if poly.len() < 3 || !poly.iter().all(|v| v.is_finite()) {
-                return Err(format!("/portals/{i}: the polygon is not a polygon"));
+        level.link_regions();
+        if level.pvs.as_ref().is_some_and(|p| p.cells() != cells) {
+            return Err("the visibility does not have one row per cell".into());
+        }
+        level.grid = locate::Grid::build(&level);
+        locate::mark_overlaps(&mut level);
+        Ok(level)
+    }
+
+    /// Cell `i` of the annotation: its planes made unit, its faces (a square on each plane
+    /// cut by the others; their corners give a point inside and the distance from outside)
+    /// and its volume.
+    fn add_cell(
+        &mut self,
+        i: usize,
+        c: &crate::format::CellRecord,
+        a_buf: &mut Vec<DVec3>,
+        b_buf: &mut Vec<DVec3>,
+    ) -> Result<(), String> {
+        let tolerance = self.tolerance;
+        let start = self.planes.len() as u32;
+        for p in &c.planes {
+            let n = DVec3::new(p[0], p[1], p[2]);
+            let len = n.length();
+            if !(len.is_finite() && len > 0.5 && p[3].is_finite()) {
+                return Err(format!("/cells/{i}: plane {p:?} has no unit normal"));
             }
-            let from = p.from();
-            let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
-            // Counter-clockwise seen from the source: the Newell normal points back into the
-            // source, so sight travels against it. A mirror standing free in its room faces
-            // away from the room's middle, so the winding, not the cell, says which way.
-            let plane = Half::through(centre, -clip::newell(poly))
-                .ok_or_else(|| format!("/portals/{i}: the polygon has no area"))?;
-            let transform = match p.transform {
-                None => None,
-                Some(m) => {
-                    let m = DMat4::from_cols_array(&m);
-                    let det = m.determinant();
-                    if !(det.is_finite() && det.abs() > 1e-12) {
-                        return Err(format!("/portals/{i}: the transform cannot be inverted"));
-                    }
-                    level.transforms.push((m, m.inverse()));
-                    Some(level.transforms.len() as u32 - 1)
-                }
-            };
-            level.portals.push(Portal {
-                from: from as u32,
-                to: p.to().map(|t| t as u32),
-                corners: start..level.corners.len() as u32,
-                plane,
-                kind: match p.kind.as_deref() {
-                    Some("mirror") => Kind::Mirror,
-                    Some("teleporter") => Kind::Teleporter,
-                    _ => Kind::Plain,
-                },
-                one_way: p.one_way,
-                closed: p.closed,
-                transform,
-                partner: p.partner.map(|q| q as u32),
+            self.planes.push(Half {
+                n: n / len,
+                d: p[3] / len,
             });
         }
-        // Links per region, in portal order: forward for every portal, and from the outside
-        // back through each exterior opening that sight may cross both ways.
+        let planes = start..self.planes.len() as u32;
+        let (min, max) = (DVec3::from(c.bounds.min), DVec3::from(c.bounds.max));
+        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+            return Err(format!("/cells/{i}: bounds are not a box"));
+        }
+        // Faces: a square on each plane cut by the others; their corners give a point
+        // inside and the distance from outside.
+        let size = (max - min).length().max(self.tolerance) * 2.0;
+        let centre = (min + max) / 2.0;
+        let face_start = self.faces.len() as u32;
+        let cell_planes = &self.planes[planes.start as usize..planes.end as usize];
+        let mut sum = DVec3::ZERO;
+        let mut count = 0.0;
+        let mut volume = 0.0;
+        for (k, h) in cell_planes.iter().enumerate() {
+            a_buf.clear();
+            a_buf.extend(clip::plane_square(*h, centre, size));
+            for (j, other) in cell_planes.iter().enumerate() {
+                if j != k {
+                    clip::clip(a_buf, *other, tolerance, b_buf);
+                    std::mem::swap(a_buf, b_buf);
+                }
+            }
+            if a_buf.len() >= 3 {
+                let from = self.points.len() as u32;
+                self.points.extend_from_slice(a_buf);
+                self.faces.push(Face {
+                    points: from..self.points.len() as u32,
+                    plane: *h,
+                });
+                sum += a_buf.iter().copied().sum::<DVec3>();
+                count += a_buf.len() as f64;
+            }
+        }
+        if count == 0.0 {
+            return Err(format!("/cells/{i}: its planes enclose nothing"));
+        }
+        let inner = sum / count;
+        // Divergence theorem about the inner point (so a level far from the origin keeps
+        // its digits): each face adds its area times its plane's distance, over three.
+        for f in &self.faces[face_start as usize..] {
+            let pts = &self.points[f.points.start as usize..f.points.end as usize];
+            volume += clip::newell(pts).dot(f.plane.n).abs() / 2.0 * -f.plane.dist(inner) / 3.0;
+        }
+        self.cells.push(Cell {
+            room: c.room.clone(),
+            planes,
+            faces: face_start..self.faces.len() as u32,
+            min,
+            max,
+            overlapped: false,
+            volume: volume.abs(),
+            priority: c.priority,
+        });
+        Ok(())
+    }
+
+    /// Portal `i` of the annotation, its plane and transform checked.
+    fn add_portal(&mut self, i: usize, p: &crate::format::PortalRecord) -> Result<(), String> {
+        let start = self.corners.len() as u32;
+        self.corners
+            .extend(p.polygon.iter().map(|v| DVec3::from(*v)));
+        let poly = &self.corners[start as usize..];
+        if poly.len() < 3 || !poly.iter().all(|v| v.is_finite()) {
+            return Err(format!("/portals/{i}: the polygon is not a polygon"));
+        }
+        let from = p.from();
+        let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
+        // Counter-clockwise seen from the source: the Newell normal points back into the
+        // source, so sight travels against it. A mirror standing free in its room faces
+        // away from the room's middle, so the winding, not the cell, says which way.
+        let plane = Half::through(centre, -clip::newell(poly))
+            .ok_or_else(|| format!("/portals/{i}: the polygon has no area"))?;
+        let transform = match p.transform {
+            None => None,
+            Some(m) => {
+                let m = DMat4::from_cols_array(&m);
+                let det = m.determinant();
+                if !(det.is_finite() && det.abs() > 1e-12) {
+                    return Err(format!("/portals/{i}: the transform cannot be inverted"));
+                }
+                self.transforms.push((m, m.inverse()));
+                Some(self.transforms.len() as u32 - 1)
+            }
+        };
+        self.portals.push(Portal {
+            from: from as u32,
+            to: p.to().map(|t| t as u32),
+            corners: start..self.corners.len() as u32,
+            plane,
+            kind: match p.kind.as_deref() {
+                Some("mirror") => Kind::Mirror,
+                Some("teleporter") => Kind::Teleporter,
+                _ => Kind::Plain,
+            },
+            one_way: p.one_way,
+            closed: p.closed,
+            transform,
+            partner: p.partner.map(|q| q as u32),
+        });
+        Ok(())
+    }
+
+    /// Links per region, in portal order: forward for every portal, and from the outside
+    /// back through each exterior opening that sight may cross both ways.
+    fn link_regions(&mut self) {
+        let cells = self.cells.len();
         let outside = cells as u32;
         let mut by_region: Vec<Vec<Link>> = vec![Vec::new(); cells + 1];
-        for (i, p) in level.portals.iter().enumerate() {
+        for (i, p) in self.portals.iter().enumerate() {
             by_region[p.from as usize].push(Link {
                 portal: i as u32,
                 to: p.to.unwrap_or(outside),
@@ -307,16 +337,10 @@ impl Level {
             }
         }
         for region in by_region {
-            level.link_start.push(level.links.len() as u32);
-            level.links.extend(region);
+            self.link_start.push(self.links.len() as u32);
+            self.links.extend(region);
         }
-        level.link_start.push(level.links.len() as u32);
-        if level.pvs.as_ref().is_some_and(|p| p.cells() != cells) {
-            return Err("the visibility does not have one row per cell".into());
-        }
-        level.grid = locate::Grid::build(&level);
-        locate::mark_overlaps(&mut level);
-        Ok(level)
+        self.link_start.push(self.links.len() as u32);
     }
 
     /// Number of cells (the extension's `cells`).
