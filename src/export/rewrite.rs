@@ -80,88 +80,13 @@ pub(crate) fn write<'s>(
             .collect(),
     );
 
-    // The container change (gltf_out::from_gltf).
-    if let Some(images) = root.parsed("images")?.and_then(Value::as_array_mut) {
-        for v in images {
-            out::rebase_item(v, &src.base_dir, out_dir);
-        }
-    }
     let (base, mut bin_len) = out::glb_layout(&lens);
-    let mut bin = false;
-    match format {
-        OutFormat::Gltf => {
-            if let Some(buffers) = root.parsed("buffers")?.and_then(Value::as_array_mut) {
-                let held = src.buffer_data().map_err(Failed::Io)?;
-                for (i, b) in buffers.iter_mut().enumerate() {
-                    let data: &[u8] = held.get(i).map_or(&[], |b| b.as_slice());
-                    out::gltf_buffer(b, data, &src.base_dir, out_dir);
-                }
-            }
-        }
-        OutFormat::Glb => {
-            root.stream("bufferViews", Edit::Views(&base));
-            if lens.is_empty() {
-                root.swap_remove("buffers");
-            } else {
-                let buffers = root.parsed("buffers")?;
-                let first = buffers.and_then(|b| b.as_array()).and_then(|a| a.first());
-                let one = out::glb_buffer(first, bin_len);
-                root.set("buffers", Slot::Parsed(one));
-                bin = true;
-            }
-        }
-    }
-
-    // The annotation (gltf_out::annotate).
-    let used = root.entry("extensionsUsed", json!([]))?;
-    if let Some(a) = used.as_array_mut() {
-        if !a.iter().any(|v| v == NAME) {
-            a.push(json!(NAME));
-        }
-    }
-    let extensions = root.entry("extensions", json!({}))?;
-    let annotated = match extensions.as_object_mut() {
-        Some(e) => {
-            // A place holder: the annotation itself is serialized from `ours`, not copied.
-            e.insert(NAME.into(), Value::Null);
-            true
-        }
-        None => false,
-    };
-    let mut per_node: HashMap<usize, &Value> = HashMap::new();
-    for (i, v) in nodes.iter() {
-        per_node.insert(*i, v);
-    }
-    root.stream("nodes", Edit::Nodes(&per_node));
-
-    // The PVS blob (gltf_out::attach).
+    let mut bin = container_change(&mut root, src, format, out_dir, &base, bin_len)?;
+    let per_node: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
+    let annotated = add_annotation(&mut root, &per_node)?;
     if let Some(blob) = blob.as_deref() {
-        let at = match format {
-            OutFormat::Glb => {
-                bin = true;
-                let offset = bin_len.next_multiple_of(4);
-                bin_len = offset + blob.len();
-                match root.parsed("buffers")?.and_then(Value::as_array_mut) {
-                    Some(b) if !b.is_empty() => b[0]["byteLength"] = json!(bin_len),
-                    _ => root.set("buffers", Slot::Parsed(json!([{ "byteLength": bin_len }]))),
-                }
-                (0, offset)
-            }
-            OutFormat::Gltf => {
-                let entry = json!({"byteLength": blob.len(), "uri": out::data_uri(blob)});
-                match root.parsed("buffers")?.and_then(Value::as_array_mut) {
-                    Some(b) => {
-                        b.push(entry);
-                        (b.len() - 1, 0)
-                    }
-                    None => {
-                        root.set("buffers", Slot::Parsed(json!([entry])));
-                        (0, 0)
-                    }
-                }
-            }
-        };
-        let view = root.push_view(out::blob_view(at, blob.len()))?;
+        bin |= format == OutFormat::Glb;
+        let view = attach_blob(&mut root, blob, format, &mut bin_len)?;
         if annotated {
             if let Some(v) = ours.get_mut("visibility").and_then(Value::as_object_mut) {
                 v.insert("bufferView".into(), json!(view));
@@ -191,6 +116,108 @@ pub(crate) fn write<'s>(
             glb(&doc, bin, sink)
         }
     }
+}
+
+/// The container change (`oracle::from_gltf`): images re-pointed from the output's folder;
+/// for .glb every buffer into the one BIN chunk (whose buffers start at `base`, `bin_len`
+/// long), for .gltf a BIN chunk as a data: URI. Whether the output has a BIN chunk.
+fn container_change<'a>(
+    root: &mut Root<'a>,
+    src: &'a GltfSource,
+    format: OutFormat,
+    out_dir: &Path,
+    base: &'a [usize],
+    bin_len: usize,
+) -> Result<bool, Failed> {
+    if let Some(images) = root.parsed("images")?.and_then(Value::as_array_mut) {
+        for v in images {
+            out::rebase_item(v, &src.base_dir, out_dir);
+        }
+    }
+    match format {
+        OutFormat::Gltf => {
+            if let Some(buffers) = root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                let held = src.buffer_data().map_err(Failed::Io)?;
+                for (i, b) in buffers.iter_mut().enumerate() {
+                    let data: &[u8] = held.get(i).map_or(&[], |b| b.as_slice());
+                    out::gltf_buffer(b, data, &src.base_dir, out_dir);
+                }
+            }
+            Ok(false)
+        }
+        OutFormat::Glb => {
+            root.stream("bufferViews", Edit::Views(base));
+            if base.is_empty() {
+                root.swap_remove("buffers");
+                return Ok(false);
+            }
+            let buffers = root.parsed("buffers")?;
+            let first = buffers.and_then(|b| b.as_array()).and_then(|a| a.first());
+            let one = out::glb_buffer(first, bin_len);
+            root.set("buffers", Slot::Parsed(one));
+            Ok(true)
+        }
+    }
+}
+
+/// The annotation (`oracle::annotate`): the extension declared, its root object a place
+/// holder (serialized from the annotation, not copied), and each node's object. Whether the
+/// document's `extensions` could take it.
+fn add_annotation<'a>(
+    root: &mut Root<'a>,
+    per_node: &'a HashMap<usize, &'a Value>,
+) -> Result<bool, Failed> {
+    let used = root.entry("extensionsUsed", json!([]))?;
+    if let Some(a) = used.as_array_mut() {
+        if !a.iter().any(|v| v == NAME) {
+            a.push(json!(NAME));
+        }
+    }
+    let extensions = root.entry("extensions", json!({}))?;
+    let annotated = match extensions.as_object_mut() {
+        Some(e) => {
+            e.insert(NAME.into(), Value::Null);
+            true
+        }
+        None => false,
+    };
+    root.stream("nodes", Edit::Nodes(per_node));
+    Ok(annotated)
+}
+
+/// The PVS blob (`oracle::attach`): at the end of the BIN chunk of a .glb (4-aligned), as a
+/// buffer of its own in a .gltf. The index of its new buffer view.
+fn attach_blob(
+    root: &mut Root<'_>,
+    blob: &[u8],
+    format: OutFormat,
+    bin_len: &mut usize,
+) -> Result<usize, Failed> {
+    let at = match format {
+        OutFormat::Glb => {
+            let offset = bin_len.next_multiple_of(4);
+            *bin_len = offset + blob.len();
+            match root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                Some(b) if !b.is_empty() => b[0]["byteLength"] = json!(*bin_len),
+                _ => root.set("buffers", Slot::Parsed(json!([{ "byteLength": *bin_len }]))),
+            }
+            (0, offset)
+        }
+        OutFormat::Gltf => {
+            let entry = json!({"byteLength": blob.len(), "uri": out::data_uri(blob)});
+            match root.parsed("buffers")?.and_then(Value::as_array_mut) {
+                Some(b) => {
+                    b.push(entry);
+                    (b.len() - 1, 0)
+                }
+                None => {
+                    root.set("buffers", Slot::Parsed(json!([entry])));
+                    (0, 0)
+                }
+            }
+        }
+    };
+    root.push_view(out::blob_view(at, blob.len()))
 }
 
 /// What goes in the BIN chunk, written straight from the buffers (a released BIN chunk from
