@@ -175,3 +175,146 @@ fn the_checker_sees_an_upward_import() {
     );
     assert!(rank_of("export") > rank_of("cells"));
 }
+
+/// Longest a production function may be, in lines: beyond it a function holds several jobs
+/// (issue 30). Unit tests, after a file's `#[cfg(test)]`, are not held to it.
+const MAX_FUNCTION_LINES: usize = 120;
+
+/// A line without its string and char literals and `//` comment, for counting braces.
+fn braces_of(line: &str) -> String {
+    let mut out = String::new();
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' => {
+                while let Some(d) = chars.next() {
+                    match d {
+                        '\\' => {
+                            chars.next();
+                        }
+                        '"' => break,
+                        _ => {}
+                    }
+                }
+            }
+            // a char literal ('{', '\''), not a lifetime ('a)
+            '\'' => {
+                let mut look = chars.clone();
+                let first = look.next();
+                let lit = match first {
+                    Some('\\') => true,
+                    Some(_) => look.next() == Some('\''),
+                    None => false,
+                };
+                if lit {
+                    for d in chars.by_ref() {
+                        if d == '\'' {
+                            break;
+                        }
+                    }
+                    if first == Some('\\') {
+                        // `'\''`: the escaped quote was taken as the end
+                        if chars.peek() == Some(&'\'') {
+                            chars.next();
+                        }
+                    }
+                }
+            }
+            '/' if chars.peek() == Some(&'/') => break,
+            '{' | '}' => out.push(c),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Each function of `text` (before its unit tests) with its first line and length in lines.
+fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let is_fn = |l: &str| -> Option<String> {
+        let t = l.trim_start();
+        let t = t.strip_prefix("pub ").unwrap_or(t);
+        let t = if t.starts_with("pub(") {
+            t.split_once(") ")?.1
+        } else {
+            t
+        };
+        let t = t.strip_prefix("const ").unwrap_or(t);
+        let t = t.strip_prefix("unsafe ").unwrap_or(t);
+        let rest = t.strip_prefix("fn ")?;
+        Some(
+            rest.chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect(),
+        )
+    };
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        if lines[i].trim_start().starts_with("#[cfg(test)]") {
+            break;
+        }
+        let Some(name) = is_fn(lines[i]) else {
+            i += 1;
+            continue;
+        };
+        let (mut depth, mut started, mut j) = (0i64, false, i);
+        while j < lines.len() {
+            for c in braces_of(lines[j]).chars() {
+                depth += if c == '{' { 1 } else { -1 };
+                started = true;
+            }
+            if started && depth <= 0 {
+                break;
+            }
+            if !started && lines[j].trim_end().ends_with(';') {
+                break;
+            }
+            j += 1;
+        }
+        out.push((name, i + 1, j - i + 1));
+        i = if started { j + 1 } else { i + 1 };
+    }
+    out
+}
+
+#[test]
+fn no_production_function_is_longer_than_the_limit() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut long = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        for (name, line, len) in function_lengths(&text) {
+            if len > MAX_FUNCTION_LINES {
+                long.push(format!(
+                    "{}:{line}: `{name}` is {len} lines",
+                    f.strip_prefix(&src).unwrap().display()
+                ));
+            }
+        }
+    }
+    assert!(
+        long.is_empty(),
+        "functions over {MAX_FUNCTION_LINES} lines (split them by job):\n{}",
+        long.join("\n")
+    );
+}
+
+#[test]
+fn the_length_counter_sees_strings_chars_and_nesting() {
+    let text = "fn a() {\n    let s = \"}\";\n    let c = '{';\n    if x { y(); }\n}\n\
+                pub(crate) fn b<'a>(x: &'a str) -> &'a str {\n    x // }\n}\n\
+                fn c();\n#[cfg(test)]\nfn d() {\n}\n";
+    let found = function_lengths(text);
+    assert_eq!(
+        found,
+        vec![
+            ("a".to_string(), 1, 5),
+            ("b".to_string(), 6, 3),
+            ("c".to_string(), 9, 1)
+        ]
+    );
+}

@@ -130,75 +130,17 @@ pub fn write_plain(scene: &Scene, format: OutFormat) -> Vec<u8> {
 
 /// A new glTF for a scene read from OBJ (or any importer without a glTF source).
 pub(crate) fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec<u8>>) {
-    let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    let mut meshes = Vec::new();
+    let mut buffers = Buffers::default();
     let mut mesh_centre = vec![glam::DVec3::ZERO; scene.meshes.len()];
     for (mi, m) in scene.meshes.iter().enumerate() {
-        let b = crate::geom::aabb::Aabb::from_points(m.positions.iter());
-        let c = if b.is_empty() {
-            glam::DVec3::ZERO
-        } else {
-            (b.min + b.max) * 0.5
-        };
-        mesh_centre[mi] = c;
-        // Positions relative to the mesh centre (the node carries the centre in f64 JSON),
-        // so a level far from the origin keeps its precision in the f32 buffer.
-        let pos: Vec<[f32; 3]> = m
-            .positions
-            .iter()
-            .map(|p| (*p - c).as_vec3().to_array())
-            .collect();
-        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
-        for p in &pos {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let pos_off = bin.len();
-        for p in &pos {
-            for x in p {
-                bin.extend_from_slice(&x.to_le_bytes());
-            }
-        }
-        views.push(json!({"buffer": 0, "byteOffset": pos_off, "byteLength": pos.len() * 12, "target": 34962}));
-        let pos_acc = accessors.len();
-        if pos.is_empty() {
-            (lo, hi) = ([0.0; 3], [0.0; 3]);
-        }
-        accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5126, "count": pos.len(), "type": "VEC3", "min": lo, "max": hi}));
-        let mut prims = Vec::new();
-        for p in &m.primitives {
-            let tris = m
-                .triangles
-                .get(p.first_triangle..p.first_triangle + p.triangle_count)
-                .unwrap_or(&[]);
-            if tris.is_empty() {
-                continue;
-            }
-            let off = bin.len();
-            for t in tris {
-                for i in t {
-                    bin.extend_from_slice(&i.to_le_bytes());
-                }
-            }
-            views.push(json!({"buffer": 0, "byteOffset": off, "byteLength": tris.len() * 12, "target": 34963}));
-            accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5125, "count": tris.len() * 3, "type": "SCALAR"}));
-            let mut prim =
-                json!({"attributes": {"POSITION": pos_acc}, "indices": accessors.len() - 1});
-            if let Some(mat) = p.material {
-                prim["material"] = json!(mat);
-            }
-            prims.push(prim);
-        }
-        let mut mesh = json!({"primitives": prims});
-        if let Some(n) = &m.name {
-            mesh["name"] = json!(n);
-        }
-        meshes.push(mesh);
+        mesh_centre[mi] = buffers.add_mesh(m);
     }
+    let Buffers {
+        bin,
+        views,
+        accessors,
+        meshes,
+    } = buffers;
     // Meshes are in world space with identity transforms (OBJ); a mesh node is placed at its
     // mesh's centre, every other node where its parent is, each written relative to its parent.
     let mut placed = vec![glam::DVec3::ZERO; scene.nodes.len()];
@@ -277,5 +219,83 @@ pub(crate) fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec
             doc["buffers"] = json!([{"byteLength": bin.len(), "uri": data_uri(&bin)}]);
             (doc, None)
         }
+    }
+}
+
+/// The buffer, views, accessors and meshes of a new glTF, filled a mesh at a time.
+#[derive(Default)]
+struct Buffers {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+}
+
+impl Buffers {
+    /// Adds mesh `m` (positions, and each primitive's indices) and returns its centre, where
+    /// its node is placed.
+    fn add_mesh(&mut self, m: &crate::scene::Mesh) -> glam::DVec3 {
+        let b = crate::geom::aabb::Aabb::from_points(m.positions.iter());
+        let c = if b.is_empty() {
+            glam::DVec3::ZERO
+        } else {
+            (b.min + b.max) * 0.5
+        };
+        // Positions relative to the mesh centre (the node carries the centre in f64 JSON),
+        // so a level far from the origin keeps its precision in the f32 buffer.
+        let pos: Vec<[f32; 3]> = m
+            .positions
+            .iter()
+            .map(|p| (*p - c).as_vec3().to_array())
+            .collect();
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for p in &pos {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let pos_off = self.bin.len();
+        for p in &pos {
+            for x in p {
+                self.bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        self.views.push(json!({"buffer": 0, "byteOffset": pos_off, "byteLength": pos.len() * 12, "target": 34962}));
+        let pos_acc = self.accessors.len();
+        if pos.is_empty() {
+            (lo, hi) = ([0.0; 3], [0.0; 3]);
+        }
+        self.accessors.push(json!({"bufferView": self.views.len() - 1, "componentType": 5126, "count": pos.len(), "type": "VEC3", "min": lo, "max": hi}));
+        let mut prims = Vec::new();
+        for p in &m.primitives {
+            let tris = m
+                .triangles
+                .get(p.first_triangle..p.first_triangle + p.triangle_count)
+                .unwrap_or(&[]);
+            if tris.is_empty() {
+                continue;
+            }
+            let off = self.bin.len();
+            for t in tris {
+                for i in t {
+                    self.bin.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            self.views.push(json!({"buffer": 0, "byteOffset": off, "byteLength": tris.len() * 12, "target": 34963}));
+            self.accessors.push(json!({"bufferView": self.views.len() - 1, "componentType": 5125, "count": tris.len() * 3, "type": "SCALAR"}));
+            let mut prim =
+                json!({"attributes": {"POSITION": pos_acc}, "indices": self.accessors.len() - 1});
+            if let Some(mat) = p.material {
+                prim["material"] = json!(mat);
+            }
+            prims.push(prim);
+        }
+        let mut mesh = json!({"primitives": prims});
+        if let Some(n) = &m.name {
+            mesh["name"] = json!(n);
+        }
+        self.meshes.push(mesh);
+        c
     }
 }
