@@ -248,7 +248,8 @@ impl<'a> Recognition<'a> {
     /// Pass 1: rooms and groups, so later references by name can resolve in any order.
     fn collect_rooms(&mut self) {
         let (scene, rules) = (self.scene, self.rules);
-        for &n in &self.order {
+        for i in 0..self.order.len() {
+            let n = self.order[i];
             let Some(c) = &self.classes[n] else { continue };
             match c.kind {
                 TagKind::Room => {
@@ -256,17 +257,7 @@ impl<'a> Recognition<'a> {
                         .first(|m| m.room.clone())
                         .unwrap_or_else(|| scene.node_label(n));
                     let volume = rules.rules[c.rule].spec.volume.unwrap_or_default();
-                    let id = add_room(
-                        scene,
-                        rules,
-                        &mut self.t,
-                        &mut self.diags,
-                        name,
-                        n,
-                        rule_id(rules, c),
-                        volume,
-                    );
-                    self.room_of_node[n] = Some(id);
+                    let id = self.declare_room(n, name, volume);
                     let r = &mut self.t.rooms[id];
                     if let Some(p) = extras::read_number(scene.nodes[n].extras.as_ref(), "priority")
                     {
@@ -291,7 +282,8 @@ impl<'a> Recognition<'a> {
     /// Standalone footprints and `-cell` bounds that name a room nobody declared declare it.
     fn declare_volume_rooms(&mut self) {
         let (scene, rules) = (self.scene, self.rules);
-        for &n in &self.order {
+        for i in 0..self.order.len() {
+            let n = self.order[i];
             let Some(c) = &self.classes[n] else { continue };
             if !matches!(c.kind, TagKind::Footprint | TagKind::Bound) {
                 continue;
@@ -312,19 +304,27 @@ impl<'a> Recognition<'a> {
                 } else {
                     VolumeHint::Bound
                 };
-                let id = add_room(
-                    scene,
-                    rules,
-                    &mut self.t,
-                    &mut self.diags,
-                    name,
-                    n,
-                    rule_id(rules, c),
-                    volume,
-                );
-                self.room_of_node[n] = Some(id);
+                self.declare_room(n, name, volume);
             }
         }
+    }
+
+    /// Declares room `name` at node `n`, by the rule that classed the node.
+    fn declare_room(&mut self, n: NodeId, name: String, volume: VolumeHint) -> usize {
+        let (scene, rules) = (self.scene, self.rules);
+        let rule = self.classes[n].as_ref().map(|c| rule_id(rules, c));
+        let id = add_room(
+            scene,
+            rules,
+            &mut self.t,
+            &mut self.diags,
+            name,
+            n,
+            rule.unwrap_or_default(),
+            volume,
+        );
+        self.room_of_node[n] = Some(id);
+        id
     }
 
     /// Pass 2: membership, in pre-order so the nearest room ancestor is known.
