@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! portcullis: cells and portals for game levels.
 //!
 //! The pipeline runs one way, each stage a module with one input and one output type plus
@@ -19,7 +20,7 @@ pub mod pipeline;
 pub mod portals;
 pub mod prt;
 pub mod report;
-pub mod rng;
+pub(crate) mod rng;
 pub mod runtime;
 pub(crate) mod scc;
 pub mod scene;

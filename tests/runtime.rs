@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DVec3};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
-use portcullis::rng::SplitMix64 as Rng;
+use common::rng::SplitMix64 as Rng;
 use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
 use serde_json::Value;
 

@@ -41,12 +41,12 @@
 //! same rooms, cells and portals, and output bytes repeat for the same input.
 
 pub mod atomic;
-pub mod bake;
+pub(crate) mod bake;
 pub mod debug;
 pub mod gltf_out;
 pub(crate) mod parallel;
 pub(crate) mod rewrite;
-pub mod sink;
+pub(crate) mod sink;
 pub mod svg;
 pub(crate) mod transcode;
 pub mod usd_out;

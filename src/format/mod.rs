@@ -9,9 +9,9 @@
 //! and the input hash that tells a stale annotation ([`hash`]). The exporters, the checks of
 //! stored annotations and the runtime all go through it.
 
-pub mod hash;
+pub(crate) mod hash;
 pub mod read;
-pub mod records;
+pub(crate) mod records;
 pub mod visibility;
 pub mod write;
 

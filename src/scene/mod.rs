@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DVec3};
 use serde::Serialize;
 
-pub mod json_text;
+pub(crate) mod json_text;
 pub mod summary;
 
 /// Index into [`Scene::nodes`].

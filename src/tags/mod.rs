@@ -18,7 +18,7 @@ use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{NodeId, Scene};
 
 pub mod extras;
-pub mod near_miss;
+pub(crate) mod near_miss;
 pub mod presets;
 pub mod rules;
 mod suggest;

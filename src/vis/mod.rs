@@ -26,7 +26,7 @@
 //! the default `transform_depth` is the loop check's `recursion_depth`, else `[vis]
 //! transform_depth`.
 
-pub mod bits;
+pub(crate) mod bits;
 mod fast;
 mod flood;
 mod full;
