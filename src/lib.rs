@@ -4,6 +4,27 @@
 //! The pipeline runs one way, each stage a module with one input and one output type plus
 //! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
+//!
+//! [`pipeline`] runs the stages as `portcullis convert` does:
+//!
+//! ```
+//! use portcullis::pipeline;
+//!
+//! let mut tagged = pipeline::load_tagged("samples/two_rooms.gltf".as_ref(), &Default::default())?;
+//! let cells = pipeline::build_cells(&mut tagged);
+//! let portals = pipeline::build_portals(&mut tagged, &cells);
+//! let pvs = pipeline::full_pvs(&tagged, &cells, &portals);
+//! println!("{} rooms, {} cells, {} portals", tagged.tagging.rooms.len(), cells.cells.len(),
+//!     portals.portals.len());
+//! assert!(pvs.sees(0, 0));
+//! for d in tagged.diagnostics.iter() {
+//!     println!("{d}");
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! An engine needs none of this: [`runtime`] loads what `convert` wrote and answers the
+//! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
 pub mod cells;
 pub mod check;
@@ -16,6 +37,9 @@ pub mod gen;
 pub mod geom;
 pub mod import;
 pub mod level;
+// Allowed until `LoadOptions::import` and `graph::{Loaded, Built}`'s fields are documented
+// (pipeline/ is being edited on another branch).
+#[allow(missing_docs)]
 pub mod pipeline;
 pub mod portals;
 pub mod prt;

@@ -40,7 +40,6 @@ impl SplitMix64 {
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n.max(1) as u64) as usize
     }
-
 }
 
 #[cfg(test)]

@@ -43,6 +43,8 @@
 pub mod atomic;
 pub(crate) mod bake;
 pub mod debug;
+// Allowed until `OutFormat` is documented (gltf_out.rs is being edited on another branch).
+#[allow(missing_docs)]
 pub mod gltf_out;
 pub(crate) mod parallel;
 pub(crate) mod rewrite;

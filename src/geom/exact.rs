@@ -19,6 +19,7 @@ pub struct ExactVertices {
 }
 
 impl ExactVertices {
+    /// Snaps `points` to a grid of spacing `grid`, merging points that land on one node.
     pub fn new(points: impl Iterator<Item = DVec2>, grid: f64) -> Self {
         let mut map = HashMap::with_hasher(Default::default());
         for (i, p) in points.enumerate() {
