@@ -24,7 +24,7 @@ pub struct Face {
 /// A convex solid given by its faces; a cell's volume.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConvexPolyhedron {
-    /// At least four for a solid; no two share a plane.
+    /// The boundary: the solid is the points behind every face's plane.
     pub faces: Vec<Face>,
 }
 

@@ -16,7 +16,7 @@ pub enum PrtFormat {
     Prt1,
     /// Quake 2's clusters: leaves grouped into the cells of the graph.
     Prt2,
-    /// PRT1 with clusters (the AM compilers).
+    /// PRT1 with clusters: a leaf-to-cluster table, the portal lines naming clusters.
     Prt1Am,
 }
 

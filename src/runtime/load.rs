@@ -19,7 +19,7 @@ pub struct LoadError {
     pub path: PathBuf,
     /// What is wrong, for the player-facing log.
     pub message: String,
-    /// What to do about it (usually: which `portcullis` command to run).
+    /// What to do about it (reconvert the level, check the path).
     pub hint: &'static str,
     /// The file itself could not be read (as opposed to read and found unusable).
     pub unreadable: bool,

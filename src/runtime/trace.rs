@@ -207,7 +207,7 @@ struct Step {
 pub struct Trace {
     /// Where the eye was found.
     pub location: Location,
-    /// What the trace cost (portals tried, clipped, cells reached).
+    /// What the trace cost: cells entered, portals tested and why portals were skipped.
     pub stats: Stats,
     visible: Vec<Visible>,
     via: Vec<u32>,
