@@ -13,6 +13,8 @@ macro_rules! codes {
         /// A stable diagnostic code.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
         #[allow(non_camel_case_types)]
+        // The summaries are plain text: `[cells]` there is a config section, not a link.
+        #[allow(rustdoc::broken_intra_doc_links)]
         pub enum Code { $( #[doc = $summary] $(#[$doc])* $name, )* }
 
         impl Code {

@@ -59,7 +59,7 @@ pub(crate) fn zero_run(bytes: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Undoes [`zero_run`]; `None` if the data is cut short.
+/// Undoes `zero_run`; `None` if the data is cut short.
 pub fn zero_run_decode(data: &[u8], expected: usize) -> Option<Vec<u8>> {
     let mut out = Vec::with_capacity(expected);
     let mut i = 0;

@@ -17,7 +17,7 @@ use serde::Serialize;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{NodeId, Scene};
 
-pub mod extras;
+pub(crate) mod extras;
 pub(crate) mod near_miss;
 pub mod presets;
 pub mod rules;

@@ -33,7 +33,7 @@ mod full;
 pub mod graph;
 pub mod pvs;
 mod sampled;
-pub mod winding;
+pub(crate) mod winding;
 
 use std::time::{Duration, Instant};
 
