@@ -12,6 +12,8 @@ use std::path::PathBuf;
 
 use divan::Bencher;
 
+#[path = "../tests/common/rng.rs"]
+mod rng;
 #[path = "../src/bin/portcullis-floor/round_trip.rs"]
 mod round_trip;
 use portcullis::cells::CellSet;
@@ -204,7 +206,7 @@ fn converted(name: &str) -> PathBuf {
 fn cull(b: Bencher, level: &str) {
     use portcullis::runtime::{Doors, Level, Trace, TraceOptions, View};
     let lvl = Level::load(&converted(level)).unwrap();
-    let mut rng = portcullis::rng::SplitMix64::new(27);
+    let mut rng = rng::SplitMix64::new(27);
     let views: Vec<View> = (0..512)
         .map(|_| {
             let (lo, hi) = lvl.bounds(rng.below(lvl.cells()));

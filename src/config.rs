@@ -15,19 +15,26 @@ use crate::schema::{self, Schema};
 use crate::tags::presets;
 use crate::tags::rules::{RuleSet, RuleSetSpec, RuleSpec};
 
-pub const FILE_NAME: &str = "portcullis.toml";
+/// The configuration file looked for next to a level.
+pub(crate) const FILE_NAME: &str = "portcullis.toml";
 
+/// A `portcullis.toml`: each section overrides the built-in defaults for that stage.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
+    /// `[tags]`: the preset and any rules of the level's own.
     #[serde(default)]
     pub tags: TagsConfig,
+    /// `[cells]`: how rooms become cells.
     #[serde(default)]
     pub cells: CellsConfig,
+    /// `[portals]`: how portals are found and matched.
     #[serde(default)]
     pub portals: PortalsConfig,
+    /// `[vis]`: the PVS method and its limits.
     #[serde(default)]
     pub vis: VisConfig,
+    /// `[check]`: diagnostic severities and the checks' thresholds.
     #[serde(default)]
     pub check: CheckConfig,
     /// Where the configuration was read from (None: built-in defaults).
@@ -35,14 +42,20 @@ pub struct Config {
     pub path: Option<PathBuf>,
 }
 
+/// `[tags]`: which naming convention a level follows.
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TagsConfig {
+    /// A built-in preset's name (`godot`, `lportal`, `panda3d`); `None`: auto-detect.
     pub preset: Option<String>,
+    /// Overrides the preset's case rule for room names.
     pub case_sensitive: Option<bool>,
+    /// Overrides the preset's wildcard character (see `RuleSetSpec::wildcard`).
     pub wildcard: Option<char>,
+    /// The `rules` replace the preset's rather than being tried before them.
     #[serde(default)]
     pub replace: bool,
+    /// `[[tags.rule]]`: the level's own rules, tried first.
     #[serde(default, rename = "rule")]
     pub rules: Vec<RuleSpec>,
 }

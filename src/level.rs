@@ -10,9 +10,13 @@ use crate::tags::{rules::RuleSet, Tagging};
 /// A level read and tagged.
 #[derive(Debug, Clone)]
 pub struct Tagged {
+    /// The level as imported.
     pub scene: Scene,
+    /// The configuration that applied (file or defaults).
     pub config: Config,
+    /// The tag rules in force (preset plus the config's own).
     pub rules: RuleSet,
+    /// What the rules found: rooms, portals, volumes and the rest.
     pub tagging: Tagging,
     /// Everything reported so far (import, then tags), in stage order.
     pub diagnostics: Diagnostics,

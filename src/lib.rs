@@ -1,8 +1,30 @@
+#![warn(missing_docs)]
 //! portcullis: cells and portals for game levels.
 //!
 //! The pipeline runs one way, each stage a module with one input and one output type plus
 //! [`diag::Diagnostic`]s: [`import`] → [`scene::Scene`] → [`tags`] → rooms → cells → portals →
 //! check → vis → export. See ARCHITECTURE.md for the map and each module's invariants.
+//!
+//! [`pipeline`] runs the stages as `portcullis convert` does:
+//!
+//! ```
+//! use portcullis::pipeline;
+//!
+//! let mut tagged = pipeline::load_tagged("samples/two_rooms.gltf".as_ref(), &Default::default())?;
+//! let cells = pipeline::build_cells(&mut tagged);
+//! let portals = pipeline::build_portals(&mut tagged, &cells);
+//! let pvs = pipeline::full_pvs(&tagged, &cells, &portals);
+//! println!("{} rooms, {} cells, {} portals", tagged.tagging.rooms.len(), cells.cells.len(),
+//!     portals.portals.len());
+//! assert!(pvs.sees(0, 0));
+//! for d in tagged.diagnostics.iter() {
+//!     println!("{d}");
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! An engine needs none of this: [`runtime`] loads what `convert` wrote and answers the
+//! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
 pub mod cells;
 pub mod check;
@@ -19,7 +41,7 @@ pub mod pipeline;
 pub mod portals;
 pub mod prt;
 pub mod report;
-pub mod rng;
+pub(crate) mod rng;
 pub mod runtime;
 pub(crate) mod scc;
 pub mod scene;

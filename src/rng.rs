@@ -1,8 +1,8 @@
 //! SplitMix64: the one small seeded generator behind every random choice portcullis makes (the
-//! generated levels, the sampled PVS) and the tests' shuffles. Tiny, fast, and the same
-//! sequence on every platform, so seeded runs repeat byte for byte.
+//! generated levels, the sampled PVS; the tests keep a copy in tests/common/rng.rs). Tiny, fast,
+//! and the same sequence on every platform, so seeded runs repeat byte for byte.
 
-pub struct SplitMix64(u64);
+pub(crate) struct SplitMix64(u64);
 
 impl SplitMix64 {
     /// A generator for `seed` (mixed with the golden-ratio constant, so seed 0 is fine).
@@ -11,10 +11,12 @@ impl SplitMix64 {
     }
 
     /// A generator whose internal state is exactly `state`.
+    #[cfg(test)]
     pub fn from_state(state: u64) -> SplitMix64 {
         SplitMix64(state)
     }
 
+    /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
@@ -34,16 +36,9 @@ impl SplitMix64 {
     }
 
     /// In `0..n` (`n > 0`), by the remainder (slightly biased for huge `n`; fine for shuffles).
+    #[cfg(test)]
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n.max(1) as u64) as usize
-    }
-
-    /// Fisher–Yates.
-    pub fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = self.below(i + 1);
-            v.swap(i, j);
-        }
     }
 }
 

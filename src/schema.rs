@@ -22,9 +22,9 @@ pub enum Schema {
     PortalsNode,
 }
 
-pub const CONFIG: &str = include_str!("../schemas/config.schema.json");
-pub const TAGS: &str = include_str!("../schemas/tags.schema.json");
-pub const PORTALS: &str = include_str!("../schemas/PORTCULLIS_portals.schema.json");
+pub(crate) const CONFIG: &str = include_str!("../schemas/config.schema.json");
+pub(crate) const TAGS: &str = include_str!("../schemas/tags.schema.json");
+pub(crate) const PORTALS: &str = include_str!("../schemas/PORTCULLIS_portals.schema.json");
 
 /// (file name, text) of every shipped schema, for `portcullis schema`.
 pub const FILES: &[(&str, &str)] = &[

@@ -10,11 +10,11 @@ mod common;
 use common::rays::{
     bounds, classify, is_closed, open_edges, room_triangles, segment_distance, signed_volume,
 };
+use common::rng::SplitMix64 as Rng;
 use common::{fixture, levels_with_rooms, sample};
 use glam::{DMat4, DQuat, DVec3};
 use portcullis::cells::{CellSet, CellSource};
 use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
-use portcullis::rng::SplitMix64 as Rng;
 
 fn load(path: &std::path::Path, preset: Option<&str>) -> (Tagged, CellSet) {
     common::load_cells(path, preset)

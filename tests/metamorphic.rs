@@ -28,7 +28,7 @@ use portcullis::portals::PortalSet;
 use portcullis::scene::Scene;
 
 /// A fixed-seed generator, so every run shuffles the same way.
-use portcullis::rng::SplitMix64 as Rng;
+use common::rng::SplitMix64 as Rng;
 
 #[derive(Clone, Copy, Debug)]
 enum Change {

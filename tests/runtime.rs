@@ -11,10 +11,10 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use common::rng::SplitMix64 as Rng;
 use glam::{DMat4, DVec3};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
-use portcullis::rng::SplitMix64 as Rng;
 use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
 use serde_json::Value;
 

@@ -7,7 +7,7 @@ mod common;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use portcullis::rng::SplitMix64 as Rng;
+use common::rng::SplitMix64 as Rng;
 use portcullis::runtime::{Doors, Level, Trace, TraceOptions, View};
 
 struct Counting;

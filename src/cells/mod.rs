@@ -78,28 +78,37 @@ pub enum CellSource {
     Footprint,
 }
 
+/// One convex cell of a room: what the runtime locates the eye in and portals join.
 #[derive(Debug, Clone, Serialize)]
 pub struct Cell {
+    /// The room (index into the tagging's rooms) the cell belongs to.
     pub room: RoomId,
+    /// What the cell's volume was built from.
     pub source: CellSource,
     /// World coordinates.
     pub poly: ConvexPolyhedron,
+    /// Cubic metres.
     pub volume: f64,
+    /// World-space bounding box of `poly`.
     pub bounds: Aabb,
     /// Nodes this cell renders: structure that intersects it, props and loose geometry inside.
     pub nodes: Vec<NodeId>,
 }
 
+/// The cells stage's output: every room's convex cells and what building them reported.
 #[derive(Debug, Clone, Serialize)]
 pub struct CellSet {
+    /// All cells; a cell's index is its id in portals, the PVS and the annotation.
     pub cells: Vec<Cell>,
     /// For each room of the tagging, its cells.
     pub room_cells: Vec<Vec<usize>>,
+    /// The distance and angle tolerances the cells were built with (from the input's precision).
     pub tolerance: Tolerance,
     /// Room meshes recognised as props (they do not shape cells).
     pub props: Vec<NodeId>,
     /// Where cells of different rooms overlap (each reported as `CELL_OVERLAP`).
     pub overlaps: Vec<ConvexPolyhedron>,
+    /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
 }

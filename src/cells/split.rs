@@ -15,8 +15,11 @@ use crate::scene::{NodeId, Scene};
 /// The part of one node's surface inside one cell, in world coordinates.
 #[derive(Debug, Clone, Serialize)]
 pub struct SplitPiece {
+    /// Index into [`super::CellSet::cells`].
     pub cell: usize,
+    /// The scene node the triangles were cut from.
     pub node: NodeId,
+    /// The node's triangles clipped to the cell, world coordinates.
     pub triangles: Vec<[DVec3; 3]>,
 }
 

@@ -67,16 +67,22 @@ pub struct CellInfo {
 /// A player start: where leak paths begin.
 #[derive(Debug, Clone)]
 pub struct Start {
+    /// World position of the start (m).
     pub point: DVec3,
+    /// How reports name the start (its node's name).
     pub label: String,
+    /// Where the start comes from, for diagnostics.
     pub at: Location,
 }
 
 /// A level's cells and portals, with what is needed to say where a problem is.
 #[derive(Debug, Clone)]
 pub struct Subject<'a> {
+    /// The level's file, for diagnostics.
     pub file: PathBuf,
+    /// Per cell, what the checks need of it (index as in the cell set).
     pub cells: Vec<CellInfo>,
+    /// The portals to check.
     pub portals: &'a PortalSet,
     /// Where each portal comes from (its authored node, or its place in a stored annotation);
     /// the checks add the 3D point.
@@ -89,12 +95,14 @@ pub struct Subject<'a> {
     pub extent: f64,
     /// Portals this far across a wall still lie on their cells' boundary (m).
     pub max_wall_thickness: f64,
+    /// Player starts: where leak searches begin (none: no leak search).
     pub starts: Vec<Start>,
 }
 
 /// What the checks found.
 #[derive(Debug, Clone, Default)]
 pub struct Findings {
+    /// The problems found, in check order.
     pub diagnostics: Diagnostics,
     /// One polyline per leak, from a start through the cells to the exterior, for debug output.
     pub leaks: Vec<Vec<DVec3>>,

@@ -28,11 +28,13 @@ use crate::vis::Pvs;
 /// What the audit found.
 #[derive(Debug, Clone)]
 pub struct Audit {
+    /// Missed pairs (sightlines the PVS does not have), as `VIS_MISSED_PAIR` findings.
     pub diagnostics: Diagnostics,
     /// One polyline per missed pair: the ray that found it, for debug output.
     pub lines: Vec<Vec<DVec3>>,
     /// PVS pairs between different cells that some ray confirmed, and all of them.
     pub confirmed: usize,
+    /// All PVS pairs between different cells, confirmed or not.
     pub pairs: usize,
     /// Every pair some ray joined (each cell with itself): a lower bound of the real PVS from
     /// the level's own geometry.

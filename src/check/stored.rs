@@ -23,6 +23,7 @@ pub struct Stored {
     pub annotated: Option<Annotated>,
     /// ANNOTATION_INVALID (with `validate`) and ANNOTATION_STALE findings.
     pub diagnostics: Vec<Diagnostic>,
+    /// The annotation's input hash no longer matches the level: rebuilt since, or edited.
     pub stale: bool,
     /// Parsed and free of schema and reference problems: safe to check geometrically.
     pub sound: bool,

@@ -13,15 +13,19 @@ macro_rules! codes {
         /// A stable diagnostic code.
         #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
         #[allow(non_camel_case_types)]
-        pub enum Code { $( $(#[$doc])* $name, )* }
+        // The summaries are plain text: `[cells]` there is a config section, not a link.
+        #[allow(rustdoc::broken_intra_doc_links)]
+        pub enum Code { $( #[doc = $summary] $(#[$doc])* $name, )* }
 
         impl Code {
             /// Every code, in registry order.
             pub const ALL: &'static [Code] = &[ $( Code::$name, )* ];
 
+            /// The code as written in reports and configs (`TAG_NEAR_MISS`).
             pub fn as_str(self) -> &'static str {
                 match self { $( Code::$name => stringify!($name), )* }
             }
+            /// The severity before any policy changes it.
             pub fn default_severity(self) -> Severity {
                 match self { $( Code::$name => Severity::$sev, )* }
             }
@@ -29,6 +33,7 @@ macro_rules! codes {
             pub fn summary(self) -> &'static str {
                 match self { $( Code::$name => $summary, )* }
             }
+            /// The code spelt `s` exactly (upper case), `None` if the registry has none.
             pub fn parse(s: &str) -> Option<Code> {
                 match s { $( stringify!($name) => Some(Code::$name), )* _ => None }
             }

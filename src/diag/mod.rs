@@ -24,11 +24,15 @@ pub mod policy;
 
 pub use codes::Code;
 
+/// How bad a finding is; ordered, so `max` is the worst.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
+    /// Worth knowing; never fails a run.
     Info,
+    /// Probably wrong; fails a run under `--deny-warnings`.
     Warning,
+    /// The output would be wrong or missing; the exit code is 1.
     Error,
 }
 
@@ -46,40 +50,50 @@ impl fmt::Display for Severity {
 /// is known.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Location {
+    /// The file the finding is in (`None`: not about a file, e.g. a bad option).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<PathBuf>,
+    /// The node's slash-separated path, as in the designer's outliner.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub node: Option<String>,
+    /// Where in the file: JSON pointer, line or USD prim.
     #[serde(flatten)]
     pub source: SourceRef,
+    /// A world point (m) the problem is at, for the debug outputs and viewer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub position: Option<[f64; 3]>,
 }
 
 impl Location {
+    /// A location naming only `file`; the `with_*` builders add the rest.
     pub fn file(file: impl Into<PathBuf>) -> Self {
         Location {
             file: Some(file.into()),
             ..Default::default()
         }
     }
-    pub fn with_source(mut self, source: SourceRef) -> Self {
+    /// Adds where in the file (pointer, line or prim).
+    pub(crate) fn with_source(mut self, source: SourceRef) -> Self {
         self.source = source;
         self
     }
+    /// Adds a JSON pointer into the glTF document (`/nodes/3`).
     pub fn with_pointer(mut self, pointer: impl Into<String>) -> Self {
         self.source.pointer = Some(pointer.into());
         self
     }
+    /// Adds a 1-based line of a text file.
     pub fn with_line(mut self, line: usize) -> Self {
         self.source.line = Some(line);
         self
     }
-    pub fn with_node(mut self, node: impl Into<String>) -> Self {
+    /// Adds the node path.
+    pub(crate) fn with_node(mut self, node: impl Into<String>) -> Self {
         self.node = Some(node.into());
         self
     }
-    pub fn with_position(mut self, p: [f64; 3]) -> Self {
+    /// Adds a world point (m).
+    pub(crate) fn with_position(mut self, p: [f64; 3]) -> Self {
         self.position = Some(p);
         self
     }
@@ -119,12 +133,18 @@ impl fmt::Display for Location {
     }
 }
 
+/// One finding: a stable code, how bad, what and where, and what to do about it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Diagnostic {
+    /// Stable across releases; what `--ignore` and the config's `[check]` name.
     pub code: Code,
+    /// The code's default unless a policy changed it.
     pub severity: Severity,
+    /// One sentence naming the items involved.
     pub message: String,
+    /// Where the designer should look.
     pub location: Location,
+    /// What to do about it, when there is something to suggest.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub hint: Option<String>,
 }
@@ -140,10 +160,12 @@ impl Diagnostic {
             hint: None,
         }
     }
+    /// Adds what to do about it.
     pub fn hint(mut self, hint: impl Into<String>) -> Self {
         self.hint = Some(hint.into());
         self
     }
+    /// Whether it fails the run.
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }
@@ -171,24 +193,31 @@ impl std::error::Error for Diagnostic {}
 pub struct Diagnostics(pub Vec<Diagnostic>);
 
 impl Diagnostics {
+    /// Adds one, after those already there.
     pub fn push(&mut self, d: Diagnostic) {
         self.0.push(d);
     }
+    /// Adds several, in their order.
     pub fn extend(&mut self, other: impl IntoIterator<Item = Diagnostic>) {
         self.0.extend(other);
     }
+    /// In the order they were reported (stage order).
     pub fn iter(&self) -> std::slice::Iter<'_, Diagnostic> {
         self.0.iter()
     }
+    /// How many there are.
     pub fn len(&self) -> usize {
         self.0.len()
     }
+    /// True when nothing was reported.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
+    /// How many have `severity`.
     pub fn count(&self, severity: Severity) -> usize {
         self.0.iter().filter(|d| d.severity == severity).count()
     }
+    /// Whether any would fail the run.
     pub fn has_errors(&self) -> bool {
         self.0.iter().any(Diagnostic::is_error)
     }

@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 
 use super::{Code, Diagnostic, Severity};
 
+/// The user's changes to the default severities: ignored codes and per-code severities.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Policy {
     ignore: Vec<Code>,
@@ -19,7 +20,8 @@ pub fn parse_code(s: &str) -> Result<Code, String> {
     })
 }
 
-pub fn parse_severity(s: &str) -> Result<Severity, String> {
+/// `error`, `warning` or `info` (any case).
+pub(crate) fn parse_severity(s: &str) -> Result<Severity, String> {
     match s.trim().to_ascii_lowercase().as_str() {
         "error" => Ok(Severity::Error),
         "warning" | "warn" => Ok(Severity::Warning),
@@ -39,12 +41,14 @@ pub fn parse_override(s: &str) -> Result<(Code, Severity), String> {
 }
 
 impl Policy {
+    /// Drops every diagnostic with `code`.
     pub fn ignore(&mut self, code: Code) {
         if !self.ignore.contains(&code) {
             self.ignore.push(code);
         }
     }
 
+    /// Reports `code` at `severity` instead of its default.
     pub fn set(&mut self, code: Code, severity: Severity) {
         self.severity.insert(code, severity);
     }

@@ -33,15 +33,22 @@ pub struct DebugExtras {
 /// portal has several (a closed mirror is shown as closed, because it passes nothing).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PortalStyle {
+    /// Two-way and open.
     Plain,
+    /// Passes sight one way only.
     OneWay,
+    /// Opens onto the outside (no target cell).
     Exterior,
+    /// Reflects back into its own cell.
     Mirror,
+    /// Leads to its exit elsewhere in the level.
     Teleporter,
+    /// A closed door: passes nothing until opened.
     Closed,
 }
 
 impl PortalStyle {
+    /// Every style, in legend order.
     pub const ALL: [PortalStyle; 6] = [
         PortalStyle::Plain,
         PortalStyle::OneWay,
@@ -51,6 +58,7 @@ impl PortalStyle {
         PortalStyle::Closed,
     ];
 
+    /// The style `p` is drawn in; the first matching property wins (closed first).
     pub fn of(p: &Portal) -> PortalStyle {
         if p.closed {
             PortalStyle::Closed
@@ -79,6 +87,7 @@ impl PortalStyle {
         }
     }
 
+    /// The legend's word for the style.
     pub fn label(self) -> &'static str {
         match self {
             PortalStyle::Plain => "plain two-way",

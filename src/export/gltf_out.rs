@@ -18,9 +18,12 @@ use crate::diag::{Code, Diagnostic, Location};
 use crate::format::Annotation;
 use crate::scene::{GltfSource, NodeId, Scene};
 
+/// The glTF container written (a path's is decided by [`super::Target::from_path`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutFormat {
+    /// JSON text; the input's BIN chunk and the PVS blob become data: URIs.
     Gltf,
+    /// Binary: the JSON and every buffer joined into one BIN chunk.
     Glb,
 }
 

@@ -41,7 +41,7 @@
 //! same rooms, cells and portals, and output bytes repeat for the same input.
 
 pub mod atomic;
-pub mod bake;
+pub(crate) mod bake;
 pub(crate) mod container;
 pub mod debug;
 pub mod gltf_out;
@@ -49,7 +49,7 @@ pub mod gltf_out;
 mod oracle;
 pub(crate) mod parallel;
 pub(crate) mod rewrite;
-pub mod sink;
+pub(crate) mod sink;
 pub mod svg;
 pub mod target;
 pub(crate) mod transcode;

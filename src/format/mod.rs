@@ -3,15 +3,15 @@
 //! cell, no empty arrays). Documented in schemas/PORTCULLIS_portals.md and checked against
 //! schemas/PORTCULLIS_portals.schema.json.
 //!
-//! This module owns the format: its records ([`records`], one struct per schema object that
+//! This module owns the format: its records (`records`, one struct per schema object that
 //! both reads and writes), how an annotation is built and serialized from a level
 //! ([`write`]), read back and validated ([`read`]), how the PVS is encoded ([`visibility`])
-//! and the input hash that tells a stale annotation ([`hash`]). The exporters, the checks of
+//! and the input hash that tells a stale annotation (`hash`). The exporters, the checks of
 //! stored annotations and the runtime all go through it.
 
-pub mod hash;
+pub(crate) mod hash;
 pub mod read;
-pub mod records;
+pub(crate) mod records;
 pub mod visibility;
 pub mod write;
 

@@ -16,7 +16,7 @@ pub struct Annotated {
     pub version: u64,
     /// `portcullis` and the version that wrote it.
     pub generator: String,
-    /// The input hash ([`super::hash`]): `definition:hex`.
+    /// The input hash (`format/hash.rs`): `definition:hex`.
     pub input_hash: String,
     /// The distance tolerance the level was built with, in metres.
     pub tolerance: f64,

@@ -22,11 +22,14 @@ const LISTS_UP_TO: usize = 16;
 
 /// What the glTF writer stores: the JSON object, and the bytes its `bufferView` points at.
 pub struct Encoded {
+    /// The `visibility` object as stored in the extension.
     pub json: Value,
+    /// The bytes of its `bufferView`; `None` when the lists are inline.
     pub blob: Option<Vec<u8>>,
 }
 
-pub fn row_bytes(pvs: &Pvs, c: usize) -> Vec<u8> {
+/// One PVS row as a little-endian bit string, `ceil(cells / 8)` bytes.
+pub(crate) fn row_bytes(pvs: &Pvs, c: usize) -> Vec<u8> {
     let n = pvs.cells().div_ceil(8);
     let mut out = vec![0u8; n];
     for v in pvs.visible(c) {
@@ -35,7 +38,8 @@ pub fn row_bytes(pvs: &Pvs, c: usize) -> Vec<u8> {
     out
 }
 
-pub fn zero_run(bytes: &[u8]) -> Vec<u8> {
+/// `bytes` with runs of zero bytes compressed (Quake's PVS row encoding).
+pub(crate) fn zero_run(bytes: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < bytes.len() {
@@ -55,7 +59,7 @@ pub fn zero_run(bytes: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Undoes [`zero_run`]; `None` if the data is cut short.
+/// Undoes `zero_run`; `None` if the data is cut short.
 pub fn zero_run_decode(data: &[u8], expected: usize) -> Option<Vec<u8>> {
     let mut out = Vec::with_capacity(expected);
     let mut i = 0;

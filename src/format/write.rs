@@ -29,6 +29,7 @@ pub struct Annotation<'a> {
     /// here: they are serialized straight from the level ([`Annotation::json`]), since as a
     /// JSON tree they took ten times the room of their text on a big level.
     pub root: Value,
+    /// Per glTF node index, that node's extension object.
     pub nodes: Vec<(usize, Value)>,
     /// Bytes for a buffer view the root refers to (`visibility.bufferView`), appended by the
     /// writer, which sets the index.

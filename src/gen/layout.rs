@@ -34,17 +34,24 @@ pub struct Door {
     pub side: Side,
 }
 
+/// A generated building: a grid of rooms on storeys, with doors and windows.
 #[derive(Debug, Clone)]
 pub struct Layout {
+    /// Floors stacked `STOREY` apart.
     pub storeys: usize,
+    /// Grid cells along x.
     pub cols: usize,
+    /// Grid cells along z.
     pub rows: usize,
     /// Grid lines (m): `cols + 1` in x, `rows + 1` in z.
     pub xs: Vec<f64>,
+    /// Grid lines (m) in z: `rows + 1` of them.
     pub zs: Vec<f64>,
+    /// The rooms, each a rectangle of grid cells on one storey.
     pub rooms: Vec<RoomPlan>,
     /// Per storey, the room of each cell (`row * cols + col`), if any.
     pub cell_room: Vec<Vec<Option<usize>>>,
+    /// Doors between neighbouring rooms (each becomes a portal pair).
     pub doors: Vec<Door>,
     /// Outer-wall edges with a window: (room, cell, side).
     pub windows: Vec<(usize, (usize, usize), Side)>,
@@ -70,6 +77,7 @@ impl Side {
 }
 
 impl Layout {
+    /// A layout of `rooms` rooms; the same `seed` gives the same building.
     pub fn new(rooms: usize, seed: u64) -> Layout {
         let mut rng = Rng::new(seed);
         // Storeys grow slowly with the room count: 2 for 10 rooms, 4 for 100, 8 for 1 000,

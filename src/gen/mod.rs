@@ -51,6 +51,7 @@ impl Default for GenOptions {
 pub const STOREY: f64 = 3.0;
 /// Door size (m).
 pub const DOOR_WIDTH: f64 = 1.0;
+/// Door height (m).
 pub const DOOR_HEIGHT: f64 = 2.1;
 
 pub(crate) use crate::rng::SplitMix64 as Rng;

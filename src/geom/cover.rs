@@ -308,6 +308,7 @@ fn open_somewhere<R: AsRef<[DVec2]>>(
 
 /// The area of `region` not covered by `covers` (see [`Remainder`]), or `None` when it would
 /// take too many pieces to tell. Pieces below `sliver` are dropped and counted.
+#[cfg(test)]
 pub fn uncovered_area<'a>(
     region: &[DVec2],
     covers: impl IntoIterator<Item = &'a [DVec2]>,

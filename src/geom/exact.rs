@@ -19,6 +19,8 @@ pub struct ExactVertices {
 }
 
 impl ExactVertices {
+    /// Remembers `points` by their node on a grid of spacing `grid` (the boolean's), the first
+    /// point on a node winning, so a grid vertex gets its exact input coordinates back.
     pub fn new(points: impl Iterator<Item = DVec2>, grid: f64) -> Self {
         let mut map = HashMap::with_hasher(Default::default());
         for (i, p) in points.enumerate() {

@@ -113,10 +113,6 @@ impl BoxGrid {
         )
     }
 
-    pub fn boxes(&self) -> &[Aabb] {
-        &self.boxes
-    }
-
     /// Indices of the boxes that meet `b` grown by `pad` on every side, ascending.
     pub fn query(&self, b: &Aabb, pad: f64) -> Vec<usize> {
         self.query_by(b, pad, |i| self.boxes[i])

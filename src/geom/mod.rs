@@ -21,17 +21,17 @@
 //! than eps² has no opening.
 
 pub mod aabb;
-pub mod boolean2;
-pub mod cover;
-pub mod exact;
-pub mod grid;
-pub mod hull;
+pub(crate) mod boolean2;
+pub(crate) mod cover;
+pub(crate) mod exact;
+pub(crate) mod grid;
+pub(crate) mod hull;
 pub mod partition;
 pub mod plane;
 pub mod polyhedron;
-pub mod ray_mesh;
+pub(crate) mod ray_mesh;
 pub mod tolerance;
-pub mod triangulate;
+pub(crate) mod triangulate;
 
 /// Shapes the geometry tests share.
 #[cfg(test)]

@@ -32,7 +32,9 @@ use spade::{
 /// A polygon with holes: outer ring counter-clockwise, holes clockwise, no repeated closing vertex.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Polygon2 {
+    /// The boundary, counter-clockwise.
     pub outer: Vec<DVec2>,
+    /// Holes, each clockwise and inside `outer`.
     pub holes: Vec<Vec<DVec2>>,
 }
 

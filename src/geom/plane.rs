@@ -3,9 +3,12 @@
 use glam::DVec3;
 use serde::Serialize;
 
+/// A plane `normal · p = d`; the positive side is the one `normal` points to.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Plane {
+    /// Unit length.
     pub normal: DVec3,
+    /// Signed distance of the plane from the origin along `normal` (m).
     pub d: f64,
 }
 
@@ -40,13 +43,15 @@ impl Plane {
         self.normal.dot(p) - self.d
     }
 
-    pub fn flipped(&self) -> Plane {
+    /// The same plane facing the other way.
+    pub(crate) fn flipped(&self) -> Plane {
         Plane {
             normal: -self.normal,
             d: -self.d,
         }
     }
 
+    /// The plane moved by `t`.
     pub fn translated(&self, t: DVec3) -> Plane {
         Plane {
             normal: self.normal,

@@ -12,6 +12,7 @@ use serde::Serialize;
 use super::aabb::Aabb;
 use super::plane::Plane;
 
+/// One face of a convex polyhedron.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Face {
     /// Outward plane.
@@ -20,12 +21,15 @@ pub struct Face {
     pub points: Vec<DVec3>,
 }
 
+/// A convex solid given by its faces; a cell's volume.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ConvexPolyhedron {
+    /// The boundary: the solid is the points behind every face's plane.
     pub faces: Vec<Face>,
 }
 
 impl ConvexPolyhedron {
+    /// The box as a polyhedron (six faces).
     pub fn from_aabb(b: &Aabb) -> ConvexPolyhedron {
         let (lo, hi) = (b.min, b.max);
         let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
@@ -115,6 +119,7 @@ impl ConvexPolyhedron {
         bounded.then_some(p)
     }
 
+    /// The faces' outward planes: a point is inside when it is behind all of them.
     pub fn planes(&self) -> impl Iterator<Item = &Plane> {
         self.faces.iter().map(|f| &f.plane)
     }
@@ -132,6 +137,7 @@ impl ConvexPolyhedron {
         out
     }
 
+    /// The box around the vertices.
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(self.faces.iter().flat_map(|f| f.points.iter()))
     }
@@ -146,6 +152,7 @@ impl ConvexPolyhedron {
         sum / n.max(1) as f64
     }
 
+    /// Cubic metres.
     pub fn volume(&self) -> f64 {
         let c = self.interior_point();
         let mut v = 0.0;
@@ -168,6 +175,7 @@ impl ConvexPolyhedron {
         self.faces.iter().all(|f| f.plane.distance(p) < -eps)
     }
 
+    /// The solid moved by `t`.
     pub fn translated(&self, t: DVec3) -> ConvexPolyhedron {
         ConvexPolyhedron {
             faces: self

@@ -17,6 +17,7 @@ pub const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
 /// Default angle tolerance, radians.
 pub const DEFAULT_ANGLE: f64 = 1e-5;
 
+/// How close is "the same" for one level, from the precision its file stored.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Tolerance {
     /// Points closer than this are the same point; a point closer than this to a plane is on it.

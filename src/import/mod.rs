@@ -41,7 +41,9 @@ impl Default for ImportOptions {
 /// A successfully read scene and what was noticed while reading it.
 #[derive(Debug, Clone)]
 pub struct Imported {
+    /// The level as read.
     pub scene: Scene,
+    /// What was noticed while reading (dropped triangles, unsupported features).
     pub diagnostics: Diagnostics,
 }
 
@@ -110,6 +112,7 @@ fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
     std::fs::read(path)
 }
 
+/// Reads the level at `path`, its format told by the extension; the stages start here.
 pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic> {
     let format = format_from_path(path).ok_or_else(|| {
         Diagnostic::new(

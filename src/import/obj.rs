@@ -31,6 +31,7 @@ const MAX_REPORTED: usize = 20;
 /// Longest statement text quoted back in a message.
 const MAX_QUOTE: usize = 60;
 
+/// Reads an OBJ from `bytes`; `path` names it in diagnostics.
 pub fn import(
     bytes: &[u8],
     path: &Path,

@@ -62,6 +62,7 @@ fn unsupported_build(path: &Path) -> Diagnostic {
     ))
 }
 
+/// Without the `usd` feature: an error saying how to get USD support.
 #[cfg(not(feature = "usd"))]
 pub fn import(path: &Path, _opts: &ImportOptions) -> Result<Imported, Diagnostic> {
     Err(unsupported_build(path))

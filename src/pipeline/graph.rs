@@ -10,8 +10,11 @@ use super::LoadOptions;
 
 /// A graph ready for [`crate::vis::compute`] and what reading it reported.
 pub struct Loaded {
+    /// The cells and portals as the PVS methods read them.
     pub graph: VisGraph,
+    /// What reading, tagging and building reported, in stage order.
     pub diagnostics: Diagnostics,
+    /// The configuration that applies to the input (its `[vis]` settings above all).
     pub config: crate::config::Config,
     /// The transform depth bound for this input (configured, else the loop check's).
     pub transform_depth: usize,
@@ -22,8 +25,11 @@ pub struct Loaded {
 
 /// A level as built for its graph.
 pub struct Built {
+    /// The level read and tagged.
     pub tagged: crate::level::Tagged,
+    /// Its cells.
     pub cells: crate::cells::CellSet,
+    /// Its portals, which the graph was made from.
     pub portals: crate::portals::PortalSet,
 }
 

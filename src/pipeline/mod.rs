@@ -26,6 +26,7 @@ pub struct LoadOptions {
     pub preset: Option<String>,
     /// `--config FILE`: else `portcullis.toml` next to the input, else built-in defaults.
     pub config: Option<PathBuf>,
+    /// How the importers read the file (OBJ names, the USD environment).
     pub import: ImportOptions,
 }
 

@@ -30,6 +30,7 @@ pub mod loops;
 mod opaque;
 pub use opaque::blocking_triangles;
 
+/// A convex opening from one cell into another (or the outside), one way.
 #[derive(Debug, Clone, Serialize)]
 pub struct Portal {
     /// Source cell.
@@ -40,9 +41,13 @@ pub struct Portal {
     pub polygon: Vec<DVec3>,
     /// Unit direction of travel, from the source into the target.
     pub normal: DVec3,
+    /// Square metres.
     pub area: f64,
+    /// Plain opening, mirror or teleporter.
     pub kind: PortalKind,
+    /// Sight passes from `from` to `to` only; no partner the other way.
     pub one_way: bool,
+    /// A closed door: passes nothing until the runtime opens it.
     pub closed: bool,
     /// Between two cells of one room (a split room's cells are joined by these).
     pub internal: bool,
@@ -85,9 +90,12 @@ impl Portal {
     }
 }
 
+/// The portals stage's output: every portal between the cells, and what it reported.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct PortalSet {
+    /// All portals; a portal's index is its id in the vis graph and the annotation.
     pub portals: Vec<Portal>,
+    /// What the portals stage reported (unmatched, misplaced, non-convex portals).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
     /// Each cell's place in an order that does not depend on the order the rooms were listed

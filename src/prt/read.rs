@@ -9,14 +9,19 @@ use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::plane::Plane;
 use crate::vis::{VisGraph, VisPortal};
 
+/// Which dialect of the Quake portal file a `.prt` is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PrtFormat {
+    /// Quake's: one leaf per cell.
     Prt1,
+    /// Quake 2's clusters: leaves grouped into the cells of the graph.
     Prt2,
+    /// PRT1 with clusters: a leaf-to-cluster table, the portal lines naming clusters.
     Prt1Am,
 }
 
 impl PrtFormat {
+    /// The file's first line for this format.
     pub fn header(self) -> &'static str {
         match self {
             PrtFormat::Prt1 => "PRT1",
@@ -26,23 +31,29 @@ impl PrtFormat {
     }
 }
 
+/// One portal line: a polygon between two cells.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrtPortal {
     /// The cell the plane faces into.
     pub a: usize,
+    /// The cell on the plane's back side.
     pub b: usize,
+    /// The polygon's vertices, as written.
     pub points: Vec<DVec3>,
     /// 1-based line in the file.
     pub line: usize,
 }
 
+/// A parsed `.prt`: a portal graph without geometry for the cells.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PrtFile {
+    /// The dialect the header named.
     pub format: PrtFormat,
     /// Cells of the graph: clusters for PRT2 and PRT1-AM.
     pub cells: usize,
     /// Leaves (PRT2, PRT1-AM); equal to `cells` for PRT1.
     pub leaves: usize,
+    /// In file order.
     pub portals: Vec<PrtPortal>,
     /// PRT2, PRT1-AM: the cluster of each leaf.
     pub leaf_cluster: Vec<usize>,

@@ -11,6 +11,7 @@ use std::fmt::Write;
 use super::style::Style;
 use crate::diag::Diagnostic;
 
+/// One finding as the terminal shows it: severity, code, message, location and hint.
 pub fn diagnostic(d: &Diagnostic, style: &Style) -> String {
     let mut s = String::new();
     let _ = write!(
@@ -30,6 +31,7 @@ pub fn diagnostic(d: &Diagnostic, style: &Style) -> String {
     s
 }
 
+/// Several findings, each as [`diagnostic`] shows it.
 pub fn diagnostics<'a>(ds: impl IntoIterator<Item = &'a Diagnostic>, style: &Style) -> String {
     ds.into_iter()
         .map(|d| diagnostic(d, style) + "\n")

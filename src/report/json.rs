@@ -6,6 +6,7 @@ use serde_json::{json, Value};
 use super::file::FileReport;
 use super::Totals;
 
+/// The `--format json` report: every file's findings and the totals.
 pub fn report(files: &[FileReport], totals: &Totals) -> Value {
     json!({
         "tool": { "name": "portcullis", "version": env!("CARGO_PKG_VERSION") },

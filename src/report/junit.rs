@@ -26,6 +26,7 @@ fn esc(s: &str) -> String {
     out
 }
 
+/// The `--format junit` report: one test case per file, failed by errors (warnings if denied).
 pub fn report(files: &[FileReport], deny_warnings: bool) -> String {
     let fails = |f: &FileReport| {
         !f.failed

@@ -24,17 +24,22 @@ use crate::diag::{Diagnostic, Severity};
 /// Counts over a run, for the closing summary line and the exit code.
 #[derive(Debug, Clone, Copy, Default, Serialize, PartialEq, Eq)]
 pub struct Totals {
+    /// Files looked at, failed or not.
     pub files: usize,
     /// Files that could not be processed at all (in JSON `unprocessed`: a `"failed": 0`
     /// beside a level's errors read as if nothing had failed).
     #[serde(rename = "unprocessed")]
     pub failed: usize,
+    /// Error findings over all files.
     pub errors: usize,
+    /// Warning findings over all files.
     pub warnings: usize,
+    /// Info findings over all files.
     pub infos: usize,
 }
 
 impl Totals {
+    /// Counts `diags` by severity.
     pub fn add<'a>(&mut self, diags: impl IntoIterator<Item = &'a Diagnostic>) {
         for d in diags {
             match d.severity {
@@ -56,6 +61,7 @@ impl Totals {
         }
     }
 
+    /// The closing summary line (`2 files: 1 error, 3 warnings`).
     pub fn line(&self) -> String {
         let plural = |n: usize, w: &str| format!("{n} {w}{}", if n == 1 { "" } else { "s" });
         let mut s = format!(

@@ -102,6 +102,7 @@ fn result(d: &Diagnostic, artifact: usize, file: &Path) -> Value {
     r
 }
 
+/// The `--format sarif` report (SARIF 2.1.0), for code-scanning services.
 pub fn report(files: &[FileReport]) -> Value {
     let artifacts: Vec<Value> = files
         .iter()

@@ -4,12 +4,15 @@ use std::io::IsTerminal;
 
 use crate::diag::Severity;
 
+/// Whether terminal output is coloured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Style {
+    /// ANSI colours on (a terminal, and `NO_COLOR` unset).
     pub color: bool,
 }
 
 impl Style {
+    /// No colours: for files, pipes and tests.
     pub fn plain() -> Style {
         Style { color: false }
     }
@@ -41,12 +44,15 @@ impl Style {
             s.to_string()
         }
     }
+    /// `s` in bold when colour is on.
     pub fn bold(&self, s: &str) -> String {
         self.paint("1", s)
     }
+    /// `s` dimmed when colour is on.
     pub fn dim(&self, s: &str) -> String {
         self.paint("2", s)
     }
+    /// The severity's word in its colour.
     pub fn severity(&self, sev: Severity) -> String {
         let code = match sev {
             Severity::Error => "1;31",

@@ -15,8 +15,11 @@ use crate::vis::Pvs;
 /// Why a level cannot be loaded: what, where, and what to do.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoadError {
+    /// The file that could not be loaded.
     pub path: PathBuf,
+    /// What is wrong, for the player-facing log.
     pub message: String,
+    /// What to do about it (reconvert the level, check the path).
     pub hint: &'static str,
     /// The file itself could not be read (as opposed to read and found unusable).
     pub unreadable: bool,

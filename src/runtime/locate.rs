@@ -13,7 +13,10 @@ pub enum Location {
     /// Within the tolerance of the cell's boundary (a wall, or a portal into another cell).
     Boundary(usize),
     /// In no cell; `nearest` is the cell closest to the point.
-    Outside { nearest: Option<usize> },
+    Outside {
+        /// The closest cell (`None` only for a level without cells).
+        nearest: Option<usize>,
+    },
 }
 
 impl Default for Location {

@@ -66,8 +66,11 @@ use clip::Half;
 /// What kind of opening a portal is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
+    /// An opening: the view passes straight through.
     Plain,
+    /// Reflects the view back into its own cell.
     Mirror,
+    /// The view continues from the exit portal's side, transformed.
     Teleporter,
 }
 
@@ -425,6 +428,7 @@ impl Doors {
         }
     }
 
+    /// Whether portal `p` is closed now (out-of-range `p`: false).
     pub fn is_closed(&self, p: usize) -> bool {
         self.closed.get(p).copied().unwrap_or(false)
     }

@@ -86,6 +86,7 @@ impl View {
         })
     }
 
+    /// The eye's world position (m).
     pub fn eye(&self) -> DVec3 {
         self.eye
     }
@@ -206,6 +207,7 @@ struct Step {
 pub struct Trace {
     /// Where the eye was found.
     pub location: Location,
+    /// What the trace cost: cells entered, portals tested and why portals were skipped.
     pub stats: Stats,
     visible: Vec<Visible>,
     via: Vec<u32>,

@@ -34,7 +34,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat4, DVec3};
 use serde::Serialize;
 
-pub mod json_text;
+pub(crate) mod json_text;
 pub mod summary;
 
 /// Index into [`Scene::nodes`].
@@ -48,13 +48,18 @@ pub type MaterialId = usize;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Format {
+    /// glTF JSON (`.gltf`), buffers inline or beside it.
     Gltf,
+    /// Binary glTF (`.glb`).
     Glb,
+    /// Wavefront OBJ.
     Obj,
+    /// USD (`.usd`, `.usda`, `.usdc`, `.usdz`), read through the `usd` feature.
     Usd,
 }
 
 impl Format {
+    /// The lower-case name used in reports and JSON (`gltf`, `glb`, `obj`, `usd`).
     pub fn name(self) -> &'static str {
         match self {
             Format::Gltf => "gltf",
@@ -140,12 +145,14 @@ pub struct SourceRef {
 }
 
 impl SourceRef {
+    /// A place given by a JSON pointer only.
     pub fn pointer(p: impl Into<String>) -> Self {
         SourceRef {
             pointer: Some(p.into()),
             ..Default::default()
         }
     }
+    /// A place given by a 1-based line only.
     pub fn line(l: usize) -> Self {
         SourceRef {
             line: Some(l),
@@ -154,44 +161,63 @@ impl SourceRef {
     }
 }
 
+/// One node of the scene tree: a transform, maybe a mesh, and the names tags read.
 #[derive(Debug, Clone)]
 pub struct Node {
+    /// As the designer wrote it in the DCC tool; tags read it, reports show it.
     pub name: Option<String>,
+    /// `None` for a root.
     pub parent: Option<NodeId>,
+    /// In file order.
     pub children: Vec<NodeId>,
     /// Local-to-world transform (column vectors, glTF convention).
     pub world: DMat4,
+    /// The mesh it draws (shared with other nodes when instanced).
     pub mesh: Option<MeshId>,
     /// The item's extras (glTF `extras`, USD custom data/attributes) as parsed JSON.
     pub extras: Option<serde_json::Value>,
+    /// Where the node is in the file.
     pub source: SourceRef,
 }
 
 /// A run of triangles sharing one material (a glTF primitive, an OBJ `usemtl` span).
 #[derive(Debug, Clone)]
 pub struct Primitive {
+    /// `None`: the triangles have no material.
     pub material: Option<MaterialId>,
     /// Range into [`Mesh::triangles`].
     pub first_triangle: usize,
+    /// How many triangles from `first_triangle`.
     pub triangle_count: usize,
+    /// Where the primitive is in the file.
     pub source: SourceRef,
 }
 
+/// Triangles in mesh-local space, stored once however many nodes draw them.
 #[derive(Debug, Clone)]
 pub struct Mesh {
+    /// The mesh's own name (not its node's), if the file gave one.
     pub name: Option<String>,
     /// Mesh-local positions.
     pub positions: Vec<DVec3>,
+    /// Indices into `positions`, all in range.
     pub triangles: Vec<[u32; 3]>,
+    /// The material runs covering `triangles`.
     pub primitives: Vec<Primitive>,
+    /// The mesh's extras, as parsed JSON.
     pub extras: Option<serde_json::Value>,
+    /// Where the mesh is in the file.
     pub source: SourceRef,
 }
 
+/// A material: tags may match its name or extras.
 #[derive(Debug, Clone)]
 pub struct Material {
+    /// As the designer named it.
     pub name: Option<String>,
+    /// The material's extras, as parsed JSON.
     pub extras: Option<serde_json::Value>,
+    /// Where the material is in the file.
     pub source: SourceRef,
 }
 
@@ -279,12 +305,16 @@ impl TextInFile {
 /// the pipeline (on a big level it is half the file and a seventh of the peak memory).
 #[derive(Debug, Clone)]
 pub struct BinInFile {
+    /// The input file the chunk is in.
     pub path: PathBuf,
+    /// Where the chunk's bytes start in the file.
     pub offset: u64,
+    /// The chunk's length in bytes.
     pub len: usize,
     /// The file as it was read (length, modification time): if it differs at export, the
     /// chunk is not read back from a changed file.
     pub file_len: u64,
+    /// The file's modification time when read, if the platform gives one.
     pub modified: Option<std::time::SystemTime>,
     /// True once buffer 0 was emptied.
     pub released: bool,
@@ -443,21 +473,29 @@ impl GltfSource {
     }
 }
 
+/// A level as read from any format: a node tree, meshes and materials (see the module).
 #[derive(Debug, Clone)]
 pub struct Scene {
     /// The file the scene was read from (`-` for standard input).
     pub path: PathBuf,
+    /// The format it was read from.
     pub format: Format,
+    /// All nodes; a [`NodeId`] indexes it.
     pub nodes: Vec<Node>,
+    /// The top-level nodes, in file order.
     pub roots: Vec<NodeId>,
+    /// All meshes; a [`MeshId`] indexes it.
     pub meshes: Vec<Mesh>,
+    /// All materials; a [`MaterialId`] indexes it.
     pub materials: Vec<Material>,
+    /// The original glTF document and buffers (glTF and GLB input only).
     pub gltf: Option<GltfSource>,
     /// How finely the file stored the mesh positions.
     pub precision: Precision,
 }
 
 impl Scene {
+    /// An empty scene read from `path`.
     pub fn new(path: PathBuf, format: Format) -> Self {
         Scene {
             path,
@@ -604,6 +642,7 @@ impl Scene {
 /// A node's winding in world space, from [`Scene::winding`].
 #[derive(Debug, Clone, Copy)]
 pub struct Winding {
+    /// The transform's determinant is negative, so triangles flip their winding.
     pub mirrored: bool,
 }
 

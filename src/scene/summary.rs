@@ -6,27 +6,38 @@ use serde::Serialize;
 use super::{Format, Scene};
 use crate::geom::aabb::Aabb;
 
+/// The world-space box around every mesh node (m).
 #[derive(Debug, Clone, Serialize)]
 pub struct Bounds {
+    /// Least corner.
     pub min: [f64; 3],
+    /// Greatest corner.
     pub max: [f64; 3],
+    /// `max - min`.
     pub size: [f64; 3],
 }
 
+/// What `inspect` says about a scene before any tags apply.
 #[derive(Debug, Clone, Serialize)]
 pub struct SceneSummary {
+    /// The file format it was read from.
     pub format: Format,
+    /// All nodes, mesh or not.
     pub nodes: usize,
+    /// Nodes that draw a mesh.
     pub mesh_nodes: usize,
     /// Distinct meshes (an instanced mesh counts once).
     pub meshes: usize,
     /// Triangles drawn, each instance counted.
     pub triangles: usize,
+    /// `None` for a scene without geometry.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bounds: Option<Bounds>,
+    /// Material names (unnamed ones as `#index`).
     pub materials: Vec<String>,
 }
 
+/// Counts, bounds and material names of `scene`.
 pub fn summarize(scene: &Scene) -> SceneSummary {
     let order = scene.walk();
     let mut bounds = Aabb::EMPTY;

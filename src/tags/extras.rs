@@ -31,6 +31,7 @@ fn descend<'a>(mut v: &'a Value, key: &str) -> Option<&'a Value> {
     Some(v)
 }
 
+/// The value at `key` (dots descend into objects), read as a tag would use it.
 pub fn read(extras: Option<&Value>, key: &str) -> ExtrasValue {
     let Some(v) = extras.and_then(|e| lookup(e, key)) else {
         return ExtrasValue::Off;

@@ -17,8 +17,8 @@ use serde::Serialize;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{NodeId, Scene};
 
-pub mod extras;
-pub mod near_miss;
+pub(crate) mod extras;
+pub(crate) mod near_miss;
 pub mod presets;
 pub mod rules;
 mod suggest;
@@ -29,20 +29,27 @@ use rules::{MatchOn, PortalKind, RuleMatch, RuleSet, TagKind, VolumeHint};
 /// Index into [`Tagging::rooms`].
 pub type RoomId = usize;
 
+/// A node a tag put in a list, with the path reports show for it.
 #[derive(Debug, Clone, Serialize)]
 pub struct NodeRef {
+    /// Index into the scene's nodes.
     pub node: NodeId,
+    /// Slash-separated names from the root, as in the designer's outliner.
     pub path: String,
 }
 
+/// A room: what the designer declared, and the nodes that make it up.
 #[derive(Debug, Clone, Serialize)]
 pub struct Room {
+    /// As the designer wrote it (after the rule's template); portals and reports name it so.
     pub name: String,
     /// The node that declared the room.
     pub node: NodeId,
+    /// The declaring node's path, for reports.
     pub path: String,
     /// The rule that recognised it.
     pub rule: String,
+    /// The room group it belongs to (index into [`Tagging::room_groups`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub group: Option<usize>,
     /// Where the room's volume comes from, as far as tags can tell.
@@ -59,74 +66,114 @@ pub struct Room {
     pub footprints: Vec<NodeId>,
 }
 
+/// A group of rooms (Godot's RoomGroup): it names them together, no volume of its own.
 #[derive(Debug, Clone, Serialize)]
 pub struct RoomGroup {
+    /// The group's name, from its rule's template or else its node's name.
     pub name: String,
+    /// The node that declared the group.
     pub node: NodeId,
+    /// The rooms whose nodes are children of the group's node.
     pub rooms: Vec<RoomId>,
 }
 
+/// A portal the designer placed as a mesh: its polygon and what it says about its rooms.
 #[derive(Debug, Clone, Serialize)]
 pub struct AuthoredPortal {
+    /// The portal's node; its mesh is the portal polygon.
     pub node: NodeId,
+    /// The node's path, for reports.
     pub path: String,
+    /// The id of the rule that recognised it.
     pub rule: String,
+    /// The source room as named (extras `source_room` or the rule's template), if named.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source_name: Option<String>,
+    /// The source room: named, else the room the node sits in; `None` if neither.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source_room: Option<RoomId>,
+    /// The target room as the name or extras gave it, if given.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target_name: Option<String>,
+    /// The named target, resolved; `None`: unnamed or unknown (linked by position).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target_room: Option<RoomId>,
+    /// Plain, mirror or teleporter (extras `portal_kind`, else the rule's).
     pub kind: PortalKind,
+    /// Sight passes from source to target only (extras `one_way`, else the rule's).
     pub one_way: bool,
+    /// Starts closed, like a shut door (extras `closed`, else the rule's).
     pub closed: bool,
+    /// A teleporter's exit portal node (extras `teleport_exit`), once resolved.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub teleport_exit: Option<NodeId>,
     /// Which way the quad's front faces by its convention (out of its source room, or in).
     pub faces: rules::Facing,
 }
 
+/// A bound or footprint node and the room it gives a volume to.
 #[derive(Debug, Clone, Serialize)]
 pub struct VolumeNode {
+    /// The bound's or footprint's node.
     pub node: NodeId,
+    /// The node's path, for reports.
     pub path: String,
+    /// The id of the rule that recognised it (or its room's rule).
     pub rule: String,
+    /// The room it shapes; `None` when it is in no room and names none (reported).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub room: Option<RoomId>,
 }
 
+/// A name that looks like a tag but matches no rule, and the spelling that would.
 #[derive(Debug, Clone, Serialize)]
 pub struct NearMiss {
+    /// The node so named.
     pub node: NodeId,
+    /// The node's path, for reports.
     pub path: String,
+    /// The name as written.
     pub name: String,
+    /// What the almost-matching rule recognises.
     pub kind: TagKind,
+    /// The id of the almost-matching rule.
     pub rule: String,
+    /// The corrected name, which that rule accepts.
     pub suggestion: String,
+    /// What was wrong, in words (`letter case`, `a misspelt tag word`).
     pub slip: String,
 }
 
 /// Everything the tags said about a scene.
 #[derive(Debug, Clone, Serialize)]
 pub struct Tagging {
+    /// The rule set's name (a preset such as `godot`, or the config's own).
     pub preset: String,
+    /// Every room, in scene order; a [`RoomId`] indexes it.
     pub rooms: Vec<Room>,
+    /// Room groups, in scene order.
     pub room_groups: Vec<RoomGroup>,
+    /// Authored portals, in scene order.
     pub portals: Vec<AuthoredPortal>,
+    /// Bound-volume nodes.
     pub bounds: Vec<VolumeNode>,
+    /// Footprint nodes.
     pub footprints: Vec<VolumeNode>,
+    /// Nodes the rules say to ignore: no cell is bounded or rendered by them.
     pub ignored: Vec<NodeRef>,
+    /// Detail nodes (props) in no room, or without a mesh.
     pub detail: Vec<NodeRef>,
+    /// Where leak searches start.
     pub player_starts: Vec<NodeRef>,
     /// Structural mesh nodes in no room (the cells stage places or reports them).
     pub unassigned: Vec<NodeRef>,
+    /// Names that look like tags but match no rule (each also reported).
     pub near_misses: Vec<NearMiss>,
     /// The effective settings that shape the cells and portals (the tag rules, `[cells]`,
     /// `[portals]`), as the bytes the input hash covers; set by `pipeline::tag`.
     #[serde(skip)]
     pub settings: Vec<u8>,
+    /// What the tags stage reported.
     #[serde(skip)]
     pub diagnostics: Diagnostics,
     /// Rooms by name as the rules compare names (lower case unless case-sensitive), so a level
@@ -136,6 +183,7 @@ pub struct Tagging {
 }
 
 impl Tagging {
+    /// The room called `name` as `rules` compare names (case, wildcard).
     pub fn room_by_name(&self, rules: &RuleSet, name: &str) -> Option<RoomId> {
         match self.room_index.get(&rules.name_key(name)) {
             Some(&r) => Some(r),

@@ -12,6 +12,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("panda3d", include_str!("presets/panda3d.toml")),
 ];
 
+/// The built-in presets' names, for `--tags` and error hints.
 pub fn names() -> impl Iterator<Item = &'static str> {
     PRESETS.iter().map(|(n, _)| *n)
 }

@@ -32,6 +32,7 @@ pub enum TagKind {
 }
 
 impl TagKind {
+    /// The kind's name in configs, extras and reports (`room`, `player_start`).
     pub fn as_str(self) -> &'static str {
         match self {
             TagKind::Room => "room",
@@ -50,9 +51,12 @@ impl TagKind {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MatchOn {
+    /// The node's name.
     #[default]
     Name,
+    /// The name of a material the node's mesh uses.
     Material,
+    /// A key of the node's extras.
     Extras,
 }
 
@@ -69,24 +73,32 @@ pub enum VolumeHint {
     Bound,
 }
 
+/// Which way an authored portal quad's front faces.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Facing {
+    /// Out of its source room (Godot, LPortal).
     #[default]
     Out,
+    /// Back into its source room (Panda3D).
     In,
 }
 
+/// What a portal does to sight passing through it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PortalKind {
+    /// An opening: sight passes straight through.
     #[default]
     Plain,
+    /// Reflects sight back into the room it is in.
     Mirror,
+    /// Sight continues from its exit portal, elsewhere in the level.
     Teleporter,
 }
 
 impl PortalKind {
+    /// The kind named `s` in extras (`portal`, `door`, `mirror`, `teleport`...; any case).
     pub fn parse(s: &str) -> Option<PortalKind> {
         match s.to_ascii_lowercase().as_str() {
             "plain" | "portal" | "door" | "window" => Some(PortalKind::Plain),
@@ -103,7 +115,9 @@ impl PortalKind {
 pub struct RuleSpec {
     /// Stable identifier shown in reports, e.g. `godot.room`.
     pub id: String,
+    /// What the rule recognises.
     pub kind: TagKind,
+    /// Where the rule looks: name, material name or extras.
     #[serde(default)]
     pub on: MatchOn,
     /// Regular expression for `on = "name"` / `"material"`; named groups `name`, `target`,
@@ -124,12 +138,16 @@ pub struct RuleSpec {
     /// Template for a portal's target room.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<String>,
+    /// Portals it recognises pass sight one way.
     #[serde(default, skip_serializing_if = "is_false")]
     pub one_way: bool,
+    /// Portals it recognises start closed.
     #[serde(default, skip_serializing_if = "is_false")]
     pub closed: bool,
+    /// Portals it recognises are mirrors or teleporters (default: plain).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub portal_kind: Option<PortalKind>,
+    /// How the rooms it recognises get their volume (default: their geometry).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub volume: Option<VolumeHint>,
     /// For portal rules: which way the authored quad's front faces. `out` of its source room
@@ -149,7 +167,9 @@ fn is_false(b: &bool) -> bool {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RuleSetSpec {
+    /// The preset's or config's name, reported as the tagging's `preset`.
     pub name: String,
+    /// A line about the convention, for people reading the preset.
     #[serde(default)]
     pub description: String,
     /// Names compare case-sensitively (default: no, as Godot).
@@ -159,40 +179,44 @@ pub struct RuleSetSpec {
     /// ignored (`kitchen*2-portal` is `kitchen-portal`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub wildcard: Option<char>,
+    /// Tried in order: the first rule that matches a source decides.
     #[serde(default, rename = "rule")]
     pub rules: Vec<RuleSpec>,
 }
 
 /// A rule ready to match.
 #[derive(Debug, Clone)]
-pub struct Rule {
-    pub spec: RuleSpec,
-    pub regex: Option<Regex>,
+pub(crate) struct Rule {
+    pub(crate) spec: RuleSpec,
+    pub(crate) regex: Option<Regex>,
 }
 
 /// A compiled rule set.
 #[derive(Debug, Clone)]
 pub struct RuleSet {
+    /// As in [`RuleSetSpec::name`].
     pub name: String,
+    /// Room names compare case-sensitively.
     pub case_sensitive: bool,
+    /// As in [`RuleSetSpec::wildcard`].
     pub wildcard: Option<char>,
-    pub rules: Vec<Rule>,
+    pub(crate) rules: Vec<Rule>,
     /// The literal prefixes and suffixes of the name rules, for near misses.
-    pub affixes: Vec<super::near_miss::Affix>,
+    pub(crate) affixes: Vec<super::near_miss::Affix>,
 }
 
 /// The parts a rule pulled out of a name or extras value.
 #[derive(Debug, Clone, Default)]
-pub struct RuleMatch {
-    pub rule: usize,
-    pub room: Option<String>,
-    pub source: Option<String>,
-    pub target: Option<String>,
+pub(crate) struct RuleMatch {
+    pub(crate) rule: usize,
+    pub(crate) room: Option<String>,
+    pub(crate) source: Option<String>,
+    pub(crate) target: Option<String>,
 }
 
 /// `NAME` of `NAME.001`: a name ending in a dot and three or more digits, as Blender numbers a
 /// duplicate (`Room.12` is a name of its own).
-pub fn numbered_duplicate_stem(text: &str) -> Option<&str> {
+pub(crate) fn numbered_duplicate_stem(text: &str) -> Option<&str> {
     let (stem, digits) = text.rsplit_once('.')?;
     (!stem.is_empty() && digits.len() >= 3 && digits.bytes().all(|b| b.is_ascii_digit()))
         .then_some(stem)
@@ -254,7 +278,7 @@ impl RuleSet {
 
     /// Removes the wildcard part of a name: from the wildcard character up to the last `-`
     /// after it (the tag suffix), or to the end when no suffix follows.
-    pub fn strip_wildcard<'a>(&self, name: &'a str) -> std::borrow::Cow<'a, str> {
+    pub(crate) fn strip_wildcard<'a>(&self, name: &'a str) -> std::borrow::Cow<'a, str> {
         let Some(w) = self.wildcard else {
             return name.into();
         };
@@ -271,7 +295,7 @@ impl RuleSet {
     /// The first rule of `on` that accepts `text`, with its captures expanded. A name no rule
     /// accepts is tried again without a DCC's numbered-duplicate suffix (`portal.001`, as
     /// Blender names a copy), so copies keep the original's tag.
-    pub fn match_text(&self, on: MatchOn, text: &str) -> Option<RuleMatch> {
+    pub(crate) fn match_text(&self, on: MatchOn, text: &str) -> Option<RuleMatch> {
         self.match_exactly(on, text).or_else(|| {
             let stem = numbered_duplicate_stem(text)?;
             self.match_exactly(on, stem)
@@ -314,9 +338,8 @@ impl RuleSet {
             })
     }
 
-    /// Whether two room names are the same under this rule set's case rule.
     /// A name as `same_name` compares it: two names are the same when their keys are equal.
-    pub fn name_key(&self, a: &str) -> String {
+    pub(crate) fn name_key(&self, a: &str) -> String {
         if self.case_sensitive {
             a.to_string()
         } else {
@@ -324,7 +347,8 @@ impl RuleSet {
         }
     }
 
-    pub fn same_name(&self, a: &str, b: &str) -> bool {
+    /// Whether two room names are the same under this rule set's case rule.
+    pub(crate) fn same_name(&self, a: &str, b: &str) -> bool {
         if self.case_sensitive {
             a == b
         } else {

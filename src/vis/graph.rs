@@ -16,9 +16,12 @@ use glam::{DMat4, DVec3};
 use crate::geom::plane::Plane;
 use crate::portals::PortalSet;
 
+/// One directed portal of the graph the PVS flows through.
 #[derive(Debug, Clone)]
 pub struct VisPortal {
+    /// The cell a sightline leaves.
     pub from: usize,
+    /// The cell it enters.
     pub to: usize,
     /// Convex polygon; either winding order.
     pub winding: Vec<DVec3>,
@@ -30,9 +33,12 @@ pub struct VisPortal {
     pub origin: usize,
 }
 
+/// Cells and directed portals: what the vis stage needs of a level or a `.prt`.
 #[derive(Debug, Clone, Default)]
 pub struct VisGraph {
+    /// How many cells, the outside included when there is one.
     pub cells: usize,
+    /// The directed portals; see `leaving` for each cell's.
     pub portals: Vec<VisPortal>,
     /// Per cell, the portals leaving it, ascending.
     pub leaving: Vec<Vec<usize>>,
@@ -52,6 +58,7 @@ pub struct VisGraph {
 }
 
 impl VisGraph {
+    /// A graph of `cells` cells; `epsilon` is the distance tolerance (m).
     pub fn new(cells: usize, portals: Vec<VisPortal>, epsilon: f64) -> VisGraph {
         let mut leaving = vec![Vec::new(); cells];
         for (i, p) in portals.iter().enumerate() {
@@ -144,6 +151,7 @@ impl VisGraph {
         g
     }
 
+    /// Whether any portal is a mirror or teleporter.
     pub fn has_transforms(&self) -> bool {
         self.portals.iter().any(|p| p.transform.is_some())
     }

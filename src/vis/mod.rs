@@ -26,14 +26,14 @@
 //! the default `transform_depth` is the loop check's `recursion_depth`, else `[vis]
 //! transform_depth`.
 
-pub mod bits;
+pub(crate) mod bits;
 mod fast;
 mod flood;
 mod full;
 pub mod graph;
 pub mod pvs;
 mod sampled;
-pub mod winding;
+pub(crate) mod winding;
 
 use std::time::{Duration, Instant};
 
@@ -50,17 +50,24 @@ pub const DEFAULT_TRANSFORM_DEPTH: usize = 2;
 /// Default sightlines per directed portal for `sampled`.
 pub const DEFAULT_SAMPLES: usize = 2000;
 
+/// How the PVS is computed: `flood` ⊇ `fast` ⊇ `full` are conservative, `sampled` a lower bound.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Method {
+    /// Reachability through portals: the loosest.
     Flood,
+    /// Quake's per-portal might-see: front tests, then a flood.
     Fast,
+    /// Portal flow with separating-plane clipping, as Quake's vis: the tightest.
     Full,
+    /// Random sightlines walked through the portals: a lower bound, to check the others by.
     Sampled,
 }
 
 impl Method {
+    /// Every method, loosest first.
     pub const ALL: [Method; 4] = [Method::Flood, Method::Fast, Method::Full, Method::Sampled];
 
+    /// The method named `s` as on the command line (`flood`, `fast`, `full`, `sampled`).
     pub fn parse(s: &str) -> Option<Method> {
         Some(match s {
             "flood" => Method::Flood,
@@ -70,6 +77,7 @@ impl Method {
             _ => return None,
         })
     }
+    /// The name `parse` reads.
     pub fn name(self) -> &'static str {
         match self {
             Method::Flood => "flood",
@@ -80,8 +88,10 @@ impl Method {
     }
 }
 
+/// How to compute a PVS.
 #[derive(Debug, Clone)]
 pub struct VisOptions {
+    /// Which algorithm.
     pub method: Method,
     /// Sightlines per directed portal (`sampled`).
     pub samples: usize,

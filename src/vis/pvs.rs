@@ -4,8 +4,10 @@
 
 use super::bits::{self, BitMatrix};
 
+/// Potentially visible sets: for each cell, the cells that can be seen from anywhere in it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Pvs {
+    /// Row `from`, column `to`: set when `to` may be seen from `from`.
     pub bits: BitMatrix,
 }
 
@@ -28,12 +30,15 @@ impl Pvs {
         }
         out
     }
+    /// How many cells (rows).
     pub fn cells(&self) -> usize {
         self.bits.len()
     }
+    /// Whether `to` may be seen from somewhere in `from`.
     pub fn sees(&self, from: usize, to: usize) -> bool {
         self.bits.get(from, to)
     }
+    /// The cells `from` may see, ascending (itself included).
     pub fn visible(&self, from: usize) -> impl Iterator<Item = usize> + '_ {
         bits::ones(self.bits.row(from))
     }
@@ -42,6 +47,7 @@ impl Pvs {
     pub fn pairs(&self) -> usize {
         self.bits.count()
     }
+    /// Whether every pair here is also in `other` (this PVS is at least as tight).
     pub fn is_subset_of(&self, other: &Pvs) -> bool {
         self.bits.is_subset_of(&other.bits)
     }

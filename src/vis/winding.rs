@@ -12,8 +12,11 @@ use crate::geom::plane::Plane;
 /// What a chop left.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Chop {
+    /// Nothing was left on the kept side.
     Gone,
+    /// All of it was on the kept side.
     Whole,
+    /// Part was cut away.
     Cut,
 }
 
