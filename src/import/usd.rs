@@ -33,7 +33,7 @@ use crate::diag::{Code, Diagnostic, Location};
 #[cfg(feature = "usd")]
 mod python;
 #[cfg(feature = "usd")]
-pub mod stage;
+pub(crate) mod stage;
 
 /// The usd-core release the project tests against; the install hint names it, and
 /// scripts/test.sh installs the same.
@@ -68,6 +68,8 @@ pub fn import(path: &Path, _opts: &ImportOptions) -> Result<Imported, Diagnostic
     Err(unsupported_build(path))
 }
 
+/// Reads a USD layer (.usd, .usda, .usdc, .usdz) through usd-core in the embedded Python:
+/// composed, with instances expanded and units and up axis applied.
 #[cfg(feature = "usd")]
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic> {
     if path == Path::new("-") {

@@ -216,7 +216,7 @@ fn convert(py: Python<'_>, result: &Bound<'_, PyAny>) -> PyResult<RawStage> {
     let notes: Vec<(String, String)> = t.get_item(4)?.extract()?;
     let mut prims = Vec::with_capacity(list.len());
     for item in list.iter() {
-        let (path, name, parent, type_name, world, extras, mesh_key, mesh): PrimTuple =
+        let (path, name, parent, _type_name, world, extras, mesh_key, mesh): PrimTuple =
             item.extract()?;
         let m = world.to_vec(py)?;
         let world: [f64; 16] = m.try_into().map_err(|v: Vec<f64>| {
@@ -243,7 +243,6 @@ fn convert(py: Python<'_>, result: &Bound<'_, PyAny>) -> PyResult<RawStage> {
             path,
             name,
             parent: usize::try_from(parent).ok(),
-            type_name,
             world,
             extras,
             mesh_key,

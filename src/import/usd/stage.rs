@@ -40,7 +40,6 @@ pub struct RawPrim {
     pub name: String,
     /// Index of the nearest kept ancestor in [`RawStage::prims`].
     pub parent: Option<usize>,
-    pub type_name: String,
     /// Local-to-world in stage units, USD layout (row vectors, row-major), which read
     /// column-major is the same matrix for column vectors.
     pub world: [f64; 16],
