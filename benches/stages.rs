@@ -12,7 +12,8 @@ use std::path::PathBuf;
 
 use divan::Bencher;
 
-#[path = "../tests/common/rng.rs"]
+#[allow(dead_code, unused_imports)]
+#[path = "../src/rng.rs"]
 mod rng;
 #[path = "../src/bin/portcullis-floor/round_trip.rs"]
 mod round_trip;

@@ -1,5 +1,5 @@
 //! SplitMix64: the one small seeded generator behind every random choice portcullis makes (the
-//! generated levels, the sampled PVS; the tests keep a copy in tests/common/rng.rs). Tiny, fast,
+//! generated levels, the sampled PVS; the tests and benchmarks include this file). Tiny, fast,
 //! and the same sequence on every platform, so seeded runs repeat byte for byte.
 
 pub(crate) struct SplitMix64(u64);
@@ -39,6 +39,16 @@ impl SplitMix64 {
     #[cfg(test)]
     pub fn below(&mut self, n: usize) -> usize {
         (self.next_u64() % n.max(1) as u64) as usize
+    }
+
+    /// Fisher–Yates: the integration tests' re-orderings (they include this file).
+    #[cfg(test)]
+    #[allow(dead_code)]
+    pub fn shuffle<T>(&mut self, v: &mut [T]) {
+        for i in (1..v.len()).rev() {
+            let j = self.below(i + 1);
+            v.swap(i, j);
+        }
     }
 }
 

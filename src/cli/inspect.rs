@@ -365,6 +365,11 @@ fn tags_view(t: &Tagged) -> TagsView {
     let g = &t.tagging;
     let s = &t.scene;
     let room = |r: Option<usize>| r.map(|r| g.rooms[r].name.clone());
+    let volume = |b: &portcullis::tags::VolumeNode| VolumeView {
+        node: b.path.clone(),
+        rule: b.rule.clone(),
+        room: room(b.room),
+    };
     let paths = |v: &[usize]| v.iter().map(|&n| s.node_path(n)).collect::<Vec<_>>();
     TagsView {
         preset: g.preset.clone(),
@@ -405,24 +410,8 @@ fn tags_view(t: &Tagged) -> TagsView {
                 teleport_exit: p.teleport_exit.map(|n| s.node_path(n)),
             })
             .collect(),
-        bounds: g
-            .bounds
-            .iter()
-            .map(|b| VolumeView {
-                node: b.path.clone(),
-                rule: b.rule.clone(),
-                room: room(b.room),
-            })
-            .collect(),
-        footprints: g
-            .footprints
-            .iter()
-            .map(|b| VolumeView {
-                node: b.path.clone(),
-                rule: b.rule.clone(),
-                room: room(b.room),
-            })
-            .collect(),
+        bounds: g.bounds.iter().map(volume).collect(),
+        footprints: g.footprints.iter().map(volume).collect(),
         ignored: g.ignored.iter().map(|n| n.path.clone()).collect(),
         detail: g.detail.iter().map(|n| n.path.clone()).collect(),
         player_starts: g.player_starts.iter().map(|n| n.path.clone()).collect(),

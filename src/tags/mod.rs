@@ -442,24 +442,20 @@ impl<'a> Recognition<'a> {
                 t.room_groups[g].rooms.push(id);
             }
         }
+        let own = VolumeNode {
+            node: n,
+            path: scene.node_path(n),
+            rule: t.rooms[id].rule.clone(),
+            room: Some(id),
+        };
         match t.rooms[id].volume {
             VolumeHint::Footprint if t.rooms[id].node == n && has_mesh => {
                 t.rooms[id].footprints.push(n);
-                t.footprints.push(VolumeNode {
-                    node: n,
-                    path: scene.node_path(n),
-                    rule: t.rooms[id].rule.clone(),
-                    room: Some(id),
-                });
+                t.footprints.push(own);
             }
             VolumeHint::Bound if t.rooms[id].node == n && has_mesh => {
                 t.rooms[id].bounds.push(n);
-                t.bounds.push(VolumeNode {
-                    node: n,
-                    path: scene.node_path(n),
-                    rule: t.rooms[id].rule.clone(),
-                    room: Some(id),
-                });
+                t.bounds.push(own);
             }
             _ if has_mesh => t.rooms[id].structure.push(n),
             _ => {}

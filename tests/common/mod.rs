@@ -3,6 +3,8 @@
 #![allow(dead_code)]
 
 pub mod rays;
+/// The crate's own generator (crate-private there), so seeded cases repeat its sequences.
+#[path = "../../src/rng.rs"]
 pub mod rng;
 
 use std::path::{Path, PathBuf};
