@@ -53,3 +53,6 @@ cargo clippy --all-targets --locked -- -D warnings
 cargo clippy --all-targets --locked --features usd -- -D warnings
 echo "== cargo test --features usd"
 cargo test --all-targets --locked --features usd
+echo "== the docs: links resolve, examples (the crate's, the guide's) compile and run"
+RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --locked
+cargo test --doc --locked --features usd

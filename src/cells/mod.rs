@@ -2,8 +2,8 @@
 //!
 //! A room's volume comes from, in order: its bound meshes (each one cell, their convex hull);
 //! its footprints (floor polygons extruded along up); the air its structural surface encloses:
-//! for a room that is a prism along up, its floor plan's convex pieces ([`prism`]), else a 3D
-//! decomposition into convex cells ([`interior`]: a BSP over the room's own planes, leaves
+//! for a room that is a prism along up, its floor plan's convex pieces (`prism`), else a 3D
+//! decomposition into convex cells (`interior`: a BSP over the room's own planes, leaves
 //! classified by the surface, air leaves merged into maximal convex unions). A convex room is
 //! its hull, one cell; an L is 2, a U 3, a ring around a pillar 4, a soffit hall 2, a four-step
 //! stair hall 4, and no cell reaches into the solid under a platform or inside a slab.

@@ -54,7 +54,7 @@ pub fn write(
     Ok(bytes.into_inner())
 }
 
-/// [`write`] into `sink` (the file of an atomic write, so a big output is not held in memory).
+/// [`write()`] into `sink` (the file of an atomic write, so a big output is not held in memory).
 pub fn write_to(
     scene: &Scene,
     ann: Annotation,
@@ -70,7 +70,7 @@ pub fn write_to(
 /// builds the annotation.
 ///
 /// One writer writes every output, the streamed rewrite of a glTF document: a level read from
-/// OBJ or USD gets a new document first ([`from_scene`]), and a document the rewrite declines
+/// OBJ or USD gets a new document first (`from_scene`), and a document the rewrite declines
 /// (a key repeated where it must read the member) is rewritten from its parsed form, where
 /// the last of a repeated key wins, as any JSON reader sees it.
 pub fn write_to_with<'s>(

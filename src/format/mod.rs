@@ -5,7 +5,7 @@
 //!
 //! This module owns the format: its records (`records`, one struct per schema object that
 //! both reads and writes), how an annotation is built and serialized from a level
-//! ([`write`]), read back and validated ([`read`]), how the PVS is encoded ([`visibility`])
+//! ([`mod@write`]), read back and validated ([`read`]), how the PVS is encoded ([`visibility`])
 //! and the input hash that tells a stale annotation (`hash`). The exporters, the checks of
 //! stored annotations and the runtime all go through it.
 

@@ -3,7 +3,7 @@
 //! The container is detected from the bytes, not the extension, because levels arrive through
 //! stdin and renamed files. The JSON is kept untouched (with every buffer's bytes) in
 //! [`GltfSource`] so the exporter can write the same file back with only our extension added;
-//! everything the pipeline needs is read from it with the lenient structs in [`schema`] and our
+//! everything the pipeline needs is read from it with the lenient structs in `schema` and our
 //! own accessor reader, which checks every size the file claims against the bytes present before
 //! allocating anything.
 //!
@@ -77,7 +77,7 @@ const VALIDATOR_HINT: &str =
 
 /// Reads a glTF; owned `bytes` are dropped as soon as the JSON text and buffers are copied out.
 /// `reread`: the bytes are the whole of the regular file at `path`, which can be read again
-/// (see [`TextInFile`]).
+/// (see `scene::TextInFile`).
 pub fn import(
     bytes: std::borrow::Cow<'_, [u8]>,
     path: &Path,

@@ -5,7 +5,7 @@
 //! Python with pyo3 and lets Pixar's own `usd-core` package compose the stage. The Python side
 //! ([`usd/helper.py`](usd/helper.py)) only walks the composed stage and returns flat arrays;
 //! every geometric decision (units, up axis, triangulation, holes, winding) is made in Rust
-//! ([`stage`]) so that USD levels go through the same exact predicates as OBJ and glTF.
+//! (`stage`) so that USD levels go through the same exact predicates as OBJ and glTF.
 //!
 //! Without the feature, a USD input gets one sentence on how to get support, so a plain build
 //! never needs Python.

@@ -153,7 +153,7 @@ pub fn convert_file(input: &Path, output: &Path) -> Result<(), Diagnostic> {
     write(&t, &cells, &portals, &opts).map(drop)
 }
 
-/// How [`write`] writes an annotated level.
+/// How [`write()`] writes an annotated level.
 #[derive(Debug, Clone, Copy)]
 pub struct WriteOptions<'a> {
     /// The output file. Its folder decides the relative URIs of images and external buffers,
@@ -167,7 +167,7 @@ pub struct WriteOptions<'a> {
     pub to: Destination,
 }
 
-/// Where [`write`] puts the bytes.
+/// Where [`write()`] puts the bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Destination {
     /// The file `out`, written atomically as it is made (a big level's output is never held

@@ -231,7 +231,7 @@ pub(crate) fn blocking_nodes(
         .collect()
 }
 
-/// The triangles that block sight, in world space (see [`blocking_nodes`]).
+/// The triangles that block sight, in world space (see `blocking_nodes`).
 pub fn blocking_triangles(scene: &Scene, tagging: &Tagging, props: &[NodeId]) -> Vec<[DVec3; 3]> {
     let mut out = Vec::new();
     for (n, m) in blocking_nodes(scene, tagging, props) {
