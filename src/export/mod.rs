@@ -9,8 +9,9 @@
 //! `bake.rs` first puts node transforms into world-space mesh copies for a non-glTF input that
 //! carries them (USD). For a glTF input `rewrite.rs` does the same without parsing the whole
 //! document, copying through `transcode.rs` (parser straight to serializer); a document it declines
-//! (a repeated key) takes the whole-document path, and a test holds both to the same bytes. The big
-//! `cells` and `portals` arrays are serialized straight from the level (`extension::Json`), never
+//! (a repeated key) is rewritten from its parsed form, and tests hold every output to the bytes of
+//! `oracle.rs`, the simple whole-tree writer. The big
+//! `cells` and `portals` arrays are serialized straight from the level (`format::write`), never
 //! built as a JSON tree. A .glb's JSON chunk is rendered by `parallel.rs` (arrays a run of about 64
 //! KB of elements at a time, `cells` and `portals` 256 elements at a time, a window of about 2 MB
 //! at a time). Buffer views the rebase leaves as they are and nodes with nothing to strip or add
@@ -23,8 +24,8 @@
 //! carried in `Tagging::settings`, written `xxh3v2:`; an earlier build's `xxh3:` or `fnv1a64:` hash
 //! is recomputed by its own narrower definition, so it does not read as stale) runs on a thread of
 //! its own during the write and is put in by a deferred source when the writer reaches the root
-//! extension object (`extension::InputHash`); the input's root members are scanned while the
-//! annotation is built when the importer did not keep where they lie; `extension::build` alone
+//! extension object (`format::InputHash`); the input's root members are scanned while the
+//! annotation is built when the importer did not keep where they lie; `format::build` alone
 //! still computes the hash before returning.
 //!
 //! `atomic.rs`: temporary file, fsync, rename; a failure removes the temporary; `write_with` lets

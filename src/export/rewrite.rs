@@ -1,9 +1,9 @@
-//! Writing a glTF input back from its JSON text, for the output bytes of
-//! [`super::gltf_out::write`]'s whole-document path without its cost.
+//! The one glTF writer: a document written back from its JSON text, with the bytes the simple
+//! way would give (`oracle.rs`, tests only: parse the document, change a few members, serialize
+//! it all) without its cost.
 //!
-//! That path parses the document, changes a few members and serializes it all; on a big level
-//! the parse, the copy and the drop cost more than the write, and the parsed document is ten
-//! times the size of its text. Here the root's members stay text until a change needs one:
+//! On a big level the parse, the copy and the drop cost more than the write, and the parsed
+//! document is ten times the size of its text. Here the root's members stay text until a change needs one:
 //! images and buffers are parsed (they are short), nodes and buffer views are streamed element
 //! by element through the same edits, everything else is transcoded unparsed. Each step mirrors
 //! the other path's, in the same order, so members land in the same places.
@@ -31,8 +31,8 @@ use crate::scene::GltfSource;
 /// The root object's members as [`GltfSource::members`] gives them.
 pub(crate) type Members<'s> = Vec<(String, &'s str)>;
 
-/// Why the streamed rewrite did not write a document: it declines it (the whole-document path
-/// then writes it), or the output failed.
+/// Why the streamed rewrite did not write a document: it declines it (a key repeated where it
+/// must read the member; `gltf_out` then rewrites the parsed document), or the output failed.
 pub(crate) enum Failed {
     Declined,
     Io(std::io::Error),
@@ -53,7 +53,7 @@ fn written(r: serde_json::Result<()>) -> Result<(), Failed> {
 }
 
 /// Writes the output file into `sink` (from where it stands), or says why it did not; on
-/// `Declined` the caller resets the sink and takes the whole-document path.
+/// `Declined` the caller resets the sink and writes the parsed document instead.
 pub(crate) fn write<'s>(
     src: &'s GltfSource,
     members: Option<Members<'s>>,
@@ -933,7 +933,7 @@ mod tests {
     }
 
     #[test]
-    fn a_repeated_key_in_a_copied_member_takes_the_whole_document_path() {
+    fn a_repeated_key_in_a_copied_member_is_written_from_the_parsed_document() {
         let scene = scene_of(
             r#"{"accessors": [{"count": 1, "count": 2}], "nodes": []}"#,
             vec![],
