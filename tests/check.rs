@@ -746,3 +746,28 @@ fn shards_partition_the_inputs_whatever_their_order() {
         .unwrap();
     assert_eq!(refused.status.code(), Some(2));
 }
+
+/// Cracks (issue 25): the gaps where panda3d's stairs and floors stop 0.01 to 5 mm short of a
+/// cell's edge are narrower than a tenth of the level's shortest edge, so they are no leaks;
+/// `[portals] min_opening_width = 0` asks for every gap the tolerance resolves, and a width
+/// above the building's real openings (its narrowest, 0.32 m² in `cell5`) closes those too.
+#[test]
+fn cracks_leak_only_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let leaks = |width: Option<&str>| {
+        let mut flags = vec!["--tags", "panda3d", "--sealed"];
+        let cfg = dir.path().join("portcullis.toml");
+        if let Some(w) = width {
+            std::fs::write(&cfg, format!("[portals]\nmin_opening_width = {w}\n")).unwrap();
+            flags.extend(["--config", cfg.to_str().unwrap()]);
+        }
+        let (_, report) = check_json(&[fixture("panda3d_culling.glb")], &flags);
+        codes_of(&report["files"][0])
+            .get("LEAK")
+            .copied()
+            .unwrap_or(0)
+    };
+    assert_eq!(leaks(None), 7);
+    assert_eq!(leaks(Some("0")), 13);
+    assert_eq!(leaks(Some("0.5")), 5);
+}

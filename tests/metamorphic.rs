@@ -175,6 +175,7 @@ fn run_with(scene: Scene, base: &Tagged, m: DMat4, factor: f64) -> Outcome {
     config.cells.default_height = config.cells.default_height.map(|h| h * s);
     config.cells.footprint_height = config.cells.footprint_height.map(|h| h * s);
     config.portals.max_wall_thickness *= s;
+    config.portals.min_opening_width = config.portals.min_opening_width.map(|w| w * s);
     let tagging = portcullis::tags::recognise(&scene, &base.rules);
     let diagnostics = tagging.diagnostics.clone();
     let mut tagged = Tagged {
@@ -586,12 +587,6 @@ fn a_real_change_is_seen() {
     assert!(!compare(&base, &out, DMat4::IDENTITY, "moved room").is_empty());
 }
 
-/// Levels whose result moves with the tolerance, with their number of differences over the
-/// four factors, held exactly (fewer is progress to record here and in docs/guide.md, "Numerics", more a
-/// regression). What moves, on panda3d only: its modelling is a fraction of a millimetre off
-/// its own cells (a stair's side 1e-5 m short of a cell's edge), inside the range the factors
-/// sweep (6e-3 to 9e-2 mm for the f32 .glb, 0.2 to 3 mm for the six-digit OBJ). Slivers of
-/// 1e-5 to 8e-3 m² open or close.
 /// Mirror differences pinned by count (a change either way fails): E1M2 has sectors whose plan
 /// is symmetric, where the plan partition's tie between the plan's own symmetries goes by the
 /// symmetry's index rather than by input order, so the mirrored level gets the partition's
@@ -599,12 +594,11 @@ fn a_real_change_is_seen() {
 /// way.
 const MIRROR_KNOWN: &[(&str, usize)] = &[("E1M2_godot.glb", 9)];
 
-const TOLERANCE_KNOWN: &[(&str, usize)] =
-    &[("panda3d_culling.glb", 10), ("panda3d_culling.obj", 13)];
-
 /// Tolerance stability (issue 25): the policy's tolerance times 0.25, 0.5, 2 and 4 gives the
 /// same cells, portals, adjacency, PVS and diagnostics on every sample, shared level and a
-/// generated building.
+/// generated building. panda3d, modelled a fraction of a millimetre to 5 mm off its own cells,
+/// is held by cracks being measured against its shortest edge rather than the tolerance (its
+/// gaps spanned the whole sweep).
 #[test]
 fn results_do_not_hang_on_the_tolerance() {
     let dir = tempfile::tempdir().unwrap();
@@ -630,13 +624,9 @@ fn results_do_not_hang_on_the_tolerance() {
                 &format!("{file} (tolerance x{factor})"),
             ));
         }
-        let known = TOLERANCE_KNOWN
-            .iter()
-            .find(|(f, _)| *f == file)
-            .map_or(0, |(_, n)| *n);
         show_all(&found);
-        if found.len() != known {
-            eprintln!("{file}: {} differences, {known} known", found.len());
+        if !found.is_empty() {
+            eprintln!("{file}: {} differences", found.len());
             errs.extend(found.into_iter().take(SHOW));
         }
     }

@@ -8,10 +8,13 @@
 //! and projected) are merged and subtracted (`geom/boolean2.rs`, on the face's own grid, 2^-24 of
 //! its size) unless `geom/cover.rs` shows them covered (most shared walls, floors and ceilings; an
 //! opening the boolean would keep leaves at least 28·eps² uncovered, so skipping changes no
-//! portal). Openings thinner than ten tolerances are float noise and dropped; each opening is
-//! partitioned into convex pieces (or hulled), and the pieces (and the claims) get the exact input
-//! coordinates back, a corner where two input edges cross on their crossing (`geom/exact.rs`). The
-//! part of a face that no other cell claims and no triangle covers is an exterior opening.
+//! portal). Cracks narrower than a tenth of the level's shortest blocking edge (or `[portals]
+//! min_opening_width`) are cut from what is left (`geom/crack.rs`: a stair 1.4e-5 m short of a
+//! jamb), and openings thinner on average than that or ten tolerances are dropped; each
+//! opening is partitioned into convex pieces (or hulled), and the pieces (and the claims) get the
+//! exact input coordinates back, a corner where two input edges cross on their crossing
+//! (`geom/exact.rs`). The part of a face that no other cell claims and no triangle covers is an
+//! exterior opening.
 //!
 //! A bridged pair's face claims the shared region minus its holes into the wall (not covered by
 //! what lies on that face nor bridged, at least as wide on average as the wall is thick; each
@@ -34,6 +37,7 @@ use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection};
 use crate::geom::cover::{is_covered, Remainder};
+use crate::geom::crack::without_cracks;
 use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
@@ -128,6 +132,21 @@ pub(crate) fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
     rank
 }
 
+/// What is an opening of a region left open: the region without its vertices within the
+/// tolerance of a straight edge ([`drop_near_collinear`]) and without its cracks
+/// (`geom/crack.rs`), if that is at least `min_width` wide on average.
+fn opening(o: &Polygon2, k: &Limits) -> Option<Polygon2> {
+    let straight = Polygon2 {
+        outer: drop_near_collinear(&o.outer, k.eps),
+        holes: o
+            .holes
+            .iter()
+            .map(|h| drop_near_collinear(h, k.eps))
+            .collect(),
+    };
+    without_cracks(&straight, k.crack).filter(|o| o.mean_width() >= k.min_width)
+}
+
 /// Convex pieces of an opening (or its convex hull when the conservative shape is asked for).
 /// Vertices within `tol` of a straight edge are dropped first (see [`drop_near_collinear`]).
 fn pieces(p: &Polygon2, conservative: bool, tol: f64) -> Vec<Vec<DVec2>> {
@@ -161,13 +180,17 @@ pub(crate) fn derive(
     cfg: &PortalsConfig,
     set: &mut PortalSet,
 ) {
-    let k = Limits::new(cells.tolerance.distance, cfg);
+    let mut k = Limits::new(cells.tolerance.distance, cfg);
     let reach = k.reach;
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * k.eps),
         || cells.pairs_in_order(reach),
     );
+    k.crack = cfg
+        .min_opening_width
+        .unwrap_or_else(|| opaque.shortest_edge(k.eps) / 10.0);
+    k.min_width = k.min_width.max(k.crack);
     // Each pair's openings are computed in parallel; they are applied in pair order, so the
     // portals are numbered the same whatever the thread count. Pairs differ a lot in cost
     // (most share nothing): in jobs of at most `JOB` pairs no thread is left waiting long
@@ -420,9 +443,9 @@ fn face_exterior(
     .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
     for o in difference(&whole, &covered, grid)
         .iter()
-        .filter(|o| o.mean_width() >= k.min_width)
+        .filter_map(|o| opening(o, k))
     {
-        for piece in pieces(o, cx.cfg.conservative, eps) {
+        for piece in pieces(&o, cx.cfg.conservative, eps) {
             let piece = exact.restore(piece);
             let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
             let Some(pts) = usable_polygon(&pts, face.plane.normal, eps) else {
@@ -440,8 +463,13 @@ const JOB: usize = 64;
 /// The distances derivation works with, all from the one tolerance.
 struct Limits {
     eps: f64,
-    /// Openings thinner than this on average are float noise.
+    /// Openings thinner than this on average are float noise (ten tolerances) or cracks,
+    /// whichever is wider.
     min_width: f64,
+    /// Parts of an opening narrower than this are cracks (`geom/crack.rs`): `[portals]
+    /// min_opening_width`, else a tenth of the shortest edge of what blocks, an order of
+    /// magnitude below anything the level models.
+    crack: f64,
     /// Faces this far apart face each other across a wall.
     reach: f64,
     /// A face region with less than this area left once its covers (grown by `grow`) are cut
@@ -462,6 +490,7 @@ impl Limits {
         Limits {
             eps,
             min_width: 10.0 * eps,
+            crack: 0.0,
             reach: cfg.max_wall_thickness + eps,
             closed: eps * eps,
             grow: eps,
@@ -780,8 +809,8 @@ impl<'f> FacePair<'f> {
         let mut through: Vec<Vec<DVec2>> = Vec::new();
         let open = difference(&self.shared, blockers, self.grid);
         let exact = self.exact(blockers);
-        for o in open.iter().filter(|o| o.mean_width() >= cx.k.min_width) {
-            for piece in pieces(o, cx.cfg.conservative, eps) {
+        for o in open.iter().filter_map(|o| opening(o, cx.k)) {
+            for piece in pieces(&o, cx.cfg.conservative, eps) {
                 let piece = exact.restore(piece);
                 // CCW about na in 2D: seen from A (behind the plane) it turns the
                 // other way, so A's polygon is the reversed ring.

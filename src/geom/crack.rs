@@ -1,0 +1,199 @@
+//! Cracks: the parts of an opening narrower than the level's smallest feature.
+//!
+//! Modelling leaves hairline gaps where pieces should meet (a stair's side 1.4e-5 m short of a
+//! window's jamb, running 1.5 m down from its sill, on panda3d). Such a gap is a crack whether
+//! it stands alone or joins a real opening, and whether a tolerance-sized rule keeps it
+//! depends on the tolerance. Here a ring loses each corner whose triangle with its two
+//! neighbours is thinner than the crack width (its inscribed circle narrower) and whose angle
+//! is right or sharp: a needle off an opening is cut off at its root, a notch into it filled,
+//! and a strip on its own comes down to nothing. A corner of a real opening whose sides are
+//! at least `e` long has a triangle `e·sin θ / (1 + sin θ/2)` wide or wider (0.59·`e` at a right
+//! angle, `e`/10 at 6 degrees), so with the width at a tenth of the shortest edge only the tips
+//! of corners sharper than 6 degrees are touched. Corners wider than a right angle never are: a
+//! round window's 64 sides bend, they are not cracks. No tolerance enters: the same corners go
+//! whatever the tolerance.
+
+use glam::DVec2;
+use robust::{orient2d, Coord};
+
+use super::partition::Polygon2;
+
+/// `p` without its cracks narrower than `width`: `None` when nothing else is left.
+pub fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
+    if width <= 0.0 {
+        return Some(p.clone());
+    }
+    let outer = ring_without_cracks(&p.outer, width);
+    if outer.len() < 3 {
+        return None;
+    }
+    let holes = p
+        .holes
+        .iter()
+        .map(|h| ring_without_cracks(h, width))
+        .filter(|h| h.len() >= 3)
+        .collect();
+    Some(Polygon2 { outer, holes })
+}
+
+/// The diameter of the circle inscribed in triangle `a b c`: twice its area over half its
+/// perimeter.
+fn inscribed_diameter(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+    let area = 0.5 * (b - a).perp_dot(c - a).abs();
+    let half = 0.5 * (a.distance(b) + b.distance(c) + c.distance(a));
+    if half > 0.0 {
+        2.0 * area / half
+    } else {
+        0.0
+    }
+}
+
+fn coord(p: DVec2) -> Coord<f64> {
+    Coord { x: p.x, y: p.y }
+}
+
+/// Whether `q` lies strictly inside triangle `a b c` (either winding), by exact predicates.
+fn strictly_inside(q: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
+    let s = [
+        orient2d(coord(a), coord(b), coord(q)),
+        orient2d(coord(b), coord(c), coord(q)),
+        orient2d(coord(c), coord(a), coord(q)),
+    ];
+    s.iter().all(|&x| x > 0.0) || s.iter().all(|&x| x < 0.0)
+}
+
+/// A ring without the corners of a right angle or sharper whose triangle with their
+/// neighbours is narrower than `width`, the thinnest first, one at a time until none is left (the next corner of a needle is a
+/// needle's tip in turn). Thinnest first, so that where the ring starts does not matter. A
+/// corner whose triangle holds another vertex of the ring stays, so the ring never crosses
+/// itself.
+fn ring_without_cracks(ring: &[DVec2], width: f64) -> Vec<DVec2> {
+    let mut r = ring.to_vec();
+    while r.len() >= 3 {
+        let n = r.len();
+        let corner = |i: usize| (r[(i + n - 1) % n], r[i], r[(i + 1) % n]);
+        let clear = |i: usize| {
+            let (a, b, c) = corner(i);
+            (0..n)
+                .filter(|&j| j != i && j != (i + n - 1) % n && j != (i + 1) % n)
+                .all(|j| !strictly_inside(r[j], a, b, c))
+        };
+        // Only corners of a right angle or sharper: a nearly straight corner's triangle is
+        // thin too, but it is the outline bending (a round window's 64 sides), not a crack.
+        let thinnest = (0..n)
+            .filter(|&i| {
+                let (a, b, c) = corner(i);
+                (a - b).dot(c - b) >= 0.0
+            })
+            .map(|i| {
+                let (a, b, c) = corner(i);
+                (inscribed_diameter(a, b, c), i)
+            })
+            .filter(|&(d, i)| d < width && clear(i))
+            .min_by(|x, y| x.0.total_cmp(&y.0));
+        let Some((_, i)) = thinnest else { break };
+        r.remove(i);
+    }
+    if r.len() < 3 {
+        r.clear();
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64, y: f64) -> DVec2 {
+        DVec2::new(x, y)
+    }
+
+    fn poly(outer: Vec<DVec2>) -> Polygon2 {
+        Polygon2 {
+            outer,
+            holes: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_needle_off_an_opening_is_cut_at_its_root() {
+        // A 1 x 1 window with a needle 1e-5 wide running 1.5 down from its sill.
+        let p = poly(vec![
+            v(0.0, 0.0),
+            v(0.5, 0.0),
+            v(0.5, -1.5),
+            v(0.50001, 0.0),
+            v(1.0, 0.0),
+            v(1.0, 1.0),
+            v(0.0, 1.0),
+        ]);
+        let out = without_cracks(&p, 0.01).unwrap();
+        assert!((out.area() - 1.0).abs() < 1e-9, "{out:?}");
+        assert!(out.outer.iter().all(|q| q.y >= 0.0), "{out:?}");
+    }
+
+    #[test]
+    fn a_strip_on_its_own_is_nothing() {
+        let p = poly(vec![v(0.0, 0.0), v(2.0, 0.0), v(2.0, 0.001), v(0.0, 0.001)]);
+        assert!(without_cracks(&p, 0.01).is_none());
+        // Wider than the crack width, it stays whole.
+        assert_eq!(without_cracks(&p, 0.0005).unwrap(), p);
+    }
+
+    #[test]
+    fn a_door_one_edge_wide_is_untouched() {
+        // Sides of at least e = 0.1 at right angles: every corner's triangle is 0.59 e wide.
+        let p = poly(vec![v(0.0, 0.0), v(0.1, 0.0), v(0.1, 2.2), v(0.0, 2.2)]);
+        assert_eq!(without_cracks(&p, 0.05).unwrap(), p);
+        // An L-shaped opening keeps its reflex corner too.
+        let l = poly(vec![
+            v(0.0, 0.0),
+            v(1.0, 0.0),
+            v(1.0, 0.1),
+            v(0.1, 0.1),
+            v(0.1, 1.0),
+            v(0.0, 1.0),
+        ]);
+        assert_eq!(without_cracks(&l, 0.05).unwrap(), l);
+    }
+
+    #[test]
+    fn a_notch_into_an_opening_is_filled() {
+        // A 10 x 10 opening with a blocker 2e-3 wide reaching 9 into it from the top.
+        let p = poly(vec![
+            v(0.0, 0.0),
+            v(10.0, 0.0),
+            v(10.0, 10.0),
+            v(5.001, 10.0),
+            v(5.0, 1.0),
+            v(4.999, 10.0),
+            v(0.0, 10.0),
+        ]);
+        let out = without_cracks(&p, 0.01).unwrap();
+        assert!((out.area() - 100.0).abs() < 1e-9, "{out:?}");
+    }
+
+    #[test]
+    fn where_the_ring_starts_does_not_matter() {
+        let ring = vec![
+            v(0.0, 0.0),
+            v(0.5, 0.0),
+            v(0.5, -1.5),
+            v(0.50001, 0.0),
+            v(1.0, 0.0),
+            v(1.0, 1.0),
+            v(0.0, 1.0),
+        ];
+        let area = |r: &[DVec2]| poly(r.to_vec()).area();
+        let first = area(&ring_without_cracks(&ring, 0.01));
+        for k in 1..ring.len() {
+            let mut turned = ring.clone();
+            turned.rotate_left(k);
+            assert_eq!(
+                area(&ring_without_cracks(&turned, 0.01)),
+                first,
+                "start {k}"
+            );
+        }
+    }
+}
