@@ -383,3 +383,53 @@ fn ray_oracle_on_generated_buildings() {
         assert!(judged > 10 * rooms, "only {judged} points judged");
     }
 }
+
+/// No sliver cells (issue 25): every cell of every sample and third-party level with rooms is
+/// at least a tenth of the level's shortest edge thick, thickness taken as three times its
+/// volume over its surface (the inscribed ball's radius for a cell that holds one; a slab of
+/// thickness h gives under h). Volumes here from the divergence theorem, areas from the faces'
+/// cross products, the shortest edge from every triangle of the scene.
+#[test]
+fn no_cell_is_thinner_than_a_tenth_of_the_shortest_edge() {
+    let mut levels = common::levels_and_samples();
+    levels.push((fixture("E1M2_godot.glb"), None));
+    levels.push((fixture("MAP01_godot.glb"), None));
+    for (path, preset) in levels {
+        let (t, c) = load(&path, preset);
+        let s = &t.scene;
+        let mut shortest = f64::INFINITY;
+        for n in s.walk() {
+            let Some(m) = s.nodes[n].mesh else { continue };
+            let mesh = &s.meshes[m];
+            let w = s.nodes[n].world;
+            for tri in &mesh.triangles {
+                let p = tri.map(|i| w.transform_point3(mesh.positions[i as usize]));
+                for k in 0..3 {
+                    let l = p[k].distance(p[(k + 1) % 3]);
+                    if l > 0.0 {
+                        shortest = shortest.min(l);
+                    }
+                }
+            }
+        }
+        for (i, cell) in c.cells.iter().enumerate() {
+            let area: f64 = cell
+                .poly
+                .faces
+                .iter()
+                .map(|f| {
+                    let q = &f.points;
+                    (1..q.len().saturating_sub(1))
+                        .map(|j| (q[j] - q[0]).cross(q[j + 1] - q[0]).length() / 2.0)
+                        .sum::<f64>()
+                })
+                .sum();
+            let thick = 3.0 * cell_volume(cell) / area;
+            assert!(
+                thick >= shortest / 10.0,
+                "{}: cell {i} is {thick} m thick, the shortest edge {shortest} m",
+                path.display()
+            );
+        }
+    }
+}
