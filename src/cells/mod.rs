@@ -789,6 +789,10 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
             })
         })
         .collect();
+    // The triangles' centroids in input order, which settle a tie between a plan's own
+    // symmetries (see `canonical_turn`); a triangle's centroid does not depend on which
+    // corner a mirroring node lists first.
+    let marks: Vec<DVec2> = local.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
     let local = weld(local, 0.5 * eps);
     let mut bounds = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
     for p in local.iter().flatten() {
@@ -808,7 +812,7 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
             continue;
         }
         poly.holes.retain(|h| !noise(h));
-        let (turn, canonical) = canonical_turn(&poly, grid);
+        let (turn, canonical) = canonical_turn(&poly, grid, &marks);
         // The union snapped every vertex to the grid: a vertex on a straight edge can come
         // back up to half a step off it along each axis, and so can the two it is judged
         // against (an L turned by (1.47, -0.52, -0.04) rad kept such a vertex on its long
@@ -945,7 +949,13 @@ fn symmetry_back(q: DVec2, n: usize) -> DVec2 {
 /// point (by x, then y) and the holes sorted by theirs, come first, and the polygon so turned,
 /// in grid steps (integers, exact in f64): the partition then sees the same numbers for a
 /// level scaled by any factor, and no tie between float areas can go another way.
-fn canonical_turn(p: &Polygon2, grid: f64) -> (usize, Polygon2) {
+///
+/// A polygon symmetric in itself comes first under several symmetries, which map its pieces
+/// back to different places (a sector's two halves swapped). The tie goes to the symmetry
+/// that puts `marks` (points in input order) first, so the choice moves with the level: a
+/// mirrored level picks the mirror of the original's symmetry and gets the mirror image of its
+/// pieces, not their twin.
+fn canonical_turn(p: &Polygon2, grid: f64, marks: &[DVec2]) -> (usize, Polygon2) {
     let steps = |q: &DVec2| ((q.x / grid).round() as i64, (q.y / grid).round() as i64);
     let ring = |r: &[DVec2], n: usize| -> Vec<(i64, i64)> {
         let mut r: Vec<(i64, i64)> = r.iter().map(|q| steps(&symmetry(*q, n))).collect();
@@ -964,8 +974,18 @@ fn canonical_turn(p: &Polygon2, grid: f64) -> (usize, Polygon2) {
         holes.sort();
         (ring(&p.outer, n), holes)
     };
-    let turn = (0..8).min_by_key(|&n| form(n)).unwrap_or(0);
-    let (outer, holes) = form(turn);
+    let forms: Vec<(Ring, Vec<Ring>)> = (0..8).map(form).collect();
+    let least = forms.iter().min().cloned().unwrap_or_default();
+    let turn = (0..8)
+        .filter(|&n| forms[n] == least)
+        .min_by_key(|&n| {
+            marks
+                .iter()
+                .map(|m| steps(&symmetry(*m, n)))
+                .collect::<Vec<_>>()
+        })
+        .unwrap_or(0);
+    let (outer, holes) = least;
     let back = |r: Ring| -> Vec<DVec2> {
         r.into_iter()
             .map(|(x, y)| DVec2::new(x as f64, y as f64))
