@@ -16,7 +16,7 @@
 use glam::DVec2;
 use robust::{orient2d, Coord};
 
-use super::partition::Polygon2;
+use super::partition::{ring_mean_width, Polygon2};
 
 /// `p` without its cracks narrower than `width`: `None` when nothing else is left.
 pub fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
@@ -36,16 +36,10 @@ pub fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
     Some(Polygon2 { outer, holes })
 }
 
-/// The diameter of the circle inscribed in triangle `a b c`: twice its area over half its
-/// perimeter.
+/// The diameter of the circle inscribed in triangle `a b c`: twice its mean width (twice its
+/// area over its perimeter is the inradius of a triangle).
 fn inscribed_diameter(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    let area = 0.5 * (b - a).perp_dot(c - a).abs();
-    let half = 0.5 * (a.distance(b) + b.distance(c) + c.distance(a));
-    if half > 0.0 {
-        2.0 * area / half
-    } else {
-        0.0
-    }
+    2.0 * ring_mean_width(&[a, b, c])
 }
 
 fn coord(p: DVec2) -> Coord<f64> {
