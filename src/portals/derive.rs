@@ -460,7 +460,8 @@ fn face_exterior(
 /// The most cell pairs (or cells) one job of a parallel loop takes.
 const JOB: usize = 64;
 
-/// The distances derivation works with, all from the one tolerance.
+/// The distances derivation works with: all from the one tolerance but the crack width, which
+/// comes from the level (its shortest blocking edge) so that it does not move with the tolerance.
 struct Limits {
     eps: f64,
     /// Openings thinner than this on average are float noise (ten tolerances) or cracks,
