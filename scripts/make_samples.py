@@ -831,6 +831,8 @@ def write_gltf(tree, path):
             node["mesh"] = len(meshes) - 1
         if t.get("extras"):
             node["extras"] = t["extras"]
+        if t.get("translation"):
+            node["translation"] = list(t["translation"])
         kids = [add_node(c) for c in t.get("children", [])]
         if kids:
             node["children"] = kids
@@ -875,6 +877,173 @@ def write_obj(tree, path):
     path.write_text("\n".join(lines) + "\n")
 
 
+# ---- Rooms built of solid blocks: every slab, wall, jamb, lintel and pillar a closed,
+# outward-facing box of its own (as Godot CSG boxes, Blender cubes or brushes are). The air
+# between them is the room.
+
+def hexa(p):
+    """Outward-facing closed hexahedron from 8 corners indexed xi*4 + yi*2 + zi, like box()."""
+    f = []
+    f += quad(p[0], p[1], p[3], p[2])
+    f += quad(p[4], p[6], p[7], p[5])
+    f += quad(p[0], p[4], p[5], p[1])
+    f += quad(p[2], p[3], p[7], p[6])
+    f += quad(p[0], p[2], p[6], p[4])
+    f += quad(p[1], p[5], p[7], p[3])
+    return f
+
+
+def block(name, b, material="wall", extras=None):
+    node = {"name": name, "tris": box(*b), "material": material}
+    if extras:
+        node["extras"] = extras
+    return node
+
+
+def start(at):
+    return {"name": "player_start", "extras": {"player_start": True}, "translation": at}
+
+
+def slab_room(name, x0, x1, z0, z1, h, t, ceiling=True, skip=(), extra=(), west=None):
+    """Floor, ceiling and four walls of thickness t around the air [x0,x1] x [0,h] x [z0,z1]:
+    the long (z) walls run the full length, the short (x) walls butt between them. `west`
+    moves the slabs' west end (to stop at a neighbour's wall)."""
+    w = x0 - t if west is None else west
+    parts = [block("floor", (w, -t, z0 - t, x1 + t, 0, z1 + t), "floor")]
+    if ceiling:
+        parts.append(block("ceiling", (w, h, z0 - t, x1 + t, h + t, z1 + t)))
+    walls = {
+        "wall_south": (w, 0, z0 - t, x1 + t, h, z0),
+        "wall_north": (w, 0, z1, x1 + t, h, z1 + t),
+        "wall_west": (x0 - t, 0, z0, x0, h, z1),
+        "wall_east": (x1, 0, z0, x1 + t, h, z1),
+    }
+    parts += [block(k, v) for k, v in walls.items() if k not in skip]
+    parts += list(extra)
+    return {"name": name, "children": parts}
+
+
+def block_closet():
+    return level(slab_room("closet-room", 0, 2, 0, 2, 2.5, 0.3))
+
+
+def block_hall():
+    return level(slab_room("hall-room", 0, 6, 0, 4, 3, 0.5))
+
+
+def block_butt_joints():
+    """The short walls butt between the long ones, the long ones between floor and ceiling."""
+    return level(slab_room("hall-room", 0, 5, 0, 3, 3, 0.25))
+
+
+def block_corners():
+    """Mitred corners at x = 0 (45-degree ends meeting on the diagonal), overlapping corners
+    at x = 4 (the long walls run through the end wall)."""
+    L, W, h, t = 4.0, 3.0, 3.0, 0.3
+
+    def wall_z(z_in, z_out):
+        # Mitred at x = 0, square (overlapping the east wall) at x = L + t.
+        p = []
+        for xi in (0, 1):
+            for y in (0, h):
+                for zi in (0, 1):
+                    z = (z_out, z_in)[zi] if z_out < z_in else (z_in, z_out)[zi]
+                    outer = z == z_out
+                    x = (-t if outer else 0.0) if xi == 0 else L + t
+                    p.append((x, y, z))
+        return hexa(p)
+
+    west = []
+    for xi in (0, 1):
+        for y in (0, h):
+            for zi in (0, 1):
+                x = (-t, 0.0)[xi]
+                z = (-t, W + t)[zi] if xi == 0 else (0.0, W)[zi]
+                west.append((x, y, z))
+    parts = [
+        block("floor", (-t, -t, -t, L + t, 0, W + t), "floor"),
+        block("ceiling", (-t, h, -t, L + t, h + t, W + t)),
+        {"name": "wall_south", "tris": wall_z(0.0, -t), "material": "wall"},
+        {"name": "wall_north", "tris": wall_z(W, W + t), "material": "wall"},
+        {"name": "wall_west", "tris": hexa(west), "material": "wall"},
+        block("wall_east", (L, 0, -t, L + t, h, W + t)),
+    ]
+    return level({"name": "hall-room", "children": parts})
+
+
+def block_door():
+    """Two 4 x 3 x 4 m rooms through a 0.3 m wall (room a's) with a 1 x 2.1 m door: two wall
+    blocks are the jambs, a lintel block spans the door above 2.1 m."""
+    h, t = 3.0, 0.3
+    a = slab_room("a-room", 0, 4, 0, 4, h, t, skip=("wall_east",), extra=(
+        block("jamb_south", (4, 0, -t, 4 + t, h, 1.5)),
+        block("jamb_north", (4, 0, 2.5, 4 + t, h, 4 + t)),
+        block("lintel", (4, 2.1, 1.5, 4 + t, h, 2.5)),
+    ))
+    b = slab_room("b-room", 4 + t, 8 + t, 0, 4, h, t, skip=("wall_west",), west=4 + t)
+    return level(a, b)
+
+
+def block_slot_leak():
+    """The closet with a 10 cm slot through its east wall, floor to ceiling: a leak."""
+    t = 0.3
+    c = slab_room("closet-room", 0, 2, 0, 2, 2.5, t, skip=("wall_east",), extra=(
+        block("wall_east_a", (2, 0, 0, 2 + t, 2.5, 0.95)),
+        block("wall_east_b", (2, 0, 1.05, 2 + t, 2.5, 2)),
+    ))
+    return level(c, start((1.0, 1.0, 1.0)))
+
+
+def block_roofless():
+    """Walls and floor, no ceiling: open to the sky."""
+    return level(slab_room("yard-room", 0, 4, 0, 3, 2.5, 0.3, ceiling=False))
+
+
+def block_pillar_hall():
+    """A 6 x 3 x 4 m hall with a 0.6 x 0.6 m pillar from floor to ceiling (structure) and a
+    table tagged -detail (rendered, never carved)."""
+    return level(slab_room("hall-room", 0, 6, 0, 4, 3, 0.5, extra=(
+        block("pillar", (2.7, 0, 1.7, 3.3, 3, 2.3)),
+        block("table-detail", (4.5, 0, 0.5, 5.5, 0.8, 1.3), "wood"),
+    )))
+
+
+def block_crate_in_wall():
+    """The closet with a 0.8 m crate pushed 0.4 m into its east wall: a prop."""
+    return level(slab_room("closet-room", 0, 2, 0, 2, 2.5, 0.3, extra=(
+        block("crate", (1.6, 0, 0.6, 2.4, 0.8, 1.4), "wood"),
+    )))
+
+
+BLOCK_SAMPLES = {
+    "block_closet": block_closet, "block_hall": block_hall,
+    "block_butt_joints": block_butt_joints, "block_corners": block_corners,
+    "block_door": block_door, "block_slot_leak": block_slot_leak,
+    "block_roofless": block_roofless, "block_pillar_hall": block_pillar_hall,
+    "block_crate_in_wall": block_crate_in_wall,
+}
+
+
+def check_blocks_closed(name, tree):
+    """Every block is a closed, outward-facing solid with positive volume."""
+    for path, t in flatten(tree):
+        if "tris" not in t:
+            continue
+        edges = {}
+        for tri in t["tris"]:
+            for i in range(3):
+                e = (tri[i], tri[(i + 1) % 3])
+                edges[e] = edges.get(e, 0) + 1
+        for (a, b), n in edges.items():
+            assert edges.get((b, a), 0) == n, f"{name}/{path}: open edge {a}-{b}"
+        vol = sum(dot(t0, cross(t1, t2)) for t0, t1, t2 in t["tris"]) / 6.0
+        assert vol > 0, f"{name}/{path}: faces in (volume {vol})"
+
+
+def cross(u, v):
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
 if __name__ == "__main__":
     OUT.mkdir(exist_ok=True)
     t = two_rooms()
@@ -911,3 +1080,9 @@ if __name__ == "__main__":
     print("self-check passed: the portal samples' shells are closed (open walls closed by their "
           "rectangle), their open walls tile the rectangle minus the openings, every surface faces "
           f"the right way; arch opening area {arch_area():.6f}")
+    for name, make in BLOCK_SAMPLES.items():
+        tree = make()
+        check_blocks_closed(name, tree)
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
+    print("self-check passed: every block is closed and faces out")

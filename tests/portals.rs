@@ -39,15 +39,11 @@ fn lportal_tutorial_simple_has_one_door_pair() {
         let (t, c, p) = load(&fixture(file), None);
         let pairs = room_pairs(&t, &c, &p);
         assert_eq!(pairs.len(), 1, "{file}");
-        // The door gap is wall (tests/cells.rs): each side of the pair is its own room's face
-        // of the 0.4 m wall, x = 2.8 for the kitchen and 3.2 for the lounge.
+        // Each room's door reveal is a cell of its own (tests/cells.rs): the two reveals meet
+        // at x = 3, where the authored portal stands.
         let (door, back) = (&p.portals[pairs[0].0], &p.portals[pairs[0].1]);
         for q in [door, back] {
-            let x = if t.tagging.rooms[c.cells[q.from].room].name == "kitchen" {
-                2.8
-            } else {
-                3.2
-            };
+            let x = 3.0;
             let (lo, hi) = bounds(&q.polygon);
             let want = (DVec3::new(x, 0.1, -1.0), DVec3::new(x, 2.0, 1.0));
             // Within 1e-6 m, plus the precision of the file itself (the OBJ writes -0.999999).

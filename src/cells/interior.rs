@@ -243,7 +243,7 @@ impl Surface {
 /// lies in the same or a neighbouring bin of about a degree (either way round), not among all
 /// of them (a big room has thousands of planes).
 #[derive(Default)]
-struct PlaneIndex {
+pub(super) struct PlaneIndex {
     bins: std::collections::HashMap<[i32; 3], Vec<usize>>,
 }
 
@@ -257,12 +257,18 @@ impl PlaneIndex {
         [q.x as i32, q.y as i32, q.z as i32]
     }
 
-    fn add(&mut self, n: DVec3, id: usize) {
+    pub(super) fn add(&mut self, n: DVec3, id: usize) {
         self.bins.entry(Self::key(n)).or_default().push(id);
     }
 
     /// The earliest plane holding every corner of `t` within `eps`.
-    fn find(&self, planes: &[Plane], n: DVec3, t: &[DVec3; 3], eps: f64) -> Option<usize> {
+    pub(super) fn find(
+        &self,
+        planes: &[Plane],
+        n: DVec3,
+        t: &[DVec3; 3],
+        eps: f64,
+    ) -> Option<usize> {
         let mut best: Option<usize> = None;
         for m in [n, -n] {
             let k = Self::key(m);
@@ -637,7 +643,7 @@ pub(crate) fn winding_number(tris: &[[DVec3; 3]], p: DVec3) -> f64 {
 /// Air leaves merged greedily into maximal convex unions (see the module docs). Candidates
 /// come from a grid over the leaves' boxes: a merged cell asks for the leaves its box meets and
 /// tries the cells they now belong to.
-fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
+pub(super) fn merge(mut cells: Vec<ConvexPolyhedron>, eps: f64) -> Vec<ConvexPolyhedron> {
     if cells.len() < 2 {
         return cells;
     }

@@ -56,10 +56,12 @@ use crate::tags::{Room, RoomId, Tagging};
 
 mod assign;
 pub use assign::drop_far_structure;
+mod blocks;
 mod footprint;
 mod interior;
 mod overlap;
 mod prism;
+mod solids;
 pub mod split;
 
 pub use split::{split_geometry, SplitPiece};
@@ -76,6 +78,34 @@ pub enum CellSource {
     Bound,
     /// An extruded footprint.
     Footprint,
+}
+
+/// Why a room mesh was taken for a prop: it is rendered by the cell around it but does not
+/// shape cells. Extras `"structure": true` or `[cells] detect_props = false` keeps it in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PropReason {
+    /// It touches fewer than two sides of the box around the rest of the room (a crate on the
+    /// floor touches one, a lamp none).
+    LooseInRoom,
+    /// A solid block on fewer than two faces of the room's hull and not held between two other
+    /// blocks from opposite sides (a crate on the floor, a shelf on a wall, a crate pushed into
+    /// a wall), where a wall stands between floor and ceiling and a lintel between two jambs.
+    LooseBlock,
+}
+
+impl PropReason {
+    /// In words, for reports.
+    pub fn describe(self) -> &'static str {
+        match self {
+            PropReason::LooseInRoom => {
+                "touches fewer than two sides of the box around the rest of the room"
+            }
+            PropReason::LooseBlock => {
+                "a solid block on fewer than two faces of the room's hull, not held between two blocks from opposite sides"
+            }
+        }
+    }
 }
 
 /// One convex cell of a room: what the runtime locates the eye in and portals join.
@@ -106,6 +136,9 @@ pub struct CellSet {
     pub tolerance: Tolerance,
     /// Room meshes recognised as props (they do not shape cells).
     pub props: Vec<NodeId>,
+    /// Why each of `props` is one, in the same order (what `inspect` shows the designer, who
+    /// can override it with a tag).
+    pub prop_reasons: Vec<PropReason>,
     /// Where cells of different rooms overlap (each reported as `CELL_OVERLAP`).
     pub overlaps: Vec<ConvexPolyhedron>,
     /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
@@ -167,6 +200,18 @@ pub(crate) fn canonical_triangles(
     nodes: &[NodeId],
     origin: DVec3,
 ) -> Vec<[DVec3; 3]> {
+    canonical_node_triangles(scene, nodes, origin)
+        .into_iter()
+        .flat_map(|(_, t)| t)
+        .collect()
+}
+
+/// [`canonical_triangles`] node by node, nodes in the same canonical order.
+pub(crate) fn canonical_node_triangles(
+    scene: &Scene,
+    nodes: &[NodeId],
+    origin: DVec3,
+) -> Vec<(NodeId, Vec<[DVec3; 3]>)> {
     let mut order: Vec<(String, usize, NodeId)> = nodes
         .iter()
         .map(|&n| {
@@ -196,11 +241,15 @@ pub(crate) fn canonical_triangles(
         // triangles in the same order as the original, so its cells are the mirror image.
         tris.sort_unstable();
         let winding = scene.winding(n);
-        out.extend(
-            tris.into_iter().map(|t| winding.order(t)).map(|t| {
-                t.map(|i| node.world.transform_point3(mesh.positions[i as usize]) - origin)
-            }),
-        );
+        out.push((
+            n,
+            tris.into_iter()
+                .map(|t| winding.order(t))
+                .map(|t| {
+                    t.map(|i| node.world.transform_point3(mesh.positions[i as usize]) - origin)
+                })
+                .collect(),
+        ));
     }
     out
 }
@@ -278,10 +327,16 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
     let mut cells: Vec<Cell> = Vec::new();
     let mut room_cells = vec![Vec::new(); tagging.rooms.len()];
     let mut props = Vec::new();
+    let mut prop_reasons = Vec::new();
     let frame = Frame::new(cfg.up);
     let top = level_top(scene, origin, &frame);
     let (skip, extruded) = footprint_nodes(scene, tagging, origin, &frame);
     let ctx = footprint::Context::new(scene, &skip, &extruded, origin, cfg, eps, (frame, top));
+    let starts: Vec<DVec3> = tagging
+        .player_starts
+        .iter()
+        .map(|s| scene.nodes[s.node].world.w_axis.truncate() - origin)
+        .collect();
     let b = RoomBuilder {
         scene,
         cfg,
@@ -290,6 +345,7 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         eps,
         extent,
         frame,
+        starts,
     };
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count.
@@ -305,13 +361,17 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
             cells.push(c);
         }
         diags.extend(room.diags);
-        props.extend(room.props);
+        for (n, why) in room.props {
+            props.push(n);
+            prop_reasons.push(why);
+        }
     }
     let mut set = CellSet {
         cells,
         room_cells,
         tolerance: tol,
         props,
+        prop_reasons,
         overlaps: Vec::new(),
         diagnostics: diags,
     };
@@ -392,6 +452,8 @@ struct RoomBuilder<'a> {
     /// The level's diagonal, what the prop test's touching distance is relative to.
     extent: f64,
     frame: Frame,
+    /// The player starts (recentred): they tell a block room's inside from the void.
+    starts: Vec<DVec3>,
 }
 
 impl RoomBuilder<'_> {
@@ -405,7 +467,7 @@ impl RoomBuilder<'_> {
     /// bounds, then footprints, then its structure.
     fn room(&self, ri: RoomId, room: &Room) -> RoomCells {
         let mut diags: Vec<Diagnostic> = Vec::new();
-        let mut props: Vec<NodeId> = Vec::new();
+        let mut props: Vec<(NodeId, PropReason)> = Vec::new();
         let mut cells: Vec<Cell> = Vec::new();
         let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
         if !room.bounds.is_empty() {
@@ -529,15 +591,19 @@ impl RoomBuilder<'_> {
         &self,
         room: &Room,
         polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
-        props: &mut Vec<NodeId>,
+        props: &mut Vec<(NodeId, PropReason)>,
         diags: &mut Vec<Diagnostic>,
     ) {
+        if self.block_polys(room, polys, props) {
+            return;
+        }
         let (scene, origin, eps, frame) = (self.scene, self.origin, self.eps, &self.frame);
         let mut structure: Vec<NodeId> = room.structure.clone();
         if self.cfg.detect_props && structure.len() >= 2 {
-            let found = detect_props(scene, &structure, origin, self.extent, frame);
+            let mut found = detect_props(scene, &structure, origin, self.extent, frame);
+            found.retain(|&n| !extras_flag(scene, n, "structure"));
             structure.retain(|n| !found.contains(n));
-            props.extend(found);
+            props.extend(found.into_iter().map(|n| (n, PropReason::LooseInRoom)));
         }
         if structure.is_empty() {
             diags.push(
@@ -591,11 +657,112 @@ impl RoomBuilder<'_> {
     }
 }
 
+impl RoomBuilder<'_> {
+    /// The cells of a room built of solid blocks (see `blocks`), with the solids that are
+    /// props set aside; false (nothing added) when the room has no solids, or is one closed
+    /// mesh and nothing else (a room modelled as its own volume), or its solids leave no
+    /// inside and none is tagged `solid`.
+    fn block_polys(
+        &self,
+        room: &Room,
+        polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        props: &mut Vec<(NodeId, PropReason)>,
+    ) -> bool {
+        let (scene, eps) = (self.scene, self.eps);
+        let mut solids = Vec::new();
+        let mut surfaces: Vec<(NodeId, [DVec3; 3])> = Vec::new();
+        for (n, tris) in canonical_node_triangles(scene, &room.structure, self.origin) {
+            let (s, rest) = solids::split_node(n, &tris, eps);
+            solids.extend(s);
+            surfaces.extend(rest.into_iter().map(|t| (n, t)));
+        }
+        if solids.is_empty() {
+            return false;
+        }
+        let all_hull = |solids: &[solids::Solid], surfaces: &[(NodeId, [DVec3; 3])]| {
+            let pts: Vec<DVec3> = solids
+                .iter()
+                .flat_map(|s| s.tris.iter().flatten())
+                .chain(surfaces.iter().flat_map(|(_, t)| t.iter()))
+                .copied()
+                .collect();
+            hull(&pts, eps).ok()
+        };
+        let Some(mut h) = all_hull(&solids, &surfaces) else {
+            return false;
+        };
+        let mut found: Vec<(NodeId, PropReason)> = Vec::new();
+        if self.cfg.detect_props && room.structure.len() >= 2 {
+            // Nodes of solids only by the solids' rule; any other by the box-side rule.
+            let has_surface = |n: NodeId| surfaces.iter().any(|(m, _)| *m == n);
+            let keep = |n: NodeId| extras_flag(scene, n, "structure") || has_surface(n);
+            found = solids::prop_nodes(&solids, &h, &keep, eps)
+                .into_iter()
+                .map(|n| (n, PropReason::LooseBlock))
+                .collect();
+            let boxed = detect_props(
+                scene,
+                &room.structure,
+                self.origin,
+                self.extent,
+                &self.frame,
+            );
+            found.extend(
+                boxed
+                    .into_iter()
+                    .filter(|&n| has_surface(n) && !extras_flag(scene, n, "structure"))
+                    .map(|n| (n, PropReason::LooseInRoom)),
+            );
+            found.sort_unstable_by_key(|(n, _)| *n);
+            // Never call everything a prop.
+            if room
+                .structure
+                .iter()
+                .all(|n| found.iter().any(|(m, _)| m == n))
+            {
+                found.clear();
+            }
+            if !found.is_empty() {
+                let is_prop = |n: &NodeId| found.iter().any(|(m, _)| m == n);
+                solids.retain(|s| !is_prop(&s.node));
+                surfaces.retain(|(n, _)| !is_prop(n));
+                match all_hull(&solids, &surfaces) {
+                    Some(g) => h = g,
+                    None => return false,
+                }
+            }
+        }
+        let tagged = solids.iter().any(|s| extras_flag(scene, s.node, "solid"));
+        if solids.is_empty() || (!tagged && solids.len() == 1 && surfaces.is_empty()) {
+            return false;
+        }
+        let flat: Vec<[DVec3; 3]> = surfaces.iter().map(|(_, t)| *t).collect();
+        let cells = blocks::decompose(&solids, &flat, &h, &self.starts, eps);
+        if cells.is_empty() && !tagged {
+            return false;
+        }
+        let source = if cells.len() == 1 && cells[0] == h {
+            CellSource::Hull
+        } else {
+            CellSource::Split
+        };
+        polys.extend(cells.into_iter().map(|c| (c, source)));
+        props.extend(found);
+        true
+    }
+}
+
+/// Whether a node's extras set `key` (`"solid"`, `"structure"`) to a true flag, spelt any way
+/// the tags schema allows (`true`, `1`, `"yes"`, under `portcullis` or not).
+fn extras_flag(scene: &Scene, n: NodeId, key: &str) -> bool {
+    crate::tags::extras::read_bool(scene.nodes[n].extras.as_ref(), key).unwrap_or(false)
+}
+
 /// One room's cells, with what building them reported and the props found in it.
 struct RoomCells {
     cells: Vec<Cell>,
     diags: Vec<Diagnostic>,
-    props: Vec<NodeId>,
+    props: Vec<(NodeId, PropReason)>,
 }
 
 /// The mean of some points (the origin for none), for diagnostic positions.

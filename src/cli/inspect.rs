@@ -58,6 +58,9 @@ struct FileReport {
     tags: Option<TagsView>,
     #[serde(skip_serializing_if = "Option::is_none")]
     cells: Option<Vec<CellView>>,
+    /// Room meshes taken for props, and why (they render but do not shape cells).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    props: Option<Vec<PropView>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     portals: Option<Vec<DerivedPortalView>>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -104,6 +107,7 @@ fn bare_report(path: &std::path::Path, ok: bool, diagnostics: Vec<Diagnostic>) -
         scene: None,
         tags: None,
         cells: None,
+        props: None,
         portals: None,
         tolerance: None,
         annotation: None,
@@ -241,6 +245,31 @@ fn portals_view(t: &Tagged, cells: &CellSet, set: &PortalSet) -> Vec<DerivedPort
             transform: p.transform.map(|m| m.to_cols_array()),
             authored: p.authored.map(|n| t.scene.node_path(n)),
             partner: p.partner,
+        })
+        .collect()
+}
+
+#[derive(Debug, Serialize)]
+struct PropView {
+    node: String,
+    room: String,
+    reason: portcullis::cells::PropReason,
+}
+
+fn props_view(t: &Tagged, set: &CellSet) -> Vec<PropView> {
+    set.props
+        .iter()
+        .zip(&set.prop_reasons)
+        .map(|(&n, &reason)| PropView {
+            node: t.scene.node_path(n),
+            room: t
+                .tagging
+                .rooms
+                .iter()
+                .find(|r| r.structure.contains(&n))
+                .map(|r| r.name.clone())
+                .unwrap_or_default(),
+            reason,
         })
         .collect()
 }
@@ -465,6 +494,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     scene: Some(summarize(&t.scene)),
                     tags: Some(tags_view(&t)),
                     cells: Some(cells_view(&t, &cells, a.split_geometry)),
+                    props: Some(props_view(&t, &cells)),
                     portals: Some(portals_view(&t, &cells, &portals)),
                     tolerance: Some(cells.tolerance.distance),
                     annotation,
@@ -566,6 +596,18 @@ fn render_human(r: &FileReport, style: &Style) -> String {
     }
     if let Some(cells) = &r.cells {
         render_cells(&mut out, cells, r.tolerance, style);
+    }
+    if let Some(props) = &r.props {
+        let rows: Vec<String> = props
+            .iter()
+            .map(|p| format!("`{}` (room `{}`): {}", p.node, p.room, p.reason.describe()))
+            .collect();
+        list(
+            &mut out,
+            "props (rendered, not shaping cells)",
+            &rows,
+            style,
+        );
     }
     if let Some(portals) = &r.portals {
         render_portals(&mut out, portals, style);

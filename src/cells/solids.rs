@@ -1,0 +1,254 @@
+//! Which of a room's meshes are solid blocks, and which of those are props.
+//!
+//! Levels are blocked out two ways, often mixed: surfaces that bound the air (a room shell, a
+//! Doom sector's walls) and closed solids that bound it from outside (greybox slabs, CSG boxes,
+//! brushes, wall kits). A *solid* is an edge-connected part of one node's mesh that is closed
+//! (every edge is met by exactly as many triangles one way as the other, the vertices matched by
+//! their exact world position) and encloses positive volume with its triangles facing out, by
+//! the divergence theorem. A closed mesh facing in is a room shell, not a solid. The test reads
+//! only the topology and the sign of a sum, so moving, turning or scaling a level cannot change
+//! it.
+//!
+//! A solid is structure when it shapes the air: it lies on the room's hull (a floor, a ceiling,
+//! an outer wall), or it is held between two others from opposite sides (a wall between floor
+//! and ceiling, a jamb between floor and lintel, a lintel between two jambs, a pillar). Anything
+//! else (a crate on the floor, a shelf on a wall, a crate pushed into a wall) is a prop: rendered
+//! by the cell around it, never carving it. Contact and its direction come from the separating
+//! axes of the solids' hulls (the face normal along which two solids overlap least), so the
+//! decision turns with the level. `-detail` keeps a block out of the cells; `[cells]
+//! detect_props = false` or extras `"structure": true` keeps it in.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::geom::aabb::Aabb;
+use crate::geom::grid::BoxGrid;
+use crate::geom::hull::hull;
+use crate::geom::plane::Plane;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::scene::NodeId;
+
+/// One closed, outward-facing part of a node's mesh.
+#[derive(Debug, Clone)]
+pub(crate) struct Solid {
+    /// The node whose mesh it is part of.
+    pub node: NodeId,
+    /// Its triangles, facing out (recentred coordinates).
+    pub tris: Vec<[DVec3; 3]>,
+    pub bounds: Aabb,
+    /// Its convex hull (the solid itself when `convex`).
+    pub hull: Option<ConvexPolyhedron>,
+    /// Every vertex lies behind every one of its triangles' planes.
+    pub convex: bool,
+}
+
+impl Solid {
+    /// Whether `p` lies inside the solid by more than `eps`.
+    pub fn contains(&self, p: DVec3, eps: f64) -> bool {
+        let (lo, hi) = (self.bounds.min, self.bounds.max);
+        if (0..3).any(|k| p[k] <= lo[k] + eps || p[k] >= hi[k] - eps) {
+            return false;
+        }
+        match (&self.hull, self.convex) {
+            (Some(h), true) => h.contains_strictly(p, eps),
+            _ => super::interior::winding_number(&self.tris, p) > 0.5,
+        }
+    }
+}
+
+/// A node's triangles split into its solids and the rest (surfaces).
+pub(crate) fn split_node(
+    node: NodeId,
+    tris: &[[DVec3; 3]],
+    eps: f64,
+) -> (Vec<Solid>, Vec<[DVec3; 3]>) {
+    // Vertices matched by exact position: a closed mesh shares them (an exporter that split
+    // a box's corners for flat normals wrote the same coordinates three times).
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut id = |p: DVec3| {
+        let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+        let next = ids.len() as u32;
+        *ids.entry(key).or_insert(next)
+    };
+    let tri_ids: Vec<[u32; 3]> = tris.iter().map(|t| t.map(&mut id)).collect();
+    // Directed edge -> (triangles using it), and union-find over triangles sharing an edge.
+    let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (k, t) in tri_ids.iter().enumerate() {
+        for i in 0..3 {
+            let (a, b) = (t[i], t[(i + 1) % 3]);
+            if a != b {
+                edges.entry((a, b)).or_default().push(k as u32);
+            }
+        }
+    }
+    let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    let mut keys: Vec<&(u32, u32)> = edges.keys().collect();
+    keys.sort_unstable();
+    for &(a, b) in keys {
+        let mut all: Vec<u32> = edges[&(a, b)].clone();
+        if let Some(r) = edges.get(&(b, a)) {
+            all.extend_from_slice(r);
+        }
+        for w in all.windows(2) {
+            let (x, y) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
+            if x != y {
+                parent[x.max(y) as usize] = x.min(y);
+            }
+        }
+    }
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut group_of: HashMap<u32, usize> = HashMap::new();
+    for k in 0..tris.len() as u32 {
+        let r = find(&mut parent, k);
+        let g = *group_of.entry(r).or_insert_with(|| {
+            groups.push(Vec::new());
+            groups.len() - 1
+        });
+        groups[g].push(k);
+    }
+    let (mut solids, mut rest) = (Vec::new(), Vec::new());
+    for g in groups {
+        let closed = g.iter().all(|&k| {
+            let t = tri_ids[k as usize];
+            (0..3).all(|i| {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                a == b
+                    || edges.get(&(a, b)).map_or(0, Vec::len)
+                        == edges.get(&(b, a)).map_or(0, Vec::len)
+            })
+        });
+        let part: Vec<[DVec3; 3]> = g.iter().map(|&k| tris[k as usize]).collect();
+        if closed && g.len() >= 4 {
+            if let Some(s) = solid(node, part.clone(), eps) {
+                solids.push(s);
+                continue;
+            }
+        }
+        rest.extend(part);
+    }
+    (solids, rest)
+}
+
+/// A closed part as a solid, if it faces out and has volume.
+fn solid(node: NodeId, tris: Vec<[DVec3; 3]>, eps: f64) -> Option<Solid> {
+    let bounds = Aabb::from_points(tris.iter().flatten());
+    let c = (bounds.min + bounds.max) * 0.5;
+    let volume: f64 = tris
+        .iter()
+        .map(|t| (t[0] - c).dot((t[1] - c).cross(t[2] - c)) / 6.0)
+        .sum();
+    let size = bounds.size();
+    if volume <= eps * size.x.max(size.y).max(size.z).powi(2) {
+        return None;
+    }
+    let pts: Vec<DVec3> = tris.iter().flatten().copied().collect();
+    let h = hull(&pts, eps).ok();
+    let convex = h.is_some()
+        && tris.iter().all(|t| {
+            let Some(pl) = Plane::from_polygon(t) else {
+                return true;
+            };
+            pts.iter().all(|p| pl.distance(*p) <= eps)
+        });
+    Some(Solid {
+        node,
+        tris,
+        bounds,
+        hull: h,
+        convex,
+    })
+}
+
+/// The nodes whose solids are props (see the module docs): a node is the designer's object,
+/// so a table's legs holding up its top do not make it structure. `room_hull` is the hull of
+/// the room's structure; `keep` holds nodes a tag keeps as structure; nodes in `surfaces`
+/// have other geometry too and are left to the surface rule.
+pub(crate) fn prop_nodes(
+    solids: &[Solid],
+    room_hull: &ConvexPolyhedron,
+    keep: &dyn Fn(NodeId) -> bool,
+    eps: f64,
+) -> Vec<NodeId> {
+    let grid = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
+    let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let mut out = Vec::new();
+    for &n in &nodes {
+        let own: Vec<&Solid> = solids.iter().filter(|s| s.node == n).collect();
+        if keep(n) || own.iter().any(|s| on_hull_faces(s, room_hull, eps) >= 2) {
+            continue;
+        }
+        let mut dirs: Vec<DVec3> = Vec::new();
+        for s in &own {
+            let Some(a) = &s.hull else { continue };
+            dirs.extend(
+                grid.query(&s.bounds, 2.0 * eps)
+                    .into_iter()
+                    .filter(|&j| solids[j].node != n)
+                    .filter_map(|j| solids[j].hull.as_ref())
+                    .filter_map(|b| contact(a, b, eps)),
+            );
+        }
+        let held = dirs
+            .iter()
+            .enumerate()
+            .any(|(k, d)| dirs[k + 1..].iter().any(|e| d.dot(*e) < -0.5));
+        if !held {
+            out.push(n);
+        }
+    }
+    out
+}
+
+/// On how many distinct faces of the room's hull the solid has a face.
+fn on_hull_faces(s: &Solid, room_hull: &ConvexPolyhedron, eps: f64) -> usize {
+    room_hull
+        .faces
+        .iter()
+        .filter(|f| {
+            s.tris.iter().any(|t| {
+                t.iter().all(|p| f.plane.distance(*p).abs() <= 2.0 * eps)
+                    && (t[1] - t[0]).cross(t[2] - t[0]).dot(f.plane.normal) > 0.0
+            })
+        })
+        .count()
+}
+
+/// Where `b` touches or overlaps `a`: the unit direction from `a` towards `b` along the face
+/// normal (of either hull) on which they overlap least; `None` when a face plane separates them.
+fn contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<DVec3> {
+    let reach = |p: &ConvexPolyhedron, n: DVec3| {
+        p.faces
+            .iter()
+            .flat_map(|f| f.points.iter())
+            .map(|q| q.dot(n))
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let mut best: Option<(f64, DVec3)> = None;
+    for (f, dir) in a
+        .faces
+        .iter()
+        .map(|f| (f, 1.0))
+        .chain(b.faces.iter().map(|f| (f, -1.0)))
+    {
+        // Overlap along the direction from a towards b: how far a reaches past b's start.
+        let n = f.plane.normal * dir;
+        let overlap = reach(a, n) + reach(b, -n);
+        if overlap < -eps {
+            return None;
+        }
+        if best.is_none_or(|(o, _)| overlap < o - eps) {
+            best = Some((overlap, n));
+        }
+    }
+    best.map(|(_, n)| n)
+}
