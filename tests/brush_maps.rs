@@ -14,88 +14,12 @@ mod common;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use common::brush_level::{brush_use, level, Use};
 use common::map::{self, Entity};
-use glam::{DMat4, DVec3};
+use glam::DVec3;
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
 use portcullis::pipeline::{build_cells, build_portals, check_level, Tagged};
-
-/// What qbsp makes of a brush, by its entity and textures.
-#[derive(PartialEq)]
-enum Use {
-    Structure,
-    Detail,
-    Skip,
-}
-
-fn brush_use(e: &Entity, b: &map::Brush) -> Use {
-    let class = e.classname();
-    let tex = |f: &map::Face| f.texture.to_ascii_lowercase();
-    // Liquids do not seal in Quake; clip, hint, skip, trigger and origin brushes are no walls.
-    let liquid = b.faces.iter().any(|f| tex(f).starts_with('*'));
-    let tool = b.faces.iter().all(|f| {
-        let t = tex(f);
-        ["clip", "hint", "hintskip", "skip", "trigger", "origin"]
-            .iter()
-            .any(|k| t == *k || t.ends_with(&format!("/{k}")))
-    });
-    if liquid || tool || b.triangles.is_empty() {
-        return Use::Skip;
-    }
-    match class {
-        "worldspawn" | "func_group" => Use::Structure,
-        c if c.starts_with("func_detail") => Use::Detail,
-        _ => Use::Skip,
-    }
-}
-
-/// A map as a tagged level: one room of its world brushes, its point entities as nodes.
-fn level(entities: &[Entity]) -> (Tagged, Vec<(String, DVec3)>) {
-    let mut parts: Vec<common::Part> = vec![("world-room", None, Vec::new(), None)];
-    let mut points = Vec::new();
-    let mut names: Vec<String> = Vec::new();
-    for (ei, e) in entities.iter().enumerate() {
-        for (bi, b) in e.brushes.iter().enumerate() {
-            let extras = match brush_use(e, b) {
-                Use::Structure => serde_json::json!({ "solid": true }),
-                Use::Detail => serde_json::json!({ "solid": true, "detail": true }),
-                Use::Skip => continue,
-            };
-            let tris = b
-                .triangles
-                .iter()
-                .map(|t| t.map(map::to_y_up_metres))
-                .collect();
-            names.push(format!("e{ei}_b{bi}"));
-            parts.push(("brush", Some(0), tris, Some(extras)));
-        }
-        if let (Some(o), true) = (e.origin(), e.brushes.is_empty()) {
-            points.push((e.classname().to_string(), map::to_y_up_metres(o)));
-        }
-    }
-    let starts: Vec<DVec3> = points
-        .iter()
-        .filter(|(c, _)| c.starts_with("info_player_start") || c == "info_player_deathmatch")
-        .map(|(_, p)| *p)
-        .collect();
-    for _ in &starts {
-        parts.push((
-            "player_start",
-            None,
-            Vec::new(),
-            Some(serde_json::json!({ "player_start": true })),
-        ));
-    }
-    let mut scene = common::scene_of(parts, DMat4::IDENTITY);
-    let first = scene.nodes.len() - starts.len();
-    for (k, p) in starts.iter().enumerate() {
-        scene.nodes[first + k].world = DMat4::from_translation(*p);
-    }
-    let mut config = portcullis::config::Config::default();
-    // qbsp: every world brush is structure, however loose it stands.
-    config.cells.detect_props = false;
-    (common::tagged_with(scene, config, None), points)
-}
 
 /// Cells, portals and whether `check --sealed` finds a leak.
 fn verdict(entities: &[Entity]) -> (Tagged, CellSet, bool, Vec<(String, DVec3)>) {
@@ -217,54 +141,64 @@ fn ericw_testmaps_get_qbsps_verdicts() {
     }
 }
 
+/// On real maps (E1M1, LibreQuake's e3m4 of 3,441 brushes, a jam map): every point entity
+/// whose origin lies outside all world brushes is in a cell, and no point sampled in a cell
+/// lies in a world brush.
 #[test]
 #[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
-fn e1m1_entities_are_in_cells_and_cells_are_not_in_brushes() {
-    let entities = testmap("E1M1-edited-ents.map");
-    let (_, c, _, points) = verdict(&entities);
-    let brushes: Vec<&map::Brush> = entities
-        .iter()
-        .flat_map(|e| {
-            e.brushes
-                .iter()
-                .filter(move |b| brush_use(e, b) == Use::Structure)
-        })
-        .collect();
-    let back = |p: DVec3| DVec3::new(p.x, -p.z, p.y) / 0.0254;
-    let in_cell = |p: DVec3, m: f64| {
-        c.cells
+fn real_maps_entities_are_in_cells_and_cells_are_not_in_brushes() {
+    for name in [
+        "E1M1-edited-ents.map",
+        "LibreQuake/lq1/maps/src/e3/e3m4.map",
+        "retrojam1_ericw.map",
+    ] {
+        let entities = testmap(name);
+        let (_, c, leak, points) = verdict(&entities);
+        assert!(!leak, "{name} is sealed");
+        let brushes: Vec<&map::Brush> = entities
             .iter()
-            .any(|cell| cell.poly.faces.iter().all(|f| f.plane.distance(p) < m))
-    };
-    let mut outside = 0;
-    for (class, p) in &points {
-        let q = back(*p);
-        if brushes.iter().any(|b| b.contains(q, -0.01)) {
-            continue;
-        }
-        outside += 1;
-        assert!(in_cell(*p, 1e-6), "{class} at {q} is in no cell");
-    }
-    let mut rng = common::rng::SplitMix64::new(1);
-    let mut sampled = 0;
-    for cell in &c.cells {
-        let (lo, hi) = (cell.bounds.min, cell.bounds.max);
-        for _ in 0..40 {
-            let p = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            if !cell.poly.faces.iter().all(|f| f.plane.distance(p) < -1e-4) {
+            .flat_map(|e| {
+                e.brushes
+                    .iter()
+                    .filter(move |b| brush_use(e, b) == Use::Structure)
+            })
+            .collect();
+        let back = |p: DVec3| DVec3::new(p.x, -p.z, p.y) / 0.0254;
+        let in_cell = |p: DVec3, m: f64| {
+            c.cells
+                .iter()
+                .any(|cell| cell.poly.faces.iter().all(|f| f.plane.distance(p) < m))
+        };
+        let mut outside = 0;
+        for (class, p) in &points {
+            let q = back(*p);
+            if brushes.iter().any(|b| b.contains(q, -0.01)) {
                 continue;
             }
-            sampled += 1;
-            let q = back(p);
-            assert!(
-                !brushes.iter().any(|b| b.contains(q, 1e-3)),
-                "cell point {q} lies in a brush"
-            );
+            outside += 1;
+            assert!(in_cell(*p, 1e-6), "{name}: {class} at {q} is in no cell");
         }
+        let mut rng = common::rng::SplitMix64::new(1);
+        let mut sampled = 0;
+        for cell in &c.cells {
+            let (lo, hi) = (cell.bounds.min, cell.bounds.max);
+            for _ in 0..40 {
+                let p = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+                if !cell.poly.faces.iter().all(|f| f.plane.distance(p) < -1e-4) {
+                    continue;
+                }
+                sampled += 1;
+                let q = back(p);
+                assert!(
+                    !brushes.iter().any(|b| b.contains(q, 1e-3)),
+                    "{name}: cell point {q} lies in a brush"
+                );
+            }
+        }
+        eprintln!(
+            "{name}: {} cells, {outside} point entities outside the brushes in cells, {sampled} cell points in no brush",
+            c.cells.len()
+        );
+        assert!(outside > 50 && sampled > 1000, "{name}");
     }
-    eprintln!(
-        "E1M1: {} cells, {outside} point entities outside the brushes, {sampled} cell points",
-        c.cells.len()
-    );
-    assert!(outside > 100 && sampled > 1000);
 }

@@ -117,6 +117,12 @@ pub(crate) fn decompose(
             active.push(frag);
         }
     }
+    // Air joins air through a face wider than a crack, as the portal stage lets sight through
+    // (geom/crack.rs): a tenth of the shortest edge of the room's faces, never under ten
+    // tolerances. Leaves that meet along an edge, or across a hairline gap between two blocks
+    // that were meant to touch, are not one region.
+    let crack = shortest_edge(&active, &on_hull, eps) / 10.0;
+    let crack = crack.max(10.0 * eps);
     let space = Space {
         planes,
         solids,
@@ -125,7 +131,7 @@ pub(crate) fn decompose(
     };
     let leaves = space.leaves(hull.clone(), active, on_hull.clone());
     let air: Vec<Leaf> = leaves.into_iter().filter(|l| space.is_air(l)).collect();
-    let keep = inside(&air, hull, &on_hull, seeds, eps);
+    let keep = inside(&air, hull, &on_hull, seeds, crack, eps);
     let cells: Vec<ConvexPolyhedron> = air
         .into_iter()
         .zip(keep)
@@ -317,6 +323,25 @@ fn thickness(p: &ConvexPolyhedron) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// The shortest edge longer than `eps` of any face (solids' and surfaces').
+fn shortest_edge(a: &[Frag], b: &[Frag], eps: f64) -> f64 {
+    a.iter()
+        .chain(b)
+        .flat_map(|f| {
+            (0..f.pts.len()).map(move |k| f.pts[k].distance(f.pts[(k + 1) % f.pts.len()]))
+        })
+        .filter(|&l| l > eps)
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Twice the area over the perimeter: how wide a polygon is on average.
+fn mean_width(pts: &[DVec3], normal: DVec3) -> f64 {
+    let perimeter: f64 = (0..pts.len())
+        .map(|k| pts[k].distance(pts[(k + 1) % pts.len()]))
+        .sum();
+    2.0 * polygon_area(pts, normal) / perimeter.max(f64::MIN_POSITIVE)
+}
+
 /// The part of convex polygon `a` inside convex polygon `b` (both on one plane, `b` wound
 /// counter-clockwise about `normal`).
 fn overlap(a: &[DVec3], b: &[DVec3], normal: DVec3) -> Vec<DVec3> {
@@ -341,6 +366,7 @@ fn inside(
     hull: &ConvexPolyhedron,
     on_hull: &[Frag],
     seeds: &[DVec3],
+    crack: f64,
     eps: f64,
 ) -> Vec<bool> {
     let n = air.len();
@@ -362,7 +388,7 @@ fn inside(
                     && (f.plane.d + g.plane.d).abs() <= 2.0 * eps
                 {
                     let common = overlap(&f.points, &g.points, g.plane.normal);
-                    if common.len() >= 3 {
+                    if common.len() >= 3 && mean_width(&common, f.plane.normal) > crack {
                         area += polygon_area(&common, f.plane.normal);
                     }
                 }

@@ -1,0 +1,126 @@
+//! Brush maps as one room of solid blocks (issue 41), side by side with ericw-tools' qbsp:
+//! `ERICW_TESTMAPS=<ericw-tools>/testmaps cargo bench --bench brush_maps [MAP.map ...]`
+//! (E1M1-edited-ents.map and qbspfeatures.map by default). For each map: the world brushes read
+//! as closed meshes of one room (tests/common/brush_level.rs), then tags, cells, portals and
+//! `check --sealed`, five times, the median and the slowest; with `QBSP=<path to qbsp>` qbsp
+//! is run five times on the same map (`qbsp -noverbose MAP OUT.bsp`) and its median printed
+//! beside, with its leaf and portal counts from the .prt it writes. Reading the .map text is
+//! left out of our time, as qbsp's own parse is a small part of its. docs/performance.md keeps
+//! the numbers.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+#[allow(unused_imports)]
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use portcullis::diag::Code;
+use portcullis::pipeline::{build_cells, build_portals, check_level};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Our run: (median s, slowest s, cells, portals, leak).
+fn ours(text: &str) -> (f64, f64, usize, usize, bool) {
+    let entities = common::map::parse(text).expect("the map parses");
+    let mut times = Vec::new();
+    let mut last = (0, 0, false);
+    for _ in 0..5 {
+        let start = Instant::now();
+        let (mut t, _) = common::brush_level::level(&entities);
+        let c = build_cells(&mut t);
+        let p = build_portals(&mut t, &c);
+        check_level(&mut t, &c, &p, true);
+        times.push(start.elapsed().as_secs_f64());
+        last = (
+            c.cells.len(),
+            p.portals.len(),
+            t.diagnostics.has(Code::LEAK),
+        );
+    }
+    let slowest = times.iter().copied().fold(0.0, f64::max);
+    (median(times), slowest, last.0, last.1, last.2)
+}
+
+/// qbsp's run: (median s, leafs, portals) from its .prt, or None when it leaked.
+fn qbsp(bin: &Path, map: &Path) -> (f64, Option<(usize, usize)>) {
+    let dir = std::env::temp_dir().join(format!("portcullis-qbsp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("out.bsp");
+    let mut times = Vec::new();
+    for _ in 0..5 {
+        let _ = std::fs::remove_file(dir.join("out.prt"));
+        let start = Instant::now();
+        let status = Command::new(bin)
+            .arg("-noverbose")
+            .arg(map)
+            .arg(&out)
+            .output()
+            .expect("qbsp runs");
+        times.push(start.elapsed().as_secs_f64());
+        assert!(status.status.success(), "qbsp failed on {}", map.display());
+    }
+    let counts = std::fs::read_to_string(dir.join("out.prt"))
+        .ok()
+        .map(|prt| {
+            let lines: Vec<&str> = prt.lines().collect();
+            // PRT1: leafs, portals; PRT2: leafs, clusters, portals.
+            let n = |i: usize| {
+                lines
+                    .get(i)
+                    .and_then(|l| l.trim().parse().ok())
+                    .unwrap_or(0)
+            };
+            if lines.first() == Some(&"PRT2") {
+                (n(1), n(3))
+            } else {
+                (n(1), n(2))
+            }
+        });
+    let _ = std::fs::remove_dir_all(&dir);
+    (median(times), counts)
+}
+
+fn main() {
+    let Ok(dir) = std::env::var("ERICW_TESTMAPS") else {
+        eprintln!("set ERICW_TESTMAPS to ericw-tools' testmaps folder (the maps are not shipped)");
+        return;
+    };
+    let mut maps: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a.ends_with(".map"))
+        .collect();
+    if maps.is_empty() {
+        maps = vec!["E1M1-edited-ents.map".into(), "qbspfeatures.map".into()];
+    }
+    let qbsp_bin = std::env::var("QBSP").ok().map(PathBuf::from);
+    println!("| map | brushes | ours: cells, portals | ours: median (slowest) of 5 | verdict | qbsp: leafs, portals | qbsp: median of 5 | qbsp verdict |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for name in maps {
+        let path = Path::new(&dir).join(&name);
+        let text = std::fs::read_to_string(&path).expect("the map reads");
+        let brushes: usize = common::map::parse(&text)
+            .unwrap()
+            .iter()
+            .map(|e| e.brushes.len())
+            .sum();
+        let (med, slow, cells, portals, leak) = ours(&text);
+        let verdict = if leak { "LEAK" } else { "sealed" };
+        let (q_time, q_counts, q_verdict) = match &qbsp_bin {
+            Some(bin) => {
+                let (t, c) = qbsp(bin, &path);
+                let v = if c.is_some() { "sealed" } else { "leak" };
+                let counts = c.map_or("—".to_string(), |(l, p)| format!("{l}, {p}"));
+                (format!("{t:.3} s"), counts, v.to_string())
+            }
+            None => ("(QBSP unset)".into(), "—".into(), "—".into()),
+        };
+        println!(
+            "| {name} | {brushes} | {cells}, {portals} | {med:.3} s ({slow:.3} s) | {verdict} | {q_counts} | {q_time} | {q_verdict} |"
+        );
+    }
+}
