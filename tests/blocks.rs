@@ -367,3 +367,59 @@ fn check_sealed_finds_a_leak_exactly_in_the_leaking_block_samples() {
         );
     }
 }
+
+/// The surface-built samples keep their answers (tests/cells_3d.rs and the others hold those);
+/// here, the same oracle where they have solids: a point strictly inside any closed,
+/// outward-facing structure mesh of a room lies in no cell, as built and turned and moved.
+#[test]
+fn surface_samples_have_no_cell_inside_a_solid() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(common::root().join("samples")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !name.ends_with(".gltf") || name.starts_with("block_") {
+            continue;
+        }
+        for m in [DMat4::IDENTITY, turned()] {
+            let (t, c, _) = build(&path, m);
+            let bounds: Vec<usize> = t.tagging.bounds.iter().map(|b| b.node).collect();
+            for room in &t.tagging.rooms {
+                for &n in &room.structure {
+                    let Some(mesh) = t.scene.nodes[n].mesh else {
+                        continue;
+                    };
+                    if c.props.contains(&n) || bounds.contains(&n) {
+                        continue;
+                    }
+                    let w = t.scene.world_positions(n);
+                    let tris: Vec<[DVec3; 3]> = t.scene.meshes[mesh]
+                        .triangles
+                        .iter()
+                        .map(|tri| tri.map(|i| w[i as usize]))
+                        .collect();
+                    if !common::rays::is_closed(&tris) || common::rays::signed_volume(&tris) <= 0.0
+                    {
+                        continue;
+                    }
+                    checked += 1;
+                    let (lo, hi) = common::rays::bounds(&tris);
+                    let mut rng = common::rng::SplitMix64::new(7);
+                    for _ in 0..500 {
+                        let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+                        let away = [DVec3::X, DVec3::Y, DVec3::Z]
+                            .iter()
+                            .all(|a| inside(&tris, q + *a * 1e-3) && inside(&tris, q - *a * 1e-3));
+                        if away && inside(&tris, q) {
+                            assert!(
+                                !c.cells.iter().any(|cell| in_cell(cell, q, 1e-6)),
+                                "{name}: a point inside `{}` lies in a cell",
+                                t.scene.node_label(n)
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 0, "some surface sample has a solid");
+}

@@ -22,8 +22,8 @@
 //!    number of the room's triangles (Jacobson, Kavan and Sorkine-Hornung 2013), which stays
 //!    meaningful where the surface has holes. A room modelled as a solid (its surface facing
 //!    out and enclosing more than half of its hull, by the divergence theorem about the hull's
-//!    centre) is read the other way round. Rooms built of solid wall blocks on a floor enclose
-//!    little, so they are read as rendered.
+//!    centre) is read the other way round. Rooms of closed solid blocks are read by
+//!    `super::blocks` first.
 //! 4. **Merge.** Air leaves are merged greedily into maximal convex unions: the pair whose
 //!    union is convex (the planes of both that hold every vertex of both enclose no more than
 //!    their two volumes) and largest goes first, ties by leaf order.
@@ -114,9 +114,10 @@ impl Surface {
 /// hull that no triangle covers (faces the BSP cut inside the hull count for neither). A leaf
 /// more open than held is the room's only if the room's surface still winds around it (the
 /// generalized winding number, as for a leaf no surface touches): a piece of a room beside a
-/// wide window is, while a slot between two of the room's wall blocks that opens onto the
-/// next room and the sky (LPortal's door gaps) is not: the portal stage bridges the wall
-/// there, as for any wall. A closed room has no open face, so this never removes its air.
+/// wide window is, while a slot between two of the room's open wall meshes that opens onto
+/// the next room and the sky (LPortal's BoxRooms door gaps) is not: the portal stage bridges
+/// the wall there, as for any wall. (Closed wall blocks are read by `blocks`, where the gap is
+/// the room's door reveal.) A closed room has no open face, so this never removes its air.
 fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron, eps: f64) -> bool {
     let mut covered_on = vec![0.0f64; leaf.faces.len()];
     let mut covered = 0.0;

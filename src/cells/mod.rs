@@ -14,6 +14,11 @@
 //! Invariants of [`CellSet`]: every cell is convex with outward planes and at least four faces;
 //! the cells of one room do not overlap; `room_cells[r]` lists room `r`'s cells in order.
 //!
+//! A room built of solid blocks (closed, outward-facing meshes: slabs, CSG boxes, brushes, kit
+//! pieces) is the air around them (`solids.rs` finds them and the props among them, `blocks.rs`
+//! keeps the inside of what they enclose), tried before the surface reading below; a room whose
+//! only mesh is one closed outward mesh stays the volume it models unless tagged `solid`.
+//!
 //! Room meshes touching fewer than two sides of the box around the rest of the room are props (a
 //! crate, a lamp): rendered by the cell containing them, never shaping it. Footprints
 //! (`footprint.rs`): each planar part partitioned into convex pieces, every piece vertex raised to

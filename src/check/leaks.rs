@@ -10,15 +10,18 @@ use super::{centroid, edges, Findings, Options, Subject};
 use crate::diag::{Code, Diagnostic};
 
 pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], opts: &Options, f: &mut Findings) {
+    if opts.sealed {
+        void_starts(s, seeds, f);
+    }
     if opts.sealed && s.cells.is_empty() {
-        // No room, so nothing closes the level: a sealed level cannot be open everywhere.
+        // No cell, so nothing closes the level: a sealed level cannot be open everywhere.
         f.diagnostics.push(
             Diagnostic::new(
                 Code::LEAK,
-                "leak: the level is declared sealed but no room was recognised, so nothing closes it",
+                "leak: the level is declared sealed but no cell was built (no room was recognised, or no room encloses any air), so nothing closes it",
                 crate::diag::Location::file(&s.file),
             )
-            .hint("tag the level's rooms (see `portcullis inspect` for near misses and `--tags` for presets), or drop --sealed / [check] sealed for an open level"),
+            .hint("tag the level's rooms (see `portcullis inspect` for near misses and `--tags` for presets), close the room's blocks around its air, or drop --sealed / [check] sealed for an open level"),
         );
         return;
     }
@@ -105,6 +108,31 @@ pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], opts: &Options, f: &m
             .hint("close the opening here (a missing wall, floor or ceiling, or a gap between meshes), or add the room beyond it; the leak line is in the --debug output"),
         );
         f.leaks.push(line);
+    }
+}
+
+/// A player start in no cell of a sealed level stands in the void outside every room, as an
+/// entity outside a brush map's hull does for qbsp: a leak, drawn as the start itself.
+fn void_starts(s: &Subject, seeds: &[(usize, usize)], f: &mut Findings) {
+    for (k, st) in s.starts.iter().enumerate() {
+        if seeds.iter().any(|&(j, _)| j == k) {
+            continue;
+        }
+        f.diagnostics.push(
+            Diagnostic::new(
+                Code::LEAK,
+                format!(
+                    "leak: {} lies in no cell: in a sealed level it stands in the void outside every room",
+                    st.label
+                ),
+                st.at.clone().with_position(st.point.to_array()),
+            )
+            .hint("move the start into a room, or close the room around it (a room of solid blocks is the air its blocks enclose)"),
+        );
+        f.leaks.push(vec![
+            st.point,
+            st.point + glam::DVec3::Y * 0.02 * s.extent.max(1.0),
+        ]);
     }
 }
 
