@@ -166,33 +166,58 @@ fn build(path: &std::path::Path, m: DMat4) -> (Tagged, CellSet, PortalSet) {
     (t, c, p)
 }
 
-/// The structural blocks of every room (detail and the props the cells stage names left out),
-/// each a closed outward-facing triangle list, by node name.
-fn blocks(t: &Tagged, c: &CellSet) -> Vec<(String, Vec<[DVec3; 3]>)> {
+/// Every structural mesh of every room (props and bounds left out), by node, with its world
+/// triangles.
+fn structure_meshes(t: &Tagged, c: &CellSet) -> Vec<(usize, Vec<[DVec3; 3]>)> {
+    let bounds: Vec<usize> = t.tagging.bounds.iter().map(|b| b.node).collect();
     let mut out = Vec::new();
     for room in &t.tagging.rooms {
         for &n in &room.structure {
-            if c.props.contains(&n) {
-                continue;
-            }
             let Some(m) = t.scene.nodes[n].mesh else {
                 continue;
             };
+            if c.props.contains(&n) || bounds.contains(&n) {
+                continue;
+            }
             let w = t.scene.world_positions(n);
-            let tris: Vec<[DVec3; 3]> = t.scene.meshes[m]
+            let tris = t.scene.meshes[m]
                 .triangles
                 .iter()
                 .map(|tri| tri.map(|i| w[i as usize]))
                 .collect();
-            assert!(
-                common::rays::is_closed(&tris) && common::rays::signed_volume(&tris) > 0.0,
-                "{} is a closed outward block",
-                t.scene.node_label(n)
-            );
-            out.push((t.scene.nodes[n].name.clone().unwrap_or_default(), tris));
+            out.push((n, tris));
         }
     }
     out
+}
+
+/// Whether a closed mesh is a solid block: closed and facing out.
+fn is_block(tris: &[[DVec3; 3]]) -> bool {
+    common::rays::is_closed(tris) && common::rays::signed_volume(tris) > 0.0
+}
+
+/// Inside a closed mesh and a millimetre from its faces along every axis.
+fn deep_inside(tris: &[[DVec3; 3]], q: DVec3) -> bool {
+    inside(tris, q)
+        && [DVec3::X, DVec3::Y, DVec3::Z]
+            .iter()
+            .all(|a| inside(tris, q + *a * 1e-3) && inside(tris, q - *a * 1e-3))
+}
+
+/// The structural blocks of every room (detail and the props the cells stage names left out),
+/// each a closed outward-facing triangle list, by node name.
+fn blocks(t: &Tagged, c: &CellSet) -> Vec<(String, Vec<[DVec3; 3]>)> {
+    structure_meshes(t, c)
+        .into_iter()
+        .map(|(n, tris)| {
+            assert!(
+                is_block(&tris),
+                "{} is a closed outward block",
+                t.scene.node_label(n)
+            );
+            (t.scene.nodes[n].name.clone().unwrap_or_default(), tris)
+        })
+        .collect()
 }
 
 /// Inside a closed mesh by ray parity, three oblique rays agreeing.
@@ -266,10 +291,7 @@ fn check_sample(k: &Known, m: DMat4, what: &str) {
         let mut found = 0;
         for _ in 0..4000 {
             let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-            let away = [DVec3::X, DVec3::Y, DVec3::Z]
-                .iter()
-                .all(|a| inside(tris, q + *a * 1e-3) && inside(tris, q - *a * 1e-3));
-            if !away || !inside(tris, q) {
+            if !deep_inside(tris, q) {
                 continue;
             }
             found += 1;
@@ -382,40 +404,21 @@ fn surface_samples_have_no_cell_inside_a_solid() {
         }
         for m in [DMat4::IDENTITY, turned()] {
             let (t, c, _) = build(&path, m);
-            let bounds: Vec<usize> = t.tagging.bounds.iter().map(|b| b.node).collect();
-            for room in &t.tagging.rooms {
-                for &n in &room.structure {
-                    let Some(mesh) = t.scene.nodes[n].mesh else {
-                        continue;
-                    };
-                    if c.props.contains(&n) || bounds.contains(&n) {
-                        continue;
-                    }
-                    let w = t.scene.world_positions(n);
-                    let tris: Vec<[DVec3; 3]> = t.scene.meshes[mesh]
-                        .triangles
-                        .iter()
-                        .map(|tri| tri.map(|i| w[i as usize]))
-                        .collect();
-                    if !common::rays::is_closed(&tris) || common::rays::signed_volume(&tris) <= 0.0
-                    {
-                        continue;
-                    }
-                    checked += 1;
-                    let (lo, hi) = common::rays::bounds(&tris);
-                    let mut rng = common::rng::SplitMix64::new(7);
-                    for _ in 0..500 {
-                        let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-                        let away = [DVec3::X, DVec3::Y, DVec3::Z]
-                            .iter()
-                            .all(|a| inside(&tris, q + *a * 1e-3) && inside(&tris, q - *a * 1e-3));
-                        if away && inside(&tris, q) {
-                            assert!(
-                                !c.cells.iter().any(|cell| in_cell(cell, q, 1e-6)),
-                                "{name}: a point inside `{}` lies in a cell",
-                                t.scene.node_label(n)
-                            );
-                        }
+            for (n, tris) in structure_meshes(&t, &c) {
+                if !is_block(&tris) {
+                    continue;
+                }
+                checked += 1;
+                let (lo, hi) = common::rays::bounds(&tris);
+                let mut rng = common::rng::SplitMix64::new(7);
+                for _ in 0..500 {
+                    let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+                    if deep_inside(&tris, q) {
+                        assert!(
+                            !c.cells.iter().any(|cell| in_cell(cell, q, 1e-6)),
+                            "{name}: a point inside `{}` lies in a cell",
+                            t.scene.node_label(n)
+                        );
                     }
                 }
             }

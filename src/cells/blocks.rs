@@ -31,7 +31,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::interior::{merge, PlaneIndex};
+use super::interior::{merge, thickness, unit_normal, PlaneIndex};
 use super::solids::Solid;
 use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
@@ -82,13 +82,9 @@ pub(crate) fn decompose(
         .flat_map(|s| s.tris.iter().map(|t| (t, false)))
         .chain(surfaces.iter().map(|t| (t, true)));
     for (t, surface) in all {
-        let n = (t[1] - t[0]).cross(t[2] - t[0]);
-        let len = n.length();
-        let perimeter = t[0].distance(t[1]) + t[1].distance(t[2]) + t[2].distance(t[0]);
-        if len <= eps * perimeter {
+        let Some(unit) = unit_normal(t, eps) else {
             continue;
-        }
-        let unit = n / len;
+        };
         let hull_face = hull
             .faces
             .iter()
@@ -96,15 +92,7 @@ pub(crate) fn decompose(
         if hull_face && !surface {
             continue; // a solid's face on the hull bounds nothing the hull does not
         }
-        let id = index.find(&planes, unit, t, eps).unwrap_or_else(|| {
-            let c = (t[0] + t[1] + t[2]) / 3.0;
-            planes.push(Plane {
-                normal: unit,
-                d: unit.dot(c),
-            });
-            index.add(unit, planes.len() - 1);
-            planes.len() - 1
-        });
+        let id = index.intern(&mut planes, unit, t, eps);
         let frag = Frag {
             pts: t.to_vec(),
             plane: id as u32,
@@ -307,20 +295,6 @@ fn surface_evidence(leaf: &Leaf, inside: DVec3) -> f64 {
             polygon_area(&f.pts, f.air) * f.air.dot(inside - c).signum()
         })
         .sum()
-}
-
-/// The width of a convex polyhedron across its thinnest face direction.
-fn thickness(p: &ConvexPolyhedron) -> f64 {
-    p.faces
-        .iter()
-        .map(|f| {
-            p.faces
-                .iter()
-                .flat_map(|g| g.points.iter())
-                .map(|q| -f.plane.distance(*q))
-                .fold(0.0, f64::max)
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// The shortest edge longer than `eps` of any face (solids' and surfaces').

@@ -200,26 +200,10 @@ impl Surface {
         let mut hull_frags = Vec::new();
         let mut active = Vec::new();
         for t in tris {
-            let n = (t[1] - t[0]).cross(t[2] - t[0]);
-            let len = n.length();
-            let perimeter = t[0].distance(t[1]) + t[1].distance(t[2]) + t[2].distance(t[0]);
-            // No area to speak of (mean width under the tolerance): no surface.
-            if len <= eps * perimeter {
+            let Some(unit) = unit_normal(t, eps) else {
                 continue;
-            }
-            let unit = n / len;
-            let id = match index.find(&planes, unit, t, eps) {
-                Some(i) => i,
-                None => {
-                    let c = (t[0] + t[1] + t[2]) / 3.0;
-                    planes.push(Plane {
-                        normal: unit,
-                        d: unit.dot(c),
-                    });
-                    index.add(unit, planes.len() - 1);
-                    planes.len() - 1
-                }
             };
+            let id = index.intern(&mut planes, unit, t, eps);
             let frag = Frag {
                 pts: t.to_vec(),
                 plane: id as u32,
@@ -248,8 +232,38 @@ pub(super) struct PlaneIndex {
     bins: std::collections::HashMap<[i32; 3], Vec<usize>>,
 }
 
+/// A triangle's unit normal, `None` when it has no area to speak of (its mean width under the
+/// tolerance): no surface.
+pub(super) fn unit_normal(t: &[DVec3; 3], eps: f64) -> Option<DVec3> {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let len = n.length();
+    let perimeter = t[0].distance(t[1]) + t[1].distance(t[2]) + t[2].distance(t[0]);
+    (len > eps * perimeter).then(|| n / len)
+}
+
 impl PlaneIndex {
     const BINS: f64 = 64.0;
+
+    /// The plane of triangle `t` (unit normal `n`): the earliest that holds it, else a new one
+    /// through its centroid.
+    pub(super) fn intern(
+        &mut self,
+        planes: &mut Vec<Plane>,
+        n: DVec3,
+        t: &[DVec3; 3],
+        eps: f64,
+    ) -> usize {
+        if let Some(i) = self.find(planes, n, t, eps) {
+            return i;
+        }
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        planes.push(Plane {
+            normal: n,
+            d: n.dot(c),
+        });
+        self.add(n, planes.len() - 1);
+        planes.len() - 1
+    }
 
     /// The normal's bin (a plane is filed under its first triangle's normal, and looked for
     /// under both `n` and `-n`).
@@ -258,18 +272,12 @@ impl PlaneIndex {
         [q.x as i32, q.y as i32, q.z as i32]
     }
 
-    pub(super) fn add(&mut self, n: DVec3, id: usize) {
+    fn add(&mut self, n: DVec3, id: usize) {
         self.bins.entry(Self::key(n)).or_default().push(id);
     }
 
     /// The earliest plane holding every corner of `t` within `eps`.
-    pub(super) fn find(
-        &self,
-        planes: &[Plane],
-        n: DVec3,
-        t: &[DVec3; 3],
-        eps: f64,
-    ) -> Option<usize> {
+    fn find(&self, planes: &[Plane], n: DVec3, t: &[DVec3; 3], eps: f64) -> Option<usize> {
         let mut best: Option<usize> = None;
         for m in [n, -n] {
             let k = Self::key(m);
@@ -596,7 +604,7 @@ fn splitter(s: &Surface, active: &[Frag], segs: &[Seg], eps: f64) -> Option<u32>
 }
 
 /// The width of a convex polyhedron across its thinnest face direction.
-fn thickness(p: &ConvexPolyhedron) -> f64 {
+pub(super) fn thickness(p: &ConvexPolyhedron) -> f64 {
     p.faces
         .iter()
         .map(|f| {
