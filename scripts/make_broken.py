@@ -596,6 +596,49 @@ def Xform "Level"
 """
 
 
+def box_brush(lo, hi, texture="stone"):
+    """A box brush in the Quake format: three points a face, (p0 - p1) x (p2 - p1) out."""
+    axes = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    lines = ["{"]
+    for k in range(3):
+        for sign, at in ((1, hi), (-1, lo)):
+            a, b = axes[(k + 1) % 3], axes[(k + 2) % 3]
+            if sign < 0:
+                a, b = b, a
+            q = [lo[i] if i != k else at[k] for i in range(3)]
+            p0 = [q[i] + 16 * a[i] for i in range(3)]
+            p2 = [q[i] + 16 * b[i] for i in range(3)]
+            pt = lambda p: "( %g %g %g )" % tuple(p)
+            lines.append(f"{pt(p0)} {pt(q)} {pt(p2)} {texture} 0 0 0 1 1")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def room_map(extra=""):
+    """A 256 x 256 x 128 unit room of 16 unit brushes with a player start inside."""
+    t = 16
+    boxes = [
+        ((-t, -t, -t), (256 + t, 256 + t, 0)), ((-t, -t, 128), (256 + t, 256 + t, 128 + t)),
+        ((-t, -t, 0), (0, 256 + t, 128)), ((256, -t, 0), (256 + t, 256 + t, 128)),
+        ((0, -t, 0), (256, 0, 128)), ((0, 256, 0), (256, 256 + t, 128)),
+    ]
+    world = '{\n"classname" "worldspawn"\n' + "".join(box_brush(lo, hi) for lo, hi in boxes)
+    return (world + extra + "}\n"
+            + '{\n"classname" "info_player_start"\n"origin" "128 128 64"\n}\n')
+
+
+def brush_maps():
+    """Brush maps (.map) for the MAP_* codes."""
+    (OUT / "MAP_SYNTAX.map").write_text(
+        '// a brush whose closing brace is missing\n{\n"classname" "worldspawn"\n{\n'
+        "( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) stone 0 0 0 1 1\n}\n")
+    bad = "{\n( 0 0 0 ) ( 16 16 16 ) ( 32 32 32 ) stone 0 0 0 1 1\n" + box_brush((0, 0, 0), (8, 8, 8))[2:]
+    (OUT / "MAP_BRUSH_INVALID.map").write_text(room_map(bad))
+    patch = ("{\npatchDef2\n{\ncommon/caulk\n( 3 3 0 0 0 )\n(\n( ( 0 0 0 0 0 ) ( 0 8 0 0 1 ) ( 0 16 0 0 2 ) )\n"
+             "( ( 8 0 0 1 0 ) ( 8 8 8 1 1 ) ( 8 16 0 1 2 ) )\n( ( 16 0 0 2 0 ) ( 16 8 0 2 1 ) ( 16 16 0 2 2 ) )\n)\n}\n}\n")
+    (OUT / "MAP_PATCHES_SKIPPED.map").write_text(room_map(patch))
+
+
 def main():
     if OUT.exists():
         shutil.rmtree(OUT)
@@ -606,6 +649,7 @@ def main():
         write_doc(doc, name)
     copies()
     written()
+    brush_maps()
     shutil.copyfile(ROOT / "scripts" / "broken_README.md", OUT / "README.md")
     print("wrote", len(list(OUT.iterdir())), "entries in", OUT)
 

@@ -1044,6 +1044,52 @@ def cross(u, v):
     return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
 
+# ---- A brush map (.map, Quake format): two rooms of brushes through a doorway, a player
+# start, a func_detail crate and a light. Units are Quake's (inches, Z up).
+
+def quake_box(lo, hi, texture):
+    """A box brush: three points a face, (p0 - p1) x (p2 - p1) pointing out (qbsp's rule)."""
+    axes = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    lines = ["{"]
+    for k in range(3):
+        for sign, at in ((1, hi), (-1, lo)):
+            a, b = axes[(k + 1) % 3], axes[(k + 2) % 3]
+            if sign < 0:
+                a, b = b, a
+            q = [lo[i] if i != k else at[k] for i in range(3)]
+            p0 = [q[i] + 16 * a[i] for i in range(3)]
+            p2 = [q[i] + 16 * b[i] for i in range(3)]
+            pt = lambda p: "( %g %g %g )" % tuple(p)
+            lines.append(f"{pt(p0)} {pt(q)} {pt(p2)} {texture} 0 0 0 1 1")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def brush_rooms_map():
+    """Rooms x 0..256 and 272..528 (y 0..256, z 0..128) through a 16 unit wall with a door
+    y 96..160, z 0..96; 16 unit slabs all round."""
+    t = 16
+    world = [
+        ((-t, -t, -t), (528 + t, 256 + t, 0), "floor"),
+        ((-t, -t, 128), (528 + t, 256 + t, 128 + t), "ceiling"),
+        ((-t, -t, 0), (0, 256 + t, 128), "wall"),
+        ((528, -t, 0), (528 + t, 256 + t, 128), "wall"),
+        ((0, -t, 0), (528, 0, 128), "wall"),
+        ((0, 256, 0), (528, 256 + t, 128), "wall"),
+        ((256, 0, 0), (272, 96, 128), "wall"),
+        ((256, 160, 0), (272, 256, 128), "wall"),
+        ((256, 96, 96), (272, 160, 128), "lintel"),
+    ]
+    out = ["// portcullis sample: two rooms of brushes through a doorway (Quake format)",
+           '{\n"classname" "worldspawn"']
+    out += [quake_box(lo, hi, tex).rstrip("\n") for lo, hi, tex in world]
+    out.append("}")
+    out.append('{\n"classname" "func_detail"\n' + quake_box((64, 64, 0), (96, 96, 32), "crate").rstrip("\n") + "\n}")
+    out.append('{\n"classname" "info_player_start"\n"origin" "128 128 40"\n"angle" "90"\n}')
+    out.append('{\n"classname" "light"\n"origin" "400 128 100"\n"light" "300"\n}')
+    return "\n".join(out) + "\n"
+
+
 if __name__ == "__main__":
     OUT.mkdir(exist_ok=True)
     t = two_rooms()
@@ -1086,3 +1132,5 @@ if __name__ == "__main__":
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
     print("self-check passed: every block is closed and faces out")
+    (OUT / "brush_rooms.map").write_text(brush_rooms_map())
+    print("wrote", OUT / "brush_rooms.map")

@@ -197,7 +197,11 @@ fn clean_samples_have_no_warning_or_error() {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| {
-            p.is_file() && matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "obj"))
+            p.is_file()
+                && matches!(
+                    p.extension().and_then(|e| e.to_str()),
+                    Some("gltf" | "obj" | "map")
+                )
         })
         .collect();
     files.sort();

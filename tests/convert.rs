@@ -56,7 +56,12 @@ fn every_input() -> Vec<(PathBuf, Vec<&'static str>)> {
             .unwrap()
             .flatten()
             .map(|e| e.path())
-            .filter(|p| matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "obj")))
+            .filter(|p| {
+                matches!(
+                    p.extension().and_then(|e| e.to_str()),
+                    Some("gltf" | "obj" | "map")
+                )
+            })
             .map(|p| (p, vec![]))
             .collect();
     for f in [

@@ -65,12 +65,14 @@ struct Leaf {
 
 /// The inside of a block room as convex cells (see the module docs). `solids` are the room's
 /// structural solids, `surfaces` its other structural triangles, `hull` the hull of both,
-/// `seeds` the player starts (all recentred). Empty when nothing is inside.
+/// `seeds` the player starts (all recentred); gaps narrower than `min_opening` (the format's
+/// own, see `Scene::min_opening`) join nothing. Empty when nothing is inside.
 pub(crate) fn decompose(
     solids: &[Solid],
     surfaces: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
     seeds: &[DVec3],
+    min_opening: f64,
     eps: f64,
 ) -> Vec<ConvexPolyhedron> {
     let mut index = PlaneIndex::default();
@@ -110,7 +112,7 @@ pub(crate) fn decompose(
     // tolerances. Leaves that meet along an edge, or across a hairline gap between two blocks
     // that were meant to touch, are not one region.
     let crack = shortest_edge(&active, &on_hull, eps) / 10.0;
-    let crack = crack.max(10.0 * eps);
+    let crack = crack.max(min_opening).max(10.0 * eps);
     let space = Space {
         planes,
         solids,

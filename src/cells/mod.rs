@@ -742,7 +742,8 @@ impl RoomBuilder<'_> {
             return false;
         }
         let flat: Vec<[DVec3; 3]> = surfaces.iter().map(|(_, t)| *t).collect();
-        let cells = blocks::decompose(&solids, &flat, &h, &self.starts, eps);
+        let min_opening = scene.min_opening.unwrap_or(0.0);
+        let cells = blocks::decompose(&solids, &flat, &h, &self.starts, min_opening, eps);
         if cells.is_empty() && !tagged {
             return false;
         }

@@ -61,6 +61,8 @@ codes! {
     OBJ_NOT_TEXT = Error, "the .obj file is not a text file";
     OBJ_BAD_STATEMENT = Error, "an OBJ statement cannot be parsed";
     OBJ_BAD_INDEX = Error, "an OBJ face refers to a vertex that does not exist";
+    MAP_SYNTAX = Error, "the brush map's text cannot be parsed";
+    MAP_BRUSH_INVALID = Error, "a brush of the map is no closed solid (collinear face points, fewer than four planes, open or flat)";
     CONFIG_INVALID = Error, "the configuration file does not parse or does not follow its schema";
     CONFIG_NOT_FOUND = Error, "the configuration file given with --config does not exist";
     TAGS_PRESET_UNKNOWN = Error, "the tag preset named does not exist";
@@ -79,6 +81,7 @@ codes! {
     OBJ_MTL_MISSING = Warning, "a material library named by mtllib was not found";
     OBJ_POLYGON_SELF_INTERSECTING = Warning, "a polygon face is self-intersecting; it was fan-triangulated";
     OBJ_UNSUPPORTED_STATEMENT = Info, "OBJ statements that carry no level geometry were skipped";
+    MAP_PATCHES_SKIPPED = Info, "patches and other non-brush primitives of a brush map were skipped";
     EMPTY_SCENE = Warning, "the scene holds no triangles";
 
     // --- tags ---

@@ -15,6 +15,7 @@ use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{Format, Scene};
 
 pub mod gltf;
+pub mod map;
 pub mod obj;
 pub mod usd;
 
@@ -55,6 +56,7 @@ pub fn format_from_path(path: &Path) -> Option<Format> {
         "glb" => Some(Format::Glb),
         "obj" => Some(Format::Obj),
         "usd" | "usda" | "usdc" | "usdz" => Some(Format::Usd),
+        "map" => Some(Format::Map),
         _ => None,
     }
 }
@@ -123,7 +125,7 @@ pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagno
             ),
             Location::file(path),
         )
-        .hint("use a .gltf, .glb, .obj, .usd, .usda, .usdc or .usdz file")
+        .hint("use a .gltf, .glb, .obj, .map, .usd, .usda, .usdc or .usdz file")
     })?;
     if format == Format::Usd {
         return usd::import(path, opts).map(|i| note_empty(i, path));
@@ -184,6 +186,7 @@ fn import_cow(
     let imported = match format {
         Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir, reread)?,
         Format::Obj => obj::import(&bytes, path, base_dir, opts)?,
+        Format::Map => map::import(&bytes, path)?,
         Format::Usd => usd::import(path, opts)?,
     };
     Ok(note_empty(imported, path))

@@ -50,7 +50,11 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
         import::import_path(input, &opts.import)?
     };
     let config = config_for(input, opts)?;
-    let rules = config::rule_set(&config, opts.preset.as_deref())?;
+    // A brush map is tagged by its importer: the `quake` preset unless one was chosen.
+    let preset = opts.preset.as_deref().or((config.tags.preset.is_none()
+        && imported.scene.format == crate::scene::Format::Map)
+        .then_some("quake"));
+    let rules = config::rule_set(&config, preset)?;
     Ok(tag(imported, config, rules))
 }
 

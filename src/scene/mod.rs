@@ -56,6 +56,8 @@ pub enum Format {
     Obj,
     /// USD (`.usd`, `.usda`, `.usdc`, `.usdz`), read through the `usd` feature.
     Usd,
+    /// A Quake-family brush map (`.map`), its brushes as closed meshes.
+    Map,
 }
 
 impl Format {
@@ -66,6 +68,7 @@ impl Format {
             Format::Glb => "glb",
             Format::Obj => "obj",
             Format::Usd => "usd",
+            Format::Map => "map",
         }
     }
 }
@@ -90,7 +93,8 @@ impl Precision {
     pub fn of_format(f: Format) -> Precision {
         match f {
             Format::Gltf | Format::Glb | Format::Usd => Precision::Binary32,
-            Format::Obj => Precision::Binary64,
+            // Brush corners are plane intersections computed in f64.
+            Format::Obj | Format::Map => Precision::Binary64,
         }
     }
 
@@ -490,6 +494,10 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The original glTF document and buffers (glTF and GLB input only).
     pub gltf: Option<GltfSource>,
+    /// The narrowest gap (m) the format's own compiler lets anything through, when it has one:
+    /// for a brush map qbsp's 0.2 units (it drops portals with fewer than three edges longer).
+    /// Narrower gaps are cracks, whatever the level's shortest edge says.
+    pub min_opening: Option<f64>,
     /// How finely the file stored the mesh positions.
     pub precision: Precision,
 }
@@ -505,6 +513,7 @@ impl Scene {
             meshes: Vec::new(),
             materials: Vec::new(),
             gltf: None,
+            min_opening: None,
             precision: Precision::of_format(format),
         }
     }

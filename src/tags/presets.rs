@@ -10,6 +10,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("godot", include_str!("presets/godot.toml")),
     ("lportal", include_str!("presets/lportal.toml")),
     ("panda3d", include_str!("presets/panda3d.toml")),
+    ("quake", include_str!("presets/quake.toml")),
 ];
 
 /// The built-in presets' names, for `--tags` and error hints.

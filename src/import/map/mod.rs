@@ -1,0 +1,450 @@
+//! Brush maps (`.map`: TrenchBroom, J.A.C.K., Radiant; Quake, Valve 220, Quake 2, id Tech 4) as
+//! a level of solid blocks, tagged by the conventions of the formats as qbsp reads them:
+//!
+//! - the world's brushes (`worldspawn`, `func_group`) are closed solids of one room, `world`
+//!   (a `_portcullis_room` key on a `func_group` puts its brushes in a room of that name);
+//!   extras `solid` on each, so that even a map of one brush is read as solid, and
+//!   `structure`, so that no loose brush is taken for a prop (qbsp has none);
+//! - `func_detail*` brushes, liquids (a `*` texture, or Quake 2 liquid, mist or window
+//!   contents), Quake 2 detail contents and other brush
+//!   entities (`func_door`, `func_plat`, `func_wall`, ...) are detail: rendered, in a cell,
+//!   neither sealing nor shaping cells;
+//! - tool brushes (every face `clip`, `hint`, `hintskip` or `origin`; in Quake 2, contents of
+//!   clip, origin or area portal and not solid) and `trigger_*` entities are ignored; a `skip`
+//!   face is solid, as qbsp reads it;
+//! - point entities are nodes at their `origin`, turned by `angle`, with every key/value in
+//!   their extras; `info_player_start` (`_deathmatch`, `_coop`, `2`) are player starts.
+//!
+//! Units: map units are inches with Z up; the scene is metres with glTF's +Y up, `(x, y, z)`
+//! -> `(x, z, -y) * 0.0254`. Each brush is one node and one mesh, a material per texture name
+//! (liquids and skies keep theirs). A brush that is not a closed solid (collinear face points,
+//! fewer than four planes, open, flat) stops the import with its entity, brush and line, as
+//! does text that is not a map, since a level with a hole where a wall was meant would leak.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{DMat4, DVec3};
+use serde_json::{json, Map, Value};
+
+use super::Imported;
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
+use crate::scene::{Format, Material, Mesh, Node, NodeId, Primitive, Scene, SourceRef};
+
+mod brush;
+mod parse;
+
+/// Metres per map unit (Quake's inch).
+pub const METRES_PER_UNIT: f64 = 0.0254;
+
+/// qbsp drops a portal with fewer than three edges longer than this many units
+/// (`WindingIsTiny`): narrower gaps between brushes are no leak to it, nor to us.
+const TINY_EDGE: f64 = 0.2;
+
+/// What a brush is to the level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    Structure,
+    Detail,
+    Ignored,
+}
+
+/// Reads a brush map.
+pub fn import(bytes: &[u8], path: &Path) -> Result<Imported, Diagnostic> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        Diagnostic::new(
+            Code::MAP_SYNTAX,
+            "the brush map is not UTF-8 text",
+            Location::file(path).with_line(line),
+        )
+        .hint("save the map as text from its editor (TrenchBroom, J.A.C.K., Radiant)")
+    })?;
+    let (entities, skipped) = parse::parse(text).map_err(|e| {
+        let code = if e.brush {
+            Code::MAP_BRUSH_INVALID
+        } else {
+            Code::MAP_SYNTAX
+        };
+        Diagnostic::new(code, e.message, Location::file(path).with_line(e.line)).hint(
+            if e.brush {
+                "fix or delete the brush in the editor (three points of a face must not lie on one line)"
+            } else {
+                "the file is not a brush map the Quake-family editors write; open and save it again in the editor"
+            },
+        )
+    })?;
+    let mut b = Builder::new(path);
+    for (ei, e) in entities.iter().enumerate() {
+        b.entity(ei, e)?;
+    }
+    if skipped > 0 {
+        b.diags.push(
+            Diagnostic::new(
+                Code::MAP_PATCHES_SKIPPED,
+                format!("{skipped} patch(es) or other non-brush primitive(s) were skipped"),
+                Location::file(path),
+            )
+            .hint("patches are curved surfaces that seal nothing in qbsp or dmap either; brushes behind them close the level"),
+        );
+    }
+    Ok(Imported {
+        scene: b.scene,
+        diagnostics: b.diags,
+    })
+}
+
+/// Quake units (Z up) to metres, glTF's Y up.
+fn to_scene(p: DVec3) -> DVec3 {
+    DVec3::new(p.x, p.z, -p.y) * METRES_PER_UNIT
+}
+
+struct Builder<'a> {
+    path: &'a Path,
+    scene: Scene,
+    diags: Diagnostics,
+    root: NodeId,
+    rooms: HashMap<String, NodeId>,
+    materials: HashMap<String, usize>,
+}
+
+impl<'a> Builder<'a> {
+    fn new(path: &'a Path) -> Self {
+        let mut scene = Scene::new(path.to_path_buf(), Format::Map);
+        scene.min_opening = Some(TINY_EDGE * METRES_PER_UNIT);
+        // The root is `map`, not the file's name: a name like `e1m1_rooms` would read as a tag.
+        let root = scene.add_node(node(Some("map".into()), None, None, DMat4::IDENTITY, 1));
+        Builder {
+            path,
+            scene,
+            diags: Diagnostics::default(),
+            root,
+            rooms: HashMap::new(),
+            materials: HashMap::new(),
+        }
+    }
+
+    /// The node of room `name`, made on first use.
+    fn room(&mut self, name: &str, line: usize) -> NodeId {
+        if let Some(&n) = self.rooms.get(name) {
+            return n;
+        }
+        let extras = json!({ "room": name });
+        let n = self.scene.add_node(node(
+            Some(name.to_string()),
+            Some(self.root),
+            Some(extras),
+            DMat4::IDENTITY,
+            line,
+        ));
+        self.rooms.insert(name.to_string(), n);
+        n
+    }
+
+    fn entity(&mut self, ei: usize, e: &parse::Entity) -> Result<(), Diagnostic> {
+        let class = e.classname().to_string();
+        if e.brushes.is_empty() {
+            self.point_entity(e);
+            return Ok(());
+        }
+        let room_name = match class.as_str() {
+            "func_group" => e.get("_portcullis_room").unwrap_or("world"),
+            _ => "world",
+        }
+        .to_string();
+        let parent = self.room(&room_name, e.line);
+        for (bi, b) in e.brushes.iter().enumerate() {
+            let role = role(&class, b);
+            let rings = brush::polygons(&b.faces).ok_or_else(|| {
+                Diagnostic::new(
+                    Code::MAP_BRUSH_INVALID,
+                    format!(
+                        "brush {bi} of entity {ei} (`{class}`) encloses no volume: its planes are fewer than four, leave it open or flatten it"
+                    ),
+                    Location::file(self.path).with_line(b.line),
+                )
+                .hint("fix or delete the brush in the editor")
+            })?;
+            let mesh = self.mesh(&b.faces, &rings, b.line);
+            let mut extras = Map::new();
+            match role {
+                Role::Structure => {
+                    // Every world brush seals, however loose it stands (qbsp has no props).
+                    extras.insert("structure".into(), Value::Bool(true));
+                    extras.insert("solid".into(), Value::Bool(true))
+                }
+                Role::Detail => extras.insert("detail".into(), Value::Bool(true)),
+                Role::Ignored => extras.insert("ignore".into(), Value::Bool(true)),
+            };
+            extras.insert("classname".into(), Value::String(class.clone()));
+            let name = format!("{class} {ei} brush {bi}");
+            let mut n = node(
+                Some(name),
+                Some(parent),
+                Some(Value::Object(extras)),
+                DMat4::IDENTITY,
+                b.line,
+            );
+            n.mesh = Some(mesh);
+            self.scene.add_node(n);
+        }
+        Ok(())
+    }
+
+    /// A brush's mesh: its faces as fans, a primitive per texture.
+    fn mesh(&mut self, faces: &[parse::Face], rings: &[(Vec<DVec3>, usize)], line: usize) -> usize {
+        let mut positions: Vec<DVec3> = Vec::new();
+        let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut by_texture: Vec<(usize, Vec<[u32; 3]>)> = Vec::new();
+        for (ring, k) in rings {
+            let ids: Vec<u32> = ring
+                .iter()
+                .map(|p| {
+                    let q = to_scene(*p);
+                    let key = [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()];
+                    *index.entry(key).or_insert_with(|| {
+                        positions.push(q);
+                        positions.len() as u32 - 1
+                    })
+                })
+                .collect();
+            let m = self.material(&faces[*k].texture);
+            let tris = match by_texture.iter_mut().find(|(mm, _)| *mm == m) {
+                Some((_, t)) => t,
+                None => {
+                    by_texture.push((m, Vec::new()));
+                    &mut by_texture.last_mut().expect("pushed").1
+                }
+            };
+            for w in ids[1..].windows(2) {
+                tris.push([ids[0], w[0], w[1]]);
+            }
+        }
+        let mut triangles = Vec::new();
+        let mut primitives = Vec::new();
+        for (m, tris) in by_texture {
+            primitives.push(Primitive {
+                material: Some(m),
+                first_triangle: triangles.len(),
+                triangle_count: tris.len(),
+                source: SourceRef::line(line),
+            });
+            triangles.extend(tris);
+        }
+        self.scene.meshes.push(Mesh {
+            name: None,
+            positions,
+            triangles,
+            primitives,
+            extras: None,
+            source: SourceRef::line(line),
+        });
+        self.scene.meshes.len() - 1
+    }
+
+    fn material(&mut self, texture: &str) -> usize {
+        if let Some(&m) = self.materials.get(texture) {
+            return m;
+        }
+        self.scene.materials.push(Material {
+            name: Some(texture.to_string()),
+            extras: None,
+            source: SourceRef::default(),
+        });
+        let m = self.scene.materials.len() - 1;
+        self.materials.insert(texture.to_string(), m);
+        m
+    }
+
+    fn point_entity(&mut self, e: &parse::Entity) {
+        let class = e.classname();
+        let origin = e.get("origin").and_then(|o| {
+            let v: Vec<f64> = o
+                .split_whitespace()
+                .map(|s| s.parse::<f64>().ok().filter(|x| x.is_finite()))
+                .collect::<Option<_>>()?;
+            (v.len() == 3).then(|| DVec3::new(v[0], v[1], v[2]))
+        });
+        let Some(origin) = origin else {
+            if class != "worldspawn" {
+                // An entity with no place (a target list, a light style): nothing to stand.
+                return;
+            }
+            return;
+        };
+        let yaw = e
+            .get("angle")
+            .and_then(|a| a.trim().parse::<f64>().ok())
+            .filter(|a| a.is_finite() && *a >= 0.0)
+            .unwrap_or(0.0);
+        let world =
+            DMat4::from_translation(to_scene(origin)) * DMat4::from_rotation_y(yaw.to_radians());
+        let mut extras: Map<String, Value> = e
+            .keys
+            .iter()
+            .map(|(k, v)| (k.clone(), Value::String(v.clone())))
+            .collect();
+        if matches!(
+            class,
+            "info_player_start"
+                | "info_player_start2"
+                | "info_player_deathmatch"
+                | "info_player_coop"
+        ) {
+            extras.insert("player_start".into(), Value::Bool(true));
+        }
+        let n = node(
+            Some(class.to_string()),
+            Some(self.root),
+            Some(Value::Object(extras)),
+            world,
+            e.line,
+        );
+        self.scene.add_node(n);
+    }
+}
+
+fn node(
+    name: Option<String>,
+    parent: Option<NodeId>,
+    extras: Option<Value>,
+    world: DMat4,
+    line: usize,
+) -> Node {
+    Node {
+        name,
+        parent,
+        children: Vec::new(),
+        world,
+        mesh: None,
+        extras,
+        source: SourceRef::line(line),
+    }
+}
+
+/// What qbsp makes of a brush: by its entity, then its contents. Quake 1 tells contents by
+/// texture name, and only a few names are special (ericw-tools' `face_get_contents`): `origin`,
+/// `hint`/`hintskip` and `clip` are no walls, `*` names are liquids, `sky` seals; any other
+/// name, `skip` included, is solid. Quake 2 writes the contents bits on each face.
+fn role(class: &str, b: &parse::Brush) -> Role {
+    const SOLID: i64 = 1;
+    const WINDOW: i64 = 2;
+    const LIQUID: i64 = 8 | 16 | 32;
+    const MIST: i64 = 64;
+    const AREAPORTAL: i64 = 0x8000;
+    const CLIP: i64 = 0x10000 | 0x20000;
+    const ORIGIN: i64 = 0x100_0000;
+    const DETAIL: i64 = 0x800_0000;
+    if class.starts_with("trigger_") {
+        return Role::Ignored;
+    }
+    let name = |f: &parse::Face| {
+        let t = f.texture.to_ascii_lowercase();
+        t.rsplit('/').next().unwrap_or(&t).to_string()
+    };
+    let quake2 = b.faces.iter().any(|f| f.contents.is_some());
+    let (tool, liquid, detail) = if quake2 {
+        let c = b
+            .faces
+            .iter()
+            .filter_map(|f| f.contents)
+            .fold(0, |a, c| a | c);
+        let tool = c & SOLID == 0 && c & (AREAPORTAL | CLIP | ORIGIN) != 0;
+        let liquid = c & SOLID == 0 && c & (LIQUID | MIST | WINDOW) != 0;
+        (tool, liquid, c & DETAIL != 0)
+    } else {
+        let tool = b
+            .faces
+            .iter()
+            .all(|f| ["origin", "hint", "hintskip", "clip"].contains(&name(f).as_str()));
+        (
+            tool,
+            b.faces.iter().any(|f| name(f).starts_with('*')),
+            false,
+        )
+    };
+    if tool {
+        return Role::Ignored;
+    }
+    if liquid || detail {
+        return Role::Detail;
+    }
+    match class {
+        "worldspawn" | "func_group" => Role::Structure,
+        _ => Role::Detail,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_room_of_brushes_is_solids_of_one_room_with_a_start() {
+        // A box brush: three points a face, (p0 - p1) x (p2 - p1) out of the brush.
+        let brush = |lo: [i32; 3], hi: [i32; 3]| {
+            let mut out = String::from("{\n");
+            let tex = ["a", "b", "c"];
+            for k in 0..3 {
+                for (sign, at) in [(1, hi), (-1, lo)] {
+                    let (mut a, mut b) = ([0; 3], [0; 3]);
+                    a[(k + 1) % 3] = 16;
+                    b[(k + 2) % 3] = 16;
+                    if sign < 0 {
+                        std::mem::swap(&mut a, &mut b);
+                    }
+                    let mut q = lo;
+                    q[k] = at[k];
+                    let p = |d: [i32; 3]| {
+                        format!("( {} {} {} )", q[0] + d[0], q[1] + d[1], q[2] + d[2])
+                    };
+                    out += &format!("{} {} {} {} 0 0 0 1 1\n", p(a), p([0; 3]), p(b), tex[k]);
+                }
+            }
+            out + "}\n"
+        };
+        let text = format!(
+            "{{\n\"classname\" \"worldspawn\"\n{}}}\n{{\n\"classname\" \"info_player_start\"\n\"origin\" \"0 0 32\"\n}}\n",
+            brush([0, 0, 0], [64, 32, 16])
+        );
+        let im = import(text.as_bytes(), Path::new("t.map")).unwrap();
+        let s = &im.scene;
+        assert_eq!(s.meshes.len(), 1);
+        let m = &s.meshes[0];
+        assert_eq!(m.triangles.len(), 12);
+        assert_eq!(m.positions.len(), 8);
+        // Outward, in metres: the divergence theorem gives the brush's volume.
+        let v: f64 = m
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum();
+        let want = 64.0 * 32.0 * 16.0 * METRES_PER_UNIT.powi(3);
+        assert!((v - want).abs() < 1e-9 * want, "{v} vs {want}");
+        assert_eq!(s.materials.len(), 3);
+        let start = s
+            .nodes
+            .iter()
+            .find(|n| n.name.as_deref() == Some("info_player_start"))
+            .unwrap();
+        assert!(
+            (start.world.w_axis.truncate() - DVec3::new(0.0, 32.0, 0.0) * METRES_PER_UNIT).length()
+                < 1e-12
+        );
+    }
+
+    #[test]
+    fn a_brush_of_three_planes_is_an_error_with_its_line() {
+        let text = "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) a 0 0 0 1 1\n( 0 0 0 ) ( 0 0 1 ) ( 1 0 0 ) a 0 0 0 1 1\n( 0 0 0 ) ( 1 0 0 ) ( 0 1 0 ) a 0 0 0 1 1\n}\n}\n";
+        let e = import(text.as_bytes(), Path::new("t.map")).unwrap_err();
+        assert_eq!(e.code, Code::MAP_BRUSH_INVALID);
+        assert_eq!(e.location.source.line, Some(3));
+    }
+}

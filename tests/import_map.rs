@@ -1,0 +1,205 @@
+//! Brush maps read directly (issue 42, first part): `src/import/map` against the tests' own
+//! reader (tests/common/map.rs, which shares no code with it), the verdicts of qbsp on maps
+//! written here, and malformed maps that must end in a code, a line and exit 2, never a panic.
+
+mod common;
+
+use common::map;
+use glam::DVec3;
+use portcullis::import::{import_bytes, ImportOptions};
+use portcullis::scene::Format;
+
+fn read(text: &str) -> portcullis::import::Imported {
+    import_bytes(
+        text.as_bytes(),
+        std::path::Path::new("t.map"),
+        Format::Map,
+        std::path::Path::new("."),
+        &ImportOptions::default(),
+    )
+    .unwrap_or_else(|d| panic!("{d}"))
+}
+
+/// Signed volume of a closed triangle list (divergence theorem about its first corner).
+fn volume(tris: &[[DVec3; 3]]) -> f64 {
+    let o = tris[0][0];
+    tris.iter()
+        .map(|t| (t[0] - o).dot((t[1] - o).cross(t[2] - o)) / 6.0)
+        .sum()
+}
+
+/// Every brush of `text`: the importer's mesh volume against the oracle reader's, in m³.
+fn brush_volumes_agree(text: &str, what: &str) -> usize {
+    let im = read(text);
+    let oracle = map::parse(text).unwrap();
+    let mut want: Vec<f64> = oracle
+        .iter()
+        .flat_map(|e| e.brushes.iter())
+        .map(|b| {
+            let t: Vec<[DVec3; 3]> = b
+                .triangles
+                .iter()
+                .map(|t| t.map(map::to_y_up_metres))
+                .collect();
+            volume(&t)
+        })
+        .collect();
+    let mut got: Vec<f64> = im
+        .scene
+        .meshes
+        .iter()
+        .map(|m| {
+            let t: Vec<[DVec3; 3]> = m
+                .triangles
+                .iter()
+                .map(|t| t.map(|i| m.positions[i as usize]))
+                .collect();
+            volume(&t)
+        })
+        .collect();
+    want.sort_by(f64::total_cmp);
+    got.sort_by(f64::total_cmp);
+    assert_eq!(got.len(), want.len(), "{what}: brushes");
+    for (g, w) in got.iter().zip(&want) {
+        assert!((g - w).abs() <= 1e-9 + 1e-9 * w.abs(), "{what}: {g} vs {w}");
+    }
+    got.len()
+}
+
+#[test]
+fn the_sample_map_has_the_oracles_brushes_and_two_rooms_through_a_door() {
+    let path = common::sample("brush_rooms.map");
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(brush_volumes_agree(&text, "brush_rooms.map"), 10);
+    let (t, c, p) = common::load_level(&path, None);
+    // Two rooms of air and the door reveal in the 16 unit wall; the crate is detail.
+    assert_eq!(c.cells.len(), 3);
+    let inch = 0.0254f64;
+    let total: f64 = c.cells.iter().map(|c| c.volume).sum();
+    let air = (2.0 * 256.0 * 256.0 * 128.0 + 16.0 * 64.0 * 96.0) * inch.powi(3);
+    assert!((total - air).abs() < 1e-6 * air, "{total} vs {air}");
+    let door = 64.0 * 96.0 * inch * inch;
+    let between: Vec<_> = p.portals.iter().filter(|q| q.to.is_some()).collect();
+    assert_eq!(between.len(), 4);
+    assert!(between.iter().all(|q| (q.area - door).abs() < 1e-6));
+    assert_eq!(t.tagging.player_starts.len(), 1);
+    assert!(
+        t.tagging.rooms[0].detail.len() == 1,
+        "the func_detail crate"
+    );
+}
+
+#[test]
+#[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
+fn real_maps_have_the_oracles_brushes() {
+    let dir = std::path::PathBuf::from(std::env::var("ERICW_TESTMAPS").unwrap());
+    for name in ["E1M1-edited-ents.map", "qbspfeatures.map", "base1leak.map"] {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        brush_volumes_agree(&text, name);
+    }
+}
+
+/// `portcullis check` on a map written into a temporary folder: exit code and output.
+fn check(text: &[u8], flags: &[&str]) -> (i32, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.map");
+    std::fs::write(&path, text).unwrap();
+    let out = assert_cmd::Command::cargo_bin("portcullis")
+        .unwrap()
+        .arg("check")
+        .args(flags)
+        .arg(&path)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.code().unwrap_or(-1), text)
+}
+
+#[test]
+fn malformed_maps_give_a_code_a_line_and_exit_2() {
+    let face = "( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) t 0 0 0 1 1\n";
+    let cases: Vec<(&str, String, &str, Option<usize>)> = vec![
+        (
+            "unbalanced braces",
+            format!("{{\n\"classname\" \"worldspawn\"\n{{\n{face}"),
+            "MAP_SYNTAX",
+            Some(4),
+        ),
+        (
+            "a stray closing brace",
+            "}\n".to_string(),
+            "MAP_SYNTAX",
+            Some(1),
+        ),
+        (
+            "three collinear plane points",
+            "{\n{\n( 0 0 0 ) ( 1 1 1 ) ( 2 2 2 ) t 0 0 0 1 1\n}\n}\n".to_string(),
+            "MAP_BRUSH_INVALID",
+            Some(3),
+        ),
+        (
+            "a brush of three planes",
+            "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) a 0 0 0 1 1\n( 0 0 0 ) ( 0 0 1 ) ( 1 0 0 ) a 0 0 0 1 1\n( 0 0 0 ) ( 1 0 0 ) ( 0 1 0 ) a 0 0 0 1 1\n}\n}\n".to_string(),
+            "MAP_BRUSH_INVALID",
+            Some(3),
+        ),
+        (
+            "NaN",
+            "{\n{\n( 0 0 nan ) ( 0 1 0 ) ( 0 0 1 ) t 0 0 0 1 1\n}\n}\n".to_string(),
+            "MAP_SYNTAX",
+            Some(3),
+        ),
+        (
+            "unknown texture syntax",
+            "{\n{\n( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) t < 1 0 0 > 0 0 0 1 1\n}\n}\n".to_string(),
+            "MAP_SYNTAX",
+            Some(3),
+        ),
+        ("0 bytes", String::new(), "INPUT_EMPTY", None),
+        ("not text", String::new(), "MAP_SYNTAX", None),
+    ];
+    for (what, text, code, line) in cases {
+        let bytes = if what == "not text" {
+            vec![0x7b, 0x0a, 0xff, 0xfe]
+        } else {
+            text.into_bytes()
+        };
+        let (exit, out) = check(&bytes, &[]);
+        assert_eq!(exit, 2, "{what}: {out}");
+        assert!(out.contains(&format!("[{code}]")), "{what}: {out}");
+        if let Some(l) = line {
+            assert!(
+                out.contains(&format!("m.map:{l}")),
+                "{what}: line {l} in {out}"
+            );
+        }
+        assert!(!out.contains("panicked"), "{what}: {out}");
+    }
+}
+
+#[test]
+fn check_sealed_gives_qbsps_verdicts_on_maps_written_here() {
+    let sample = std::fs::read_to_string(common::sample("brush_rooms.map")).unwrap();
+    let (exit, out) = check(sample.as_bytes(), &["--sealed"]);
+    assert_eq!(exit, 0, "{out}");
+    // The same map with the east wall's brush gone: a leak from the player start.
+    let lines: Vec<&str> = sample.lines().collect();
+    let wall = lines
+        .iter()
+        .position(|l| l.starts_with("( 544 0 0 ) "))
+        .expect("the east wall");
+    let open = wall - 1;
+    let close = open + lines[open..].iter().position(|l| *l == "}").unwrap();
+    let leaky: String = lines[..open]
+        .iter()
+        .chain(&lines[close + 1..])
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let (exit, out) = check(leaky.as_bytes(), &["--sealed"]);
+    assert_eq!(exit, 1, "{out}");
+    assert!(
+        out.contains("[LEAK]") && out.contains("from player start"),
+        "{out}"
+    );
+}
