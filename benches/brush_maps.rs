@@ -1,12 +1,10 @@
 //! Brush maps as one room of solid blocks (issue 41), side by side with ericw-tools' qbsp:
 //! `ERICW_TESTMAPS=<ericw-tools>/testmaps cargo bench --bench brush_maps [MAP.map ...]`
-//! (E1M1-edited-ents.map and qbspfeatures.map by default). For each map: the world brushes read
-//! as closed meshes of one room (tests/common/brush_level.rs), then tags, cells, portals and
-//! `check --sealed`, five times, the median and the slowest; with `QBSP=<path to qbsp>` qbsp
-//! is run five times on the same map (`qbsp -noverbose MAP OUT.bsp`) and its median printed
-//! beside, with its leaf and portal counts from the .prt it writes. Reading the .map text is
-//! left out of our time, as qbsp's own parse is a small part of its. docs/performance.md keeps
-//! the numbers.
+//! (E1M1-edited-ents.map and qbspfeatures.map by default). For each map, what `portcullis check
+//! --sealed MAP.map` does: read the map (src/import/map), tag it, build cells and portals, check;
+//! five times, the median and the slowest. With `QBSP=<path to qbsp>` qbsp is run five times on
+//! the same map (`qbsp -noverbose MAP OUT.bsp`) and its median printed beside, with its leaf and
+//! portal counts from the .prt it writes. docs/performance.md keeps the numbers.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -17,7 +15,7 @@ use std::time::Instant;
 mod common;
 
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, build_portals, check_level};
+use portcullis::pipeline::{build_cells, build_portals, check_level, load_tagged, LoadOptions};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -25,13 +23,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Our run: (median s, slowest s, cells, portals, leak).
-fn ours(text: &str) -> (f64, f64, usize, usize, bool) {
-    let entities = common::map::parse(text).expect("the map parses");
+fn ours(path: &Path) -> (f64, f64, usize, usize, bool) {
     let mut times = Vec::new();
     let mut last = (0, 0, false);
     for _ in 0..5 {
         let start = Instant::now();
-        let (mut t, _) = common::brush_level::level(&entities);
+        let mut t = load_tagged(path, &LoadOptions::default()).expect("the map reads");
         let c = build_cells(&mut t);
         let p = build_portals(&mut t, &c);
         check_level(&mut t, &c, &p, true);
@@ -108,7 +105,7 @@ fn main() {
             .iter()
             .map(|e| e.brushes.len())
             .sum();
-        let (med, slow, cells, portals, leak) = ours(&text);
+        let (med, slow, cells, portals, leak) = ours(&path);
         let verdict = if leak { "LEAK" } else { "sealed" };
         let (q_time, q_counts, q_verdict) = match &qbsp_bin {
             Some(bin) => {
