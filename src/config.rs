@@ -37,6 +37,9 @@ pub struct Config {
     /// `[check]`: diagnostic severities and the checks' thresholds.
     #[serde(default)]
     pub check: CheckConfig,
+    /// `[import]`: how files are read.
+    #[serde(default)]
+    pub import: ImportConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,
@@ -150,6 +153,14 @@ pub struct VisConfig {
     pub transform_depth: Option<usize>,
     /// Sightlines per directed portal for the `sampled` method.
     pub samples: Option<usize>,
+}
+
+/// `[import]`: how files are read.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImportConfig {
+    /// Metres per brush-map unit (`None`: Quake's inch, 0.0254).
+    pub map_scale: Option<f64>,
 }
 
 /// `[check]`: what `check` (and `convert`) treat as a problem.

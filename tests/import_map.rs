@@ -203,3 +203,26 @@ fn check_sealed_gives_qbsps_verdicts_on_maps_written_here() {
         "{out}"
     );
 }
+
+#[test]
+fn map_scale_sets_the_metres_per_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rooms.map");
+    std::fs::copy(common::sample("brush_rooms.map"), &path).unwrap();
+    let volume = |dir: &std::path::Path| {
+        let (_, c) = common::load_cells(&dir.join("rooms.map"), None);
+        c.cells.iter().map(|c| c.volume).sum::<f64>()
+    };
+    let inches = volume(dir.path());
+    std::fs::write(
+        dir.path().join("portcullis.toml"),
+        "[import]\nmap_scale = 0.03125\n",
+    )
+    .unwrap();
+    let scaled = volume(dir.path());
+    let ratio = (0.03125f64 / 0.0254).powi(3);
+    assert!(
+        (scaled / inches - ratio).abs() < 1e-9,
+        "{scaled} / {inches}"
+    );
+}

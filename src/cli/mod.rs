@@ -161,6 +161,7 @@ impl LevelArgs {
             import: portcullis::import::ImportOptions {
                 obj_split_paths: !self.obj_flat_names,
                 python_venv: self.python_venv.clone(),
+                map_scale: None,
             },
         }
     }

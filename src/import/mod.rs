@@ -28,6 +28,8 @@ pub struct ImportOptions {
     /// USD: the Python venv holding usd-core (`--python-venv`); else `VIRTUAL_ENV`, else the
     /// project's own `.venv`. Unused by other formats and by builds without the `usd` feature.
     pub python_venv: Option<PathBuf>,
+    /// Brush maps: metres per map unit (`[import] map_scale`); `None`: Quake's inch.
+    pub map_scale: Option<f64>,
 }
 
 impl Default for ImportOptions {
@@ -35,6 +37,7 @@ impl Default for ImportOptions {
         ImportOptions {
             obj_split_paths: true,
             python_venv: None,
+            map_scale: None,
         }
     }
 }
@@ -186,7 +189,7 @@ fn import_cow(
     let imported = match format {
         Format::Gltf | Format::Glb => gltf::import(bytes, path, base_dir, reread)?,
         Format::Obj => obj::import(&bytes, path, base_dir, opts)?,
-        Format::Map => map::import(&bytes, path)?,
+        Format::Map => map::import(&bytes, path, opts.map_scale)?,
         Format::Usd => usd::import(path, opts)?,
     };
     Ok(note_empty(imported, path))

@@ -44,12 +44,27 @@ pub fn config_for(input: &Path, opts: &LoadOptions) -> Result<Config, Diagnostic
 /// Imports and tags one file (`-` reads standard input). `Err` means the file could not be
 /// processed at all.
 pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnostic> {
+    // A brush map's scale is in the configuration, so for one the configuration is read first;
+    // any other file is read before it (an unreadable file is reported as such).
+    let is_map = import::format_from_path(input) == Some(crate::scene::Format::Map);
+    let early = if is_map {
+        Some(config_for(input, opts)?)
+    } else {
+        None
+    };
+    let mut import_opts = opts.import.clone();
+    if let Some(c) = &early {
+        import_opts.map_scale = import_opts.map_scale.or(c.import.map_scale);
+    }
     let imported = if input == Path::new("-") {
         read_stdin(opts)?
     } else {
-        import::import_path(input, &opts.import)?
+        import::import_path(input, &import_opts)?
     };
-    let config = config_for(input, opts)?;
+    let config = match early {
+        Some(c) => c,
+        None => config_for(input, opts)?,
+    };
     // A brush map is tagged by its importer: the `quake` preset unless one was chosen.
     let preset = opts.preset.as_deref().or((config.tags.preset.is_none()
         && imported.scene.format == crate::scene::Format::Map)

@@ -16,7 +16,7 @@
 //!   their extras; `info_player_start` (`_deathmatch`, `_coop`, `2`) are player starts.
 //!
 //! Units: map units are inches with Z up; the scene is metres with glTF's +Y up, `(x, y, z)`
-//! -> `(x, z, -y) * 0.0254`. Each brush is one node and one mesh, a material per texture name
+//! -> `(x, z, -y) * 0.0254` (`[import] map_scale` sets another number of metres per unit). Each brush is one node and one mesh, a material per texture name
 //! (liquids and skies keep theirs). A brush that is not a closed solid (collinear face points,
 //! fewer than four planes, open, flat) stops the import with its entity, brush and line, as
 //! does text that is not a map, since a level with a hole where a wall was meant would leak.
@@ -49,8 +49,11 @@ enum Role {
     Ignored,
 }
 
-/// Reads a brush map.
-pub fn import(bytes: &[u8], path: &Path) -> Result<Imported, Diagnostic> {
+/// Reads a brush map; `scale` is metres per map unit (`None`: Quake's inch).
+pub fn import(bytes: &[u8], path: &Path, scale: Option<f64>) -> Result<Imported, Diagnostic> {
+    let scale = scale
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .unwrap_or(METRES_PER_UNIT);
     let text = std::str::from_utf8(bytes).map_err(|e| {
         let line = bytes[..e.valid_up_to()]
             .iter()
@@ -78,7 +81,7 @@ pub fn import(bytes: &[u8], path: &Path) -> Result<Imported, Diagnostic> {
             },
         )
     })?;
-    let mut b = Builder::new(path);
+    let mut b = Builder::new(path, scale);
     for (ei, e) in entities.iter().enumerate() {
         b.entity(ei, e)?;
     }
@@ -98,13 +101,15 @@ pub fn import(bytes: &[u8], path: &Path) -> Result<Imported, Diagnostic> {
     })
 }
 
-/// Quake units (Z up) to metres, glTF's Y up.
-fn to_scene(p: DVec3) -> DVec3 {
-    DVec3::new(p.x, p.z, -p.y) * METRES_PER_UNIT
+/// Map units (Z up) to metres, glTF's Y up.
+fn to_scene(p: DVec3, scale: f64) -> DVec3 {
+    DVec3::new(p.x, p.z, -p.y) * scale
 }
 
 struct Builder<'a> {
     path: &'a Path,
+    /// Metres per map unit.
+    scale: f64,
     scene: Scene,
     diags: Diagnostics,
     root: NodeId,
@@ -113,13 +118,14 @@ struct Builder<'a> {
 }
 
 impl<'a> Builder<'a> {
-    fn new(path: &'a Path) -> Self {
+    fn new(path: &'a Path, scale: f64) -> Self {
         let mut scene = Scene::new(path.to_path_buf(), Format::Map);
-        scene.min_opening = Some(TINY_EDGE * METRES_PER_UNIT);
+        scene.min_opening = Some(TINY_EDGE * scale);
         // The root is `map`, not the file's name: a name like `e1m1_rooms` would read as a tag.
         let root = scene.add_node(node(Some("map".into()), None, None, DMat4::IDENTITY, 1));
         Builder {
             path,
+            scale,
             scene,
             diags: Diagnostics::default(),
             root,
@@ -204,7 +210,7 @@ impl<'a> Builder<'a> {
             let ids: Vec<u32> = ring
                 .iter()
                 .map(|p| {
-                    let q = to_scene(*p);
+                    let q = to_scene(*p, self.scale);
                     let key = [q.x.to_bits(), q.y.to_bits(), q.z.to_bits()];
                     *index.entry(key).or_insert_with(|| {
                         positions.push(q);
@@ -281,8 +287,8 @@ impl<'a> Builder<'a> {
             .and_then(|a| a.trim().parse::<f64>().ok())
             .filter(|a| a.is_finite() && *a >= 0.0)
             .unwrap_or(0.0);
-        let world =
-            DMat4::from_translation(to_scene(origin)) * DMat4::from_rotation_y(yaw.to_radians());
+        let world = DMat4::from_translation(to_scene(origin, self.scale))
+            * DMat4::from_rotation_y(yaw.to_radians());
         let mut extras: Map<String, Value> = e
             .keys
             .iter()
@@ -411,7 +417,7 @@ mod tests {
             "{{\n\"classname\" \"worldspawn\"\n{}}}\n{{\n\"classname\" \"info_player_start\"\n\"origin\" \"0 0 32\"\n}}\n",
             brush([0, 0, 0], [64, 32, 16])
         );
-        let im = import(text.as_bytes(), Path::new("t.map")).unwrap();
+        let im = import(text.as_bytes(), Path::new("t.map"), None).unwrap();
         let s = &im.scene;
         assert_eq!(s.meshes.len(), 1);
         let m = &s.meshes[0];
@@ -443,7 +449,7 @@ mod tests {
     #[test]
     fn a_brush_of_three_planes_is_an_error_with_its_line() {
         let text = "{\n\"classname\" \"worldspawn\"\n{\n( 0 0 0 ) ( 0 1 0 ) ( 0 0 1 ) a 0 0 0 1 1\n( 0 0 0 ) ( 0 0 1 ) ( 1 0 0 ) a 0 0 0 1 1\n( 0 0 0 ) ( 1 0 0 ) ( 0 1 0 ) a 0 0 0 1 1\n}\n}\n";
-        let e = import(text.as_bytes(), Path::new("t.map")).unwrap_err();
+        let e = import(text.as_bytes(), Path::new("t.map"), None).unwrap_err();
         assert_eq!(e.code, Code::MAP_BRUSH_INVALID);
         assert_eq!(e.location.source.line, Some(3));
     }
