@@ -597,21 +597,8 @@ def Xform "Level"
 
 
 def box_brush(lo, hi, texture="stone"):
-    """A box brush in the Quake format: three points a face, (p0 - p1) x (p2 - p1) out."""
-    axes = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
-    lines = ["{"]
-    for k in range(3):
-        for sign, at in ((1, hi), (-1, lo)):
-            a, b = axes[(k + 1) % 3], axes[(k + 2) % 3]
-            if sign < 0:
-                a, b = b, a
-            q = [lo[i] if i != k else at[k] for i in range(3)]
-            p0 = [q[i] + 16 * a[i] for i in range(3)]
-            p2 = [q[i] + 16 * b[i] for i in range(3)]
-            pt = lambda p: "( %g %g %g )" % tuple(p)
-            lines.append(f"{pt(p0)} {pt(q)} {pt(p2)} {texture} 0 0 0 1 1")
-    lines.append("}")
-    return "\n".join(lines) + "\n"
+    """A box brush in the Quake format (make_samples.quake_box)."""
+    return ms.quake_box(lo, hi, texture)
 
 
 def room_map(extra=""):
