@@ -395,7 +395,7 @@ fn check_sealed_finds_a_leak_exactly_in_the_leaking_block_samples() {
 /// outward-facing structure mesh of a room lies in no cell, as built and turned and moved.
 #[test]
 fn surface_samples_have_no_cell_inside_a_solid() {
-    let mut checked = 0;
+    let (mut checked, mut judged) = (0, 0);
     for entry in std::fs::read_dir(common::root().join("samples")).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
@@ -414,6 +414,7 @@ fn surface_samples_have_no_cell_inside_a_solid() {
                 for _ in 0..500 {
                     let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
                     if deep_inside(&tris, q) {
+                        judged += 1;
                         assert!(
                             !c.cells.iter().any(|cell| in_cell(cell, q, 1e-6)),
                             "{name}: a point inside `{}` lies in a cell",
@@ -424,5 +425,9 @@ fn surface_samples_have_no_cell_inside_a_solid() {
             }
         }
     }
-    assert!(checked > 0, "some surface sample has a solid");
+    // The oracle judged something: solids were found and points deep inside them sampled.
+    assert!(
+        checked > 0 && judged > 100,
+        "{checked} solids, {judged} points judged"
+    );
 }
