@@ -1090,6 +1090,35 @@ def brush_rooms_map():
     return "\n".join(out) + "\n"
 
 
+def brush_doors_map():
+    """Rooms A, B, C (x 0..256, 272..528, 544..800; y 0..256, z 0..128) through 16 unit walls
+    with doorways y 96..160, z 0..96: a func_door brush fills the first doorway exactly; a
+    func_areaportal brush 4 units thick (x 534..538) stands in the middle of the second."""
+    t = 16
+    world = [
+        ((-t, -t, -t), (800 + t, 256 + t, 0), "floor"),
+        ((-t, -t, 128), (800 + t, 256 + t, 128 + t), "ceiling"),
+        ((-t, -t, 0), (0, 256 + t, 128), "wall"),
+        ((800, -t, 0), (800 + t, 256 + t, 128), "wall"),
+        ((0, -t, 0), (800, 0, 128), "wall"),
+        ((0, 256, 0), (800, 256 + t, 128), "wall"),
+    ]
+    for x in (256, 528):
+        world += [((x, 0, 0), (x + t, 96, 128), "wall"),
+                  ((x, 160, 0), (x + t, 256, 128), "wall"),
+                  ((x, 96, 96), (x + t, 160, 128), "lintel")]
+    out = ["// portcullis sample: three rooms of brushes, a door and an area portal (Quake format)",
+           '{\n"classname" "worldspawn"']
+    out += [quake_box(lo, hi, tex).rstrip("\n") for lo, hi, tex in world]
+    out.append("}")
+    out.append('{\n"classname" "func_door"\n"angle" "-1"\n'
+               + quake_box((256, 96, 0), (272, 160, 96), "door").rstrip("\n") + "\n}")
+    out.append('{\n"classname" "func_areaportal"\n'
+               + quake_box((534, 96, 0), (538, 160, 96), "areaportal").rstrip("\n") + "\n}")
+    out.append('{\n"classname" "info_player_start"\n"origin" "128 128 40"\n}')
+    return "\n".join(out) + "\n"
+
+
 if __name__ == "__main__":
     OUT.mkdir(exist_ok=True)
     t = two_rooms()
@@ -1134,3 +1163,5 @@ if __name__ == "__main__":
     print("self-check passed: every block is closed and faces out")
     (OUT / "brush_rooms.map").write_text(brush_rooms_map())
     print("wrote", OUT / "brush_rooms.map")
+    (OUT / "brush_doors.map").write_text(brush_doors_map())
+    print("wrote", OUT / "brush_doors.map")

@@ -11,7 +11,6 @@
 
 mod common;
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use common::brush_level::{brush_use, level, Use};
@@ -104,13 +103,13 @@ fn detail_does_not_seal_a_brush_map() {
 }
 
 fn testmap(name: &str) -> Vec<Entity> {
-    let dir = PathBuf::from(std::env::var("ERICW_TESTMAPS").expect("ERICW_TESTMAPS"));
+    let dir = common::ericw_testmaps();
     let text = std::fs::read_to_string(dir.join(name)).unwrap();
     map::parse(&text).unwrap()
 }
 
 #[test]
-#[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
+#[ignore = "needs ericw-tools' testmaps (ERICW_TESTMAPS or ../shared/levels/ericw-tools)"]
 fn ericw_testmaps_get_qbsps_verdicts() {
     // (map, leaks) as ericw-tools' tests state them (tests/test_qbsp.cc, test_qbsp_q2.cc).
     for (name, leaks) in [
@@ -152,7 +151,7 @@ fn ericw_testmaps_get_qbsps_verdicts() {
 /// whose origin lies outside all world brushes is in a cell, and no point sampled in a cell
 /// lies in a world brush.
 #[test]
-#[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
+#[ignore = "needs ericw-tools' testmaps (ERICW_TESTMAPS or ../shared/levels/ericw-tools)"]
 fn real_maps_entities_are_in_cells_and_cells_are_not_in_brushes() {
     for name in [
         "E1M1-edited-ents.map",

@@ -90,9 +90,9 @@ fn the_sample_map_has_the_oracles_brushes_and_two_rooms_through_a_door() {
 }
 
 #[test]
-#[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
+#[ignore = "needs ericw-tools' testmaps (ERICW_TESTMAPS or ../shared/levels/ericw-tools)"]
 fn real_maps_have_the_oracles_brushes() {
-    let dir = std::path::PathBuf::from(std::env::var("ERICW_TESTMAPS").unwrap());
+    let dir = common::ericw_testmaps();
     for name in ["E1M1-edited-ents.map", "qbspfeatures.map", "base1leak.map"] {
         let text = std::fs::read_to_string(dir.join(name)).unwrap();
         brush_volumes_agree(&text, name);
@@ -224,5 +224,164 @@ fn map_scale_sets_the_metres_per_unit() {
     assert!(
         (scaled / inches - ratio).abs() < 1e-9,
         "{scaled} / {inches}"
+    );
+}
+
+/// samples/brush_doors.map: rooms A, B, C through two doorways (64 x 96 units in 16 unit
+/// walls), a `func_door` filling the first, a 4 unit `func_areaportal` in the middle of the
+/// second. Each gate's air is a cell of its own; the portals on its faces are the gate's (a
+/// door's close with it), and closing them at run time hides what lies beyond.
+#[test]
+fn doors_and_area_portals_in_a_brush_map_own_the_portals_they_fill() {
+    use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
+    let path = common::sample("brush_doors.map");
+    let (t, c, p) = common::load_level(&path, None);
+    let inch = 0.0254f64;
+    // Three rooms, the door's reveal, and the area portal's reveal in three slabs.
+    assert_eq!(c.cells.len(), 7);
+    let total: f64 = c.cells.iter().map(|c| c.volume).sum();
+    let air = (3.0 * 256.0 * 256.0 * 128.0 + 2.0 * 16.0 * 64.0 * 96.0) * inch.powi(3);
+    assert!((total - air).abs() < 1e-6 * air, "{total} vs {air}");
+    let node = |name: &str| {
+        (0..t.scene.nodes.len())
+            .find(|&n| t.scene.nodes[n].name.as_deref() == Some(name))
+            .unwrap()
+    };
+    let (door, gate) = (
+        node("func_door 1 brush 0"),
+        node("func_areaportal 2 brush 0"),
+    );
+    let doorway = 64.0 * 96.0 * inch * inch;
+    // Map x of each portal (scene x is map x in metres), sorted.
+    let xs = |f: &dyn Fn(&portcullis::portals::Portal) -> bool| {
+        let mut v: Vec<f64> = p
+            .portals
+            .iter()
+            .filter(|q| f(q))
+            .map(|q| {
+                assert!((q.area - doorway).abs() < 1e-6, "a portal is the doorway");
+                (q.polygon[0].x / inch * 1e6).round() / 1e6
+            })
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    assert_eq!(
+        xs(&|q| q.door && q.authored == Some(door)),
+        [256.0, 256.0, 272.0, 272.0]
+    );
+    assert_eq!(
+        xs(&|q| !q.door && q.authored == Some(gate)),
+        [534.0, 534.0, 538.0, 538.0]
+    );
+    assert_eq!(p.portals.iter().filter(|q| q.door).count(), 4);
+    assert_eq!(p.portals.len(), 12);
+
+    // In the written glTF: the door's portals say `door` and name its node; in the runtime,
+    // a camera in room A sees room C down the line of doorways until the door closes.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("doors.glb");
+    portcullis::pipeline::convert_file(&path, &out).unwrap();
+    let (doc, _) = common::read_gltf(&std::fs::read(&out).unwrap());
+    let ext = &doc["extensions"]["PORTCULLIS_portals"];
+    let records = ext["portals"].as_array().unwrap();
+    let door_portals: Vec<usize> = (0..records.len())
+        .filter(|&i| records[i]["door"] == true)
+        .collect();
+    assert_eq!(door_portals.len(), 4);
+    for &i in &door_portals {
+        let n = records[i]["node"].as_u64().unwrap() as usize;
+        assert_eq!(doc["nodes"][n]["name"], "func_door 1 brush 0");
+    }
+    let level = Level::load(&out).unwrap();
+    let mut doors = Doors::new(&level);
+    // Map (64, 128, 48): in room A, looking along +x through both doorways.
+    let eye = [64.0 * inch, 48.0 * inch, -128.0 * inch];
+    let view = View::new(eye, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0, 1.0, 0.01).unwrap();
+    let mut trace = Trace::default();
+    level.trace(&view, &doors, &TraceOptions::default(), &mut trace);
+    let room_c = level.locate(DVec3::new(700.0 * inch, 48.0 * inch, -128.0 * inch), None);
+    let Location::Inside(room_c) = room_c else {
+        panic!("room C's middle is in a cell: {room_c:?}")
+    };
+    let sees = |trace: &Trace, cell: usize| trace.visible().iter().any(|s| s.cell == Some(cell));
+    assert!(sees(&trace, room_c), "room C through both open doorways");
+    for &i in &door_portals {
+        doors.set(&level, i, true);
+    }
+    level.trace(&view, &doors, &TraceOptions::default(), &mut trace);
+    assert!(!sees(&trace, room_c), "the closed door hides room C");
+    assert_eq!(trace.visible().len(), 1, "only room A with the door closed");
+}
+
+/// Which brushes are gates, by the conventions of each format: doors and lifts by class, area
+/// portals by class (Quake 2), contents (Quake 2) or a portal face (id Tech 4 `visportal`,
+/// Quake 3 `areaportal`, whatever its other faces); a visportal brush is never a wall.
+#[test]
+fn doors_lifts_and_area_portals_are_known_in_every_format() {
+    let quake = |class: &str, tex: &str| {
+        let faces: Vec<String> = [
+            ("( 64 0 1 ) ( 64 1 0 ) ( 64 0 0 )", tex),
+            ("( 0 1 0 ) ( 0 0 1 ) ( 0 0 0 )", "wall"),
+            ("( 1 64 0 ) ( 0 64 1 ) ( 0 64 0 )", "wall"),
+            ("( 0 0 1 ) ( 1 0 0 ) ( 0 0 0 )", "wall"),
+            ("( 0 1 64 ) ( 1 0 64 ) ( 0 0 64 )", "wall"),
+            ("( 1 0 0 ) ( 0 1 0 ) ( 0 0 0 )", "wall"),
+        ]
+        .iter()
+        .map(|(p, t)| format!("{p} {t} 0 0 0 1 1"))
+        .collect();
+        format!(
+            "{{\n\"classname\" \"worldspawn\"\n}}\n{{\n\"classname\" \"{class}\"\n{{\n{}\n}}\n}}\n",
+            faces.join("\n")
+        )
+    };
+    let doom3 = |tex: &str| {
+        let faces: Vec<String> = [
+            ("1 0 0 -64", tex),
+            ("-1 0 0 0", "textures/common/nodraw"),
+            ("0 1 0 -64", "textures/common/nodraw"),
+            ("0 -1 0 0", "textures/common/nodraw"),
+            ("0 0 1 -64", "textures/common/nodraw"),
+            ("0 0 -1 0", "textures/common/nodraw"),
+        ]
+        .iter()
+        .map(|(p, t)| format!("( {p} ) ( ( 0.0078125 0 0 ) ( 0 0.0078125 0 ) ) \"{t}\" 0 0 0"))
+        .collect();
+        format!(
+            "Version 2\n{{\n\"classname\" \"worldspawn\"\n{{\nbrushDef3\n{{\n{}\n}}\n}}\n}}\n",
+            faces.join("\n")
+        )
+    };
+    let flags = |text: &str| {
+        let im = read(text);
+        let n = im.scene.nodes.iter().find(|n| n.mesh.is_some()).unwrap();
+        let e = n.extras.as_ref().unwrap();
+        let on = |k: &str| e.get(k) == Some(&serde_json::Value::Bool(true));
+        (on("door"), on("area_portal"), on("solid"))
+    };
+    assert_eq!(flags(&quake("func_door", "door")), (true, false, false));
+    assert_eq!(
+        flags(&quake("func_door_secret", "door")),
+        (true, false, false)
+    );
+    assert_eq!(flags(&quake("func_plat", "plat")), (true, false, false));
+    assert_eq!(
+        flags(&quake("func_areaportal", "trigger")),
+        (false, true, false)
+    );
+    assert_eq!(flags(&quake("func_wall", "wall")), (false, false, false));
+    assert_eq!(
+        flags(&quake("worldspawn", "common/areaportal")),
+        (false, true, false)
+    );
+    assert_eq!(flags(&quake("worldspawn", "wall")), (false, false, true));
+    assert_eq!(
+        flags(&doom3("textures/editor/visportal")),
+        (false, true, false)
+    );
+    assert_eq!(
+        flags(&doom3("textures/base_wall/lfwall13f3")),
+        (false, false, true)
     );
 }

@@ -528,13 +528,9 @@ fn check_real_map(path: &std::path::Path) -> (Vec<Entity>, Vec<String>, Vec<usiz
 /// ERICW_TESTMAPS=/tmp/testmaps/testmaps cargo test --release --test map_reader -- --include-ignored
 /// ```
 #[test]
-#[ignore = "needs ERICW_TESTMAPS set to ericw-tools' testmaps folder"]
+#[ignore = "needs ericw-tools' testmaps (ERICW_TESTMAPS or ../shared/levels/ericw-tools)"]
 fn ericw_testmaps() {
-    let Some(dir) = std::env::var_os("ERICW_TESTMAPS") else {
-        eprintln!("ERICW_TESTMAPS is not set; nothing to check");
-        return;
-    };
-    let dir = std::path::PathBuf::from(dir);
+    let dir = common::ericw_testmaps();
 
     // E1M1 with its entities edited: counts from the file's brace structure.
     let (ents, problems, empty) = check_real_map(&dir.join("E1M1-edited-ents.map"));

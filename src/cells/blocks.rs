@@ -24,6 +24,12 @@
 //!    void outside an L-shaped building's corner is not. Nothing is decided by volume.
 //! 4. **Cells.** The inside leaves are merged into maximal convex unions as for any room.
 //!
+//! **Gates** (a door's brush, an area portal's or visportal's brush) are volumes of air that
+//! something can close: their faces split the BSP like any face but bound nothing, and leaves
+//! are merged only with leaves inside the same gates, so each gate's air is cells of its own
+//! whose portals the gate can close (qbsp keeps doors out of the world BSP; an engine that
+//! closes a door must know which openings it fills).
+//!
 //! A leak then shows as it does for any room: a cell with an exterior opening, found by
 //! `check --sealed` with the path from the player start.
 
@@ -65,16 +71,19 @@ struct Leaf {
 
 /// The inside of a block room as convex cells (see the module docs). `solids` are the room's
 /// structural solids, `surfaces` its other structural triangles, `hull` the hull of both,
-/// `seeds` the player starts (all recentred); gaps narrower than `min_opening` (the format's
-/// own, see `Scene::min_opening`) join nothing. Empty when nothing is inside.
+/// `gates` the gates' convex volumes, `seeds` the player starts (all recentred); gaps narrower
+/// than `min_opening` (the format's own, see `Scene::min_opening`) join nothing. Each cell
+/// comes with the indices of the gates it lies in (none for most). Empty when nothing is
+/// inside.
 pub(crate) fn decompose(
     solids: &[Solid],
     surfaces: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
+    gates: &[ConvexPolyhedron],
     seeds: &[DVec3],
     min_opening: f64,
     eps: f64,
-) -> Vec<ConvexPolyhedron> {
+) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
     let mut index = PlaneIndex::default();
     let mut planes: Vec<Plane> = Vec::new();
     let mut active = Vec::new();
@@ -113,6 +122,33 @@ pub(crate) fn decompose(
     // that were meant to touch, are not one region.
     let crack = shortest_edge(&active, &on_hull, eps) / 10.0;
     let crack = crack.max(min_opening).max(10.0 * eps);
+    // The gates' faces cut, inside the hull, and are neither solid nor surface.
+    for g in gates {
+        for f in &g.faces {
+            let mut pts = f.points.clone();
+            for h in &hull.faces {
+                pts = clip_polygon(&pts, h.plane.normal, h.plane.d);
+            }
+            if pts.len() < 3 || polygon_area(&pts, f.plane.normal) <= eps * eps {
+                continue;
+            }
+            if hull
+                .faces
+                .iter()
+                .any(|h| pts.iter().all(|p| h.plane.distance(*p).abs() <= 2.0 * eps))
+            {
+                continue;
+            }
+            let t = [pts[0], pts[1], pts[2]];
+            let id = index.intern(&mut planes, f.plane.normal, &t, eps);
+            active.push(Frag {
+                pts,
+                plane: id as u32,
+                air: f.plane.normal,
+                surface: false,
+            });
+        }
+    }
     let space = Space {
         planes,
         solids,
@@ -122,13 +158,20 @@ pub(crate) fn decompose(
     let leaves = space.leaves(hull.clone(), active, on_hull.clone());
     let air: Vec<Leaf> = leaves.into_iter().filter(|l| space.is_air(l)).collect();
     let keep = inside(&air, hull, &on_hull, seeds, crack, eps);
-    let cells: Vec<ConvexPolyhedron> = air
+    // Leaves grouped by the gates they lie in, merged within each group only.
+    let mut groups: std::collections::BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> =
+        Default::default();
+    for (l, _) in air.into_iter().zip(keep).filter(|(_, k)| *k) {
+        let p = l.region.interior_point();
+        let inside_gates: Vec<usize> = (0..gates.len())
+            .filter(|&g| gates[g].contains(p, eps))
+            .collect();
+        groups.entry(inside_gates).or_default().push(l.region);
+    }
+    groups
         .into_iter()
-        .zip(keep)
-        .filter(|(_, k)| *k)
-        .map(|(l, _)| l.region)
-        .collect();
-    merge(cells, eps)
+        .flat_map(|(g, cells)| merge(cells, eps).into_iter().map(move |c| (c, g.clone())))
+        .collect()
 }
 
 impl Space<'_> {

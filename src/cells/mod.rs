@@ -85,6 +85,27 @@ pub enum CellSource {
     Footprint,
 }
 
+/// What a gate is: a volume of air something can close (see `blocks`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GateKind {
+    /// A door's or a lift's brush (extras `"door": true`; a brush map's `func_door*`,
+    /// `func_plat`): its portals start open and close when the door does.
+    Door,
+    /// An area portal (extras `"area_portal": true`; a Quake 2 `func_areaportal`, an id Tech 4
+    /// visportal or Quake 3 areaportal brush): the designer's portal between two areas.
+    AreaPortal,
+}
+
+/// A gate a cell lies in: the node that closes it and what it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Gate {
+    /// The gate's node (the door's brush, the area portal's).
+    pub node: NodeId,
+    /// Door or area portal.
+    pub kind: GateKind,
+}
+
 /// Why a room mesh was taken for a prop: it is rendered by the cell around it but does not
 /// shape cells. Extras `"structure": true` or `[cells] detect_props = false` keeps it in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -128,6 +149,9 @@ pub struct Cell {
     pub bounds: Aabb,
     /// Nodes this cell renders: structure that intersects it, props and loose geometry inside.
     pub nodes: Vec<NodeId>,
+    /// The gates (doors, area portals) whose volume this cell lies in; its portals are theirs.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub gates: Vec<Gate>,
 }
 
 /// The cells stage's output: every room's convex cells and what building them reported.
@@ -475,14 +499,17 @@ impl RoomBuilder<'_> {
         let mut props: Vec<(NodeId, PropReason)> = Vec::new();
         let mut cells: Vec<Cell> = Vec::new();
         let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
+        // The gates of each of `polys` (only a block room has any).
+        let mut gates: Vec<Vec<Gate>> = Vec::new();
         if !room.bounds.is_empty() {
             self.bound_polys(room, &mut polys, &mut diags);
         } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
             self.extrude_all(room, &room.footprints, "footprint", &mut polys, &mut diags);
         } else {
-            self.structure_polys(room, &mut polys, &mut props, &mut diags);
+            self.structure_polys(room, &mut polys, &mut gates, &mut props, &mut diags);
         }
-        for (p, source) in polys {
+        gates.resize(polys.len(), Vec::new());
+        for ((p, source), gates) in polys.into_iter().zip(gates) {
             let world = p.translated(self.origin);
             let volume = world.volume();
             if world.faces.len() > self.cfg.max_planes {
@@ -507,6 +534,7 @@ impl RoomBuilder<'_> {
                 poly: world,
                 volume,
                 nodes: Vec::new(),
+                gates,
             });
         }
         RoomCells {
@@ -596,10 +624,11 @@ impl RoomBuilder<'_> {
         &self,
         room: &Room,
         polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        gates: &mut Vec<Vec<Gate>>,
         props: &mut Vec<(NodeId, PropReason)>,
         diags: &mut Vec<Diagnostic>,
     ) {
-        if self.block_polys(room, polys, props) {
+        if self.block_polys(room, polys, gates, props) {
             return;
         }
         let (scene, origin, eps, frame) = (self.scene, self.origin, self.eps, &self.frame);
@@ -671,6 +700,7 @@ impl RoomBuilder<'_> {
         &self,
         room: &Room,
         polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
+        gates: &mut Vec<Vec<Gate>>,
         props: &mut Vec<(NodeId, PropReason)>,
     ) -> bool {
         let (scene, eps) = (self.scene, self.eps);
@@ -743,18 +773,61 @@ impl RoomBuilder<'_> {
         }
         let flat: Vec<[DVec3; 3]> = surfaces.iter().map(|(_, t)| *t).collect();
         let min_opening = scene.min_opening.unwrap_or(0.0);
-        let cells = blocks::decompose(&solids, &flat, &h, &self.starts, min_opening, eps);
+        let (gate_of, gate_hulls) = self.gates(room);
+        let cells = blocks::decompose(
+            &solids,
+            &flat,
+            &h,
+            &gate_hulls,
+            &self.starts,
+            min_opening,
+            eps,
+        );
         if cells.is_empty() && !tagged {
             return false;
         }
-        let source = if cells.len() == 1 && cells[0] == h {
+        let source = if cells.len() == 1 && cells[0].0 == h {
             CellSource::Hull
         } else {
             CellSource::Split
         };
-        polys.extend(cells.into_iter().map(|c| (c, source)));
+        for (c, g) in cells {
+            polys.push((c, source));
+            gates.push(g.into_iter().map(|k| gate_of[k]).collect());
+        }
         props.extend(found);
         true
+    }
+}
+
+impl RoomBuilder<'_> {
+    /// A block room's gates: its detail and the nodes under it flagged `door` or `area_portal`
+    /// in extras, each with its convex hull (recentred), in node order.
+    fn gates(&self, room: &Room) -> (Vec<Gate>, Vec<ConvexPolyhedron>) {
+        let scene = self.scene;
+        let mut nodes: Vec<NodeId> = room.detail.clone();
+        nodes.extend((0..scene.nodes.len()).filter(|&n| scene.nodes[n].parent == Some(room.node)));
+        nodes.sort_unstable();
+        nodes.dedup();
+        let mut out = (Vec::new(), Vec::new());
+        for n in nodes {
+            let kind = if extras_flag(scene, n, "door") {
+                GateKind::Door
+            } else if extras_flag(scene, n, "area_portal") {
+                GateKind::AreaPortal
+            } else {
+                continue;
+            };
+            let pts: Vec<DVec3> = node_triangles(scene, &[n], self.origin)
+                .into_iter()
+                .flatten()
+                .collect();
+            if let Ok(h) = hull(&pts, self.eps) {
+                out.0.push(Gate { node: n, kind });
+                out.1.push(h);
+            }
+        }
+        out
     }
 }
 

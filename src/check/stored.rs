@@ -144,6 +144,7 @@ pub fn portal_set(a: &Annotated) -> PortalSet {
                 },
                 one_way: r.one_way,
                 closed: r.closed,
+                door: r.door,
                 internal: r.internal,
                 transform: r.transform.map(|m| DMat4::from_cols_array(&m)),
                 authored: None,

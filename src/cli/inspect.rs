@@ -212,6 +212,9 @@ struct DerivedPortalView {
     kind: PortalKind,
     one_way: bool,
     closed: bool,
+    /// A door's opening: closes with the door (`authored`).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    door: bool,
     internal: bool,
     area: f64,
     /// Counter-clockwise seen from the source cell.
@@ -238,6 +241,7 @@ fn portals_view(t: &Tagged, cells: &CellSet, set: &PortalSet) -> Vec<DerivedPort
             kind: p.kind,
             one_way: p.one_way,
             closed: p.closed,
+            door: p.door,
             internal: p.internal,
             area: p.area,
             polygon: p.polygon.iter().map(|v| v.to_array()).collect(),
@@ -836,8 +840,10 @@ fn render_portals(out: &mut String, portals: &[DerivedPortalView], style: &Style
         .iter()
         .map(|p| {
             let mut flags = portal_flags(p.kind, p.one_way, p.closed, p.internal);
-            if let Some(a) = &p.authored {
-                flags.push(format!("authored `{a}`"));
+            match &p.authored {
+                Some(a) if p.door => flags.push(format!("door `{a}`")),
+                Some(a) => flags.push(format!("authored `{a}`")),
+                None => {}
             }
             let b = portcullis::geom::aabb::Aabb::from_points(
                 p.polygon

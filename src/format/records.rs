@@ -100,6 +100,9 @@ pub struct PortalRecord<
     /// A door authored closed: blocks sight until opened at run time.
     #[serde(default, skip_serializing_if = "is_false")]
     pub closed: bool,
+    /// A door's opening: closes when the door (`node`) does; open at the start unless `closed`.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub door: bool,
     /// Between two cells of one room.
     #[serde(default, skip_serializing_if = "is_false")]
     pub internal: bool,

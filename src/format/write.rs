@@ -295,6 +295,7 @@ impl Serialize for PortalJson<'_> {
             kind,
             one_way: p.one_way,
             closed: p.closed,
+            door: p.door,
             internal: p.internal,
             transform: p
                 .transform

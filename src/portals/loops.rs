@@ -214,6 +214,7 @@ mod tests {
             kind: PortalKind::Mirror,
             one_way: false,
             closed: false,
+            door: false,
             internal: false,
             transform: Some(m),
             authored: None,

@@ -49,6 +49,9 @@ pub struct Portal {
     pub one_way: bool,
     /// A closed door: passes nothing until the runtime opens it.
     pub closed: bool,
+    /// A door's opening (a gate of kind door, see `cells::Gate`): the runtime closes it when
+    /// the door, its `authored` node, closes; open unless `closed`.
+    pub door: bool,
     /// Between two cells of one room (a split room's cells are joined by these).
     pub internal: bool,
     /// Maps the source side's space to the target side's (mirrors, teleporters).
@@ -82,6 +85,7 @@ impl Portal {
             kind: PortalKind::Plain,
             one_way: false,
             closed: false,
+            door: false,
             internal,
             transform: None,
             authored: None,
@@ -123,7 +127,30 @@ pub fn build(scene: &Scene, tagging: &Tagging, cells: &CellSet, cfg: &PortalsCon
     };
     derive::derive(scene, tagging, cells, cfg, &mut set);
     authored::link(scene, tagging, cells, cfg, &mut set);
+    lend_gates(cells, &mut set);
     set
+}
+
+/// A portal on the boundary of a gate's volume (in a cell of the gate on one side only) is
+/// the gate's: it takes the gate's node, unless authored otherwise, and a door's flag.
+fn lend_gates(cells: &CellSet, set: &mut PortalSet) {
+    for p in &mut set.portals {
+        let inside = |c: Option<usize>| c.map_or(&[][..], |c| &cells.cells[c].gates[..]);
+        let (a, b) = (inside(Some(p.from)), inside(p.to));
+        let Some(g) = a
+            .iter()
+            .filter(|g| !b.contains(g))
+            .chain(b.iter().filter(|g| !a.contains(g)))
+            .min_by_key(|g| g.node)
+        else {
+            continue;
+        };
+        p.authored = p.authored.or(Some(g.node));
+        p.door = a
+            .iter()
+            .chain(b)
+            .any(|g| g.kind == crate::cells::GateKind::Door && (a.contains(g) != b.contains(g)));
+    }
 }
 
 /// Reverses a portal polygon (the partner's view).

@@ -26,6 +26,22 @@ pub fn sample(name: &str) -> PathBuf {
     root().join("samples").join(name)
 }
 
+/// ericw-tools' `testmaps/` folder for the explicit-run brush-map tests: `ERICW_TESTMAPS`, or
+/// the copy beside the project in `../shared/levels/ericw-tools/testmaps` (the maps are
+/// ericw-tools', GPL, and not shipped here). Panics when neither exists, so an explicit run
+/// never passes without checking anything.
+pub fn ericw_testmaps() -> PathBuf {
+    let dir = std::env::var_os("ERICW_TESTMAPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root().join("../shared/levels/ericw-tools/testmaps"));
+    assert!(
+        dir.join("E1M1-edited-ents.map").is_file(),
+        "ericw-tools' testmaps are not at {} (set ERICW_TESTMAPS)",
+        dir.display()
+    );
+    dir
+}
+
 /// One node of a test level.
 #[derive(Clone, Debug)]
 pub struct N {

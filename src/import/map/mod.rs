@@ -10,8 +10,13 @@
 //!   entities (`func_door`, `func_plat`, `func_wall`, ...) are detail: rendered, in a cell,
 //!   neither sealing nor shaping cells;
 //! - tool brushes (every face `clip`, `hint`, `hintskip` or `origin`; in Quake 2, contents of
-//!   clip, origin or area portal and not solid) and `trigger_*` entities are ignored; a `skip`
+//!   clip or origin and not solid) and `trigger_*` entities are ignored; a `skip`
 //!   face is solid, as qbsp reads it;
+//! - doors (`func_door*`, `func_plat*` brushes) are detail flagged `door`, area portals (a
+//!   Quake 2 `func_areaportal` or area portal contents, a brush with an id Tech 4 `visportal`
+//!   or Quake 3 `areaportal` face) are ignored geometry flagged `area_portal`: both are gates
+//!   (`cells::Gate`), volumes whose air gets cells of its own so that the portals where they
+//!   fill an opening are theirs (a door's start open and close with it);
 //! - point entities are nodes at their `origin`, turned by `angle`, with every key/value in
 //!   their extras; `info_player_start` (`_deathmatch`, `_coop`, `2`) are player starts.
 //!
@@ -47,6 +52,10 @@ enum Role {
     Structure,
     Detail,
     Ignored,
+    /// A door's or lift's brush: detail whose volume is a gate (`cells::Gate`).
+    Door,
+    /// An area portal's brush: no wall, a gate between areas.
+    AreaPortal,
 }
 
 /// Reads a brush map; `scale` is metres per map unit (`None`: Quake's inch).
@@ -185,6 +194,14 @@ impl<'a> Builder<'a> {
                 }
                 Role::Detail => extras.insert("detail".into(), Value::Bool(true)),
                 Role::Ignored => extras.insert("ignore".into(), Value::Bool(true)),
+                Role::Door => {
+                    extras.insert("door".into(), Value::Bool(true));
+                    extras.insert("detail".into(), Value::Bool(true))
+                }
+                Role::AreaPortal => {
+                    extras.insert("area_portal".into(), Value::Bool(true));
+                    extras.insert("ignore".into(), Value::Bool(true))
+                }
             };
             extras.insert("classname".into(), Value::String(class.clone()));
             let name = format!("{class} {ei} brush {bi}");
@@ -373,8 +390,23 @@ fn role(class: &str, b: &parse::Brush) -> Role {
             false,
         )
     };
+    let portal_face = b
+        .faces
+        .iter()
+        .any(|f| matches!(name(f).as_str(), "visportal" | "areaportal"));
+    let areaportal = quake2
+        && b.faces
+            .iter()
+            .filter_map(|f| f.contents)
+            .any(|c| c & AREAPORTAL != 0);
+    if class == "func_areaportal" || portal_face || areaportal {
+        return Role::AreaPortal;
+    }
     if tool {
         return Role::Ignored;
+    }
+    if class.starts_with("func_door") || class.starts_with("func_plat") {
+        return Role::Door;
     }
     if liquid || detail {
         return Role::Detail;

@@ -78,6 +78,11 @@ pub(super) fn parse(text: &str) -> Result<(Vec<Entity>, usize), Error> {
         at: 0,
         skipped: 0,
     };
+    // id Tech 4 maps open with their version (`Version 2`: Doom 3; `Version 3`: Quake 4).
+    if p.peek().is_some_and(|t| !t.quoted && t.text == "Version") {
+        p.at += 1;
+        p.number()?;
+    }
     let mut out = Vec::new();
     while p.peek().is_some() {
         out.push(p.entity()?);
