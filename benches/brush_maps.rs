@@ -1,5 +1,6 @@
 //! Brush maps as one room of solid blocks (issue 41), side by side with ericw-tools' qbsp:
-//! `ERICW_TESTMAPS=<ericw-tools>/testmaps cargo bench --bench brush_maps [MAP.map ...]`
+//! `ERICW_TESTMAPS=<ericw-tools>/testmaps cargo bench --bench brush_maps [MAP.map ...]` (the
+//! maps are looked for in `../shared/levels/ericw-tools/testmaps` when it is unset)
 //! (E1M1-edited-ents.map and qbspfeatures.map by default). For each map, what `portcullis check
 //! --sealed MAP.map` does: read the map (src/import/map), tag it, build cells and portals, check;
 //! five times, the median and the slowest. With `QBSP=<path to qbsp>` qbsp is run five times on
@@ -83,10 +84,15 @@ fn qbsp(bin: &Path, map: &Path) -> (f64, Option<(usize, usize)>) {
 }
 
 fn main() {
-    let Ok(dir) = std::env::var("ERICW_TESTMAPS") else {
+    let dir = std::env::var_os("ERICW_TESTMAPS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/levels/ericw-tools/testmaps")
+        });
+    if !dir.is_dir() {
         eprintln!("set ERICW_TESTMAPS to ericw-tools' testmaps folder (the maps are not shipped)");
         return;
-    };
+    }
     let mut maps: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| a.ends_with(".map"))
