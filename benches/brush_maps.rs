@@ -84,22 +84,9 @@ fn qbsp(bin: &Path, map: &Path) -> (f64, Option<(usize, usize)>) {
 }
 
 fn main() {
-    let dir = std::env::var_os("ERICW_TESTMAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/levels/ericw-tools/testmaps")
-        });
-    if !dir.is_dir() {
-        eprintln!("set ERICW_TESTMAPS to ericw-tools' testmaps folder (the maps are not shipped)");
+    let Some((dir, maps)) = common::map::maps_to_bench() else {
         return;
-    }
-    let mut maps: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a.ends_with(".map"))
-        .collect();
-    if maps.is_empty() {
-        maps = vec!["E1M1-edited-ents.map".into(), "qbspfeatures.map".into()];
-    }
+    };
     let qbsp_bin = std::env::var("QBSP").ok().map(PathBuf::from);
     println!("| map | brushes | ours: cells, portals | ours: median (slowest) of 5 | verdict | qbsp: leafs, portals | qbsp: median of 5 | qbsp verdict |");
     println!("|---|---|---|---|---|---|---|---|");

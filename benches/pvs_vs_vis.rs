@@ -26,7 +26,7 @@
 //! runs both ways); pairs listed one way only are counted apart. Two points in one cell or one
 //! leaf (convex air) always see each other, which checks the sight test.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -423,25 +423,13 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
 }
 
 fn main() {
-    let dir = std::env::var_os("ERICW_TESTMAPS").map(PathBuf::from);
-    let dir = dir.unwrap_or_else(|| {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/levels/ericw-tools/testmaps")
-    });
-    if !dir.is_dir() {
-        eprintln!("set ERICW_TESTMAPS to ericw-tools' testmaps folder (the maps are not shipped)");
+    let Some((dir, maps)) = map::maps_to_bench() else {
         return;
-    }
+    };
     let (Ok(qbsp), Ok(vis)) = (std::env::var("QBSP"), std::env::var("VIS")) else {
         eprintln!("set QBSP and VIS to ericw-tools' qbsp and vis binaries");
         return;
     };
-    let mut maps: Vec<String> = std::env::args()
-        .skip(1)
-        .filter(|a| a.ends_with(".map"))
-        .collect();
-    if maps.is_empty() {
-        maps = vec!["E1M1-edited-ents.map".into(), "qbspfeatures.map".into()];
-    }
     let mut rows = Vec::new();
     for name in maps {
         match compare(&dir.join(&name), Path::new(&qbsp), Path::new(&vis)) {

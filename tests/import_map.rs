@@ -384,4 +384,32 @@ fn doors_lifts_and_area_portals_are_known_in_every_format() {
         flags(&doom3("textures/base_wall/lfwall13f3")),
         (false, false, true)
     );
+
+    // id Tech 4 writes a brush entity's brushes about its origin: a door at x = 1000.
+    let world = doom3("textures/base_wall/lfwall13f3");
+    let door = world
+        .replacen(
+            "\"worldspawn\"",
+            "\"func_door\"\n\"origin\" \"1000 0 0\"",
+            1,
+        )
+        .replacen(
+            "Version 2\n",
+            "Version 2\n{\n\"classname\" \"worldspawn\"\n}\n",
+            1,
+        );
+    let im = read(&door);
+    let n = im.scene.nodes.iter().find(|n| n.mesh.is_some()).unwrap();
+    let xs: Vec<f64> = im.scene.meshes[n.mesh.unwrap()]
+        .positions
+        .iter()
+        .map(|p| p.x / 0.0254)
+        .collect();
+    let (lo, hi) = xs
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+    assert!(
+        (lo - 1000.0).abs() < 1e-9 && (hi - 1064.0).abs() < 1e-9,
+        "{lo}..{hi}"
+    );
 }

@@ -767,3 +767,32 @@ fn polygon_area(poly: &[DVec3]) -> f64 {
     }
     s.length() * 0.5
 }
+
+/// ericw-tools' `testmaps/` folder: `ERICW_TESTMAPS`, or the copy beside the project in
+/// `../shared/levels/ericw-tools/testmaps` (the maps are ericw-tools', GPL, not shipped here).
+pub fn testmaps_dir() -> std::path::PathBuf {
+    std::env::var_os("ERICW_TESTMAPS")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../shared/levels/ericw-tools/testmaps")
+        })
+}
+
+/// What a brush-map benchmark runs on: the maps folder and the `.map` names given on the
+/// command line (E1M1 and qbspfeatures by default); `None`, said why, without the folder.
+pub fn maps_to_bench() -> Option<(std::path::PathBuf, Vec<String>)> {
+    let dir = testmaps_dir();
+    if !dir.is_dir() {
+        eprintln!("set ERICW_TESTMAPS to ericw-tools' testmaps folder (the maps are not shipped)");
+        return None;
+    }
+    let mut maps: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a.ends_with(".map"))
+        .collect();
+    if maps.is_empty() {
+        maps = vec!["E1M1-edited-ents.map".into(), "qbspfeatures.map".into()];
+    }
+    Some((dir, maps))
+}

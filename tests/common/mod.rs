@@ -31,9 +31,7 @@ pub fn sample(name: &str) -> PathBuf {
 /// ericw-tools', GPL, and not shipped here). Panics when neither exists, so an explicit run
 /// never passes without checking anything.
 pub fn ericw_testmaps() -> PathBuf {
-    let dir = std::env::var_os("ERICW_TESTMAPS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root().join("../shared/levels/ericw-tools/testmaps"));
+    let dir = map::testmaps_dir();
     assert!(
         dir.join("E1M1-edited-ents.map").is_file(),
         "ericw-tools' testmaps are not at {} (set ERICW_TESTMAPS)",

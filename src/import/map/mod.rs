@@ -172,7 +172,23 @@ impl<'a> Builder<'a> {
         }
         .to_string();
         let parent = self.room(&room_name, e.line);
+        // id Tech 4 writes an entity's brushes about its origin (not the world's).
+        let offset = (class != "worldspawn")
+            .then(|| e.get("origin").and_then(parse_vec3))
+            .flatten()
+            .unwrap_or(DVec3::ZERO);
         for (bi, b) in e.brushes.iter().enumerate() {
+            let moved;
+            let b = if b.relative && offset != DVec3::ZERO {
+                let mut m = b.clone();
+                for f in &mut m.faces {
+                    f.dist += DVec3::from_array(f.normal).dot(offset);
+                }
+                moved = m;
+                &moved
+            } else {
+                b
+            };
             let role = role(&class, b);
             let rings = brush::polygons(&b.faces).ok_or_else(|| {
                 Diagnostic::new(
@@ -285,13 +301,7 @@ impl<'a> Builder<'a> {
 
     fn point_entity(&mut self, e: &parse::Entity) {
         let class = e.classname();
-        let origin = e.get("origin").and_then(|o| {
-            let v: Vec<f64> = o
-                .split_whitespace()
-                .map(|s| s.parse::<f64>().ok().filter(|x| x.is_finite()))
-                .collect::<Option<_>>()?;
-            (v.len() == 3).then(|| DVec3::new(v[0], v[1], v[2]))
-        });
+        let origin = e.get("origin").and_then(parse_vec3);
         let Some(origin) = origin else {
             if class != "worldspawn" {
                 // An entity with no place (a target list, a light style): nothing to stand.
@@ -329,6 +339,15 @@ impl<'a> Builder<'a> {
         );
         self.scene.add_node(n);
     }
+}
+
+/// Three finite numbers (an `origin`).
+fn parse_vec3(s: &str) -> Option<DVec3> {
+    let v: Vec<f64> = s
+        .split_whitespace()
+        .map(|s| s.parse::<f64>().ok().filter(|x| x.is_finite()))
+        .collect::<Option<_>>()?;
+    (v.len() == 3).then(|| DVec3::new(v[0], v[1], v[2]))
 }
 
 fn node(

@@ -36,6 +36,8 @@ pub(super) struct Face {
 pub(super) struct Brush {
     pub faces: Vec<Face>,
     pub line: usize,
+    /// An id Tech 4 brush (`brushDef3`): written relative to its entity's `origin`.
+    pub relative: bool,
 }
 
 /// An entity: its keys in file order and its brushes.
@@ -229,10 +231,12 @@ impl<'a> Parser<'a> {
         let mut b = Brush {
             faces: Vec::new(),
             line,
+            relative: false,
         };
         match self.peek().map(|t| (t.text, t.quoted)) {
             Some(("brushDef3", false)) | Some(("brushDef2", false)) => {
                 self.at += 1;
+                b.relative = true;
                 self.expect("{")?;
                 while self.peek().is_some_and(|t| t.text != "}" || t.quoted) {
                     if self.peek().is_some_and(|t| t.quoted) {
