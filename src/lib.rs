@@ -30,6 +30,7 @@ pub mod cells;
 pub mod check;
 pub mod config;
 pub mod diag;
+pub(crate) mod disjoint;
 pub mod export;
 pub mod format;
 pub(crate) mod free;

@@ -276,6 +276,24 @@ fn doors_and_area_portals_in_a_brush_map_own_the_portals_they_fill() {
     );
     assert_eq!(p.portals.iter().filter(|q| q.door).count(), 4);
     assert_eq!(p.portals.len(), 12);
+    // The area portal cuts the map into two areas, two rooms: C's, whose first cell is the
+    // map's first, keeps `world`, and the area portal's cell joins it; A and B are
+    // `world_area1`. The one portal pair between the rooms is the area portal's far face.
+    let names: Vec<&str> = t.tagging.rooms.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, ["world", "world_area1"]);
+    assert_eq!(t.tagging.rooms[1].area_of, Some(0));
+    let between: Vec<_> = p.portals.iter().filter(|q| !q.internal).collect();
+    assert_eq!(xs(&|q| !q.internal), [534.0, 534.0]);
+    assert!(between.iter().all(|q| q.authored == Some(gate)));
+    let start = t.tagging.player_starts[0].node;
+    let at = t.scene.nodes[start].world.w_axis.truncate();
+    let start_cell = (0..c.cells.len())
+        .find(|&i| c.cells[i].poly.contains(at, 1e-9))
+        .unwrap();
+    assert_eq!(
+        c.cells[start_cell].room, 1,
+        "the start is in room A, world_area1"
+    );
 
     // In the written glTF: the door's portals say `door` and name its node; in the runtime,
     // a camera in room A sees room C down the line of doorways until the door closes.
@@ -412,4 +430,70 @@ fn doors_lifts_and_area_portals_are_known_in_every_format() {
         (lo - 1000.0).abs() < 1e-9 && (hi - 1064.0).abs() < 1e-9,
         "{lo}..{hi}"
     );
+}
+
+/// Quake 2 areas as qbsp makes them, on the maps whose area counts ericw-tools' own tests state
+/// (`tests/test_qbsp_q2.cc`: `dareas.size()` less the reserved area 0): each area is a room, and
+/// rooms meet only at the area portals. On q2_areaportals.map the player start's area borders
+/// the light's alone and the light's borders two, as qbsp's area portal lists say.
+#[test]
+#[ignore = "needs ericw-tools' testmaps (ERICW_TESTMAPS or ../shared/levels/ericw-tools)"]
+fn quake2_areas_are_the_rooms_qbsp_makes() {
+    let dir = common::ericw_testmaps();
+    for (name, areas) in [
+        ("q2_areaportal.map", 2),
+        ("q2_areaportal_with_detail.map", 2),
+        ("q2_areaportals.map", 3),
+        ("q2_double_areaportal.map", 3),
+        ("q2_areaportal_split.map", 2),
+    ] {
+        let (t, c, p) = common::load_level(&dir.join(name), None);
+        assert_eq!(t.tagging.rooms.len(), areas, "{name}: rooms");
+        let between: Vec<_> = p
+            .portals
+            .iter()
+            .filter(|q| q.to.is_some() && c.cells[q.from].room != c.cells[q.to.unwrap()].room)
+            .collect();
+        assert!(!between.is_empty(), "{name}");
+        for q in between {
+            let n = q
+                .authored
+                .expect("a portal between areas is an area portal's");
+            let class = t.scene.nodes[n].extras.as_ref().unwrap()["classname"].clone();
+            assert_eq!(class, "func_areaportal", "{name}");
+        }
+        if name == "q2_areaportals.map" {
+            let room_of = |class: &str| {
+                let n = (0..t.scene.nodes.len())
+                    .find(|&n| t.scene.nodes[n].name.as_deref() == Some(class))
+                    .unwrap();
+                let at = t.scene.nodes[n].world.w_axis.truncate();
+                let cell = (0..c.cells.len())
+                    .find(|&i| c.cells[i].poly.contains(at, 1e-9))
+                    .unwrap_or_else(|| panic!("{class} is in a cell"));
+                c.cells[cell].room
+            };
+            let neighbours = |r: usize| {
+                let mut v: Vec<usize> = p
+                    .portals
+                    .iter()
+                    .filter(|q| c.cells[q.from].room == r)
+                    .filter_map(|q| q.to.map(|to| c.cells[to].room))
+                    .filter(|&o| o != r)
+                    .collect();
+                v.sort_unstable();
+                v.dedup();
+                v
+            };
+            let (start, light, grenades) = (
+                room_of("info_player_start"),
+                room_of("light"),
+                room_of("ammo_grenades"),
+            );
+            assert_eq!(neighbours(start), [light]);
+            let mut both = vec![start, grenades];
+            both.sort_unstable();
+            assert_eq!(neighbours(light), both);
+        }
+    }
 }

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 /// The library's top-level modules, lowest first. A module may use modules of a lower rank,
 /// and none of its own rank or above (modules of one rank know nothing of each other).
 const LAYERS: &[&[&str]] = &[
-    &["rng", "scc", "free", "schema"],
+    &["rng", "scc", "free", "schema", "disjoint"],
     &["geom"],
     &["scene"],
     &["diag"],

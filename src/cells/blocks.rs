@@ -39,6 +39,7 @@ use glam::DVec3;
 
 use super::interior::{merge, thickness, unit_normal, PlaneIndex};
 use super::solids::Solid;
+use crate::disjoint::DisjointSets;
 use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
@@ -379,6 +380,23 @@ fn overlap(a: &[DVec3], b: &[DVec3], normal: DVec3) -> Vec<DVec3> {
     out
 }
 
+/// Where two convex regions touch face to face: each common polygon (opposite coplanar faces'
+/// overlap) with the first region's outward normal.
+pub(super) fn shared_faces<'a>(
+    a: &'a ConvexPolyhedron,
+    b: &'a ConvexPolyhedron,
+    eps: f64,
+) -> impl Iterator<Item = (Vec<DVec3>, DVec3)> + 'a {
+    a.faces.iter().flat_map(move |f| {
+        b.faces.iter().filter_map(move |g| {
+            let facing = f.plane.normal.dot(g.plane.normal) < -0.999_999
+                && (f.plane.d + g.plane.d).abs() <= 2.0 * eps;
+            let common = facing.then(|| overlap(&f.points, &g.points, g.plane.normal))?;
+            (common.len() >= 3).then_some((common, f.plane.normal))
+        })
+    })
+}
+
 /// Which air leaves are the room's inside (see the module docs, step 3).
 fn inside(
     air: &[Leaf],
@@ -389,37 +407,18 @@ fn inside(
     eps: f64,
 ) -> Vec<bool> {
     let n = air.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut x: usize) -> usize {
-        while parent[x] != x {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        x
-    }
+    let mut parts = DisjointSets::new(n);
     let mut shared = vec![0.0f64; n];
     let grid = BoxGrid::new(air.iter().map(|l| l.region.bounds()).collect());
     for (i, j) in grid.pairs(2.0 * eps) {
-        let mut area = 0.0;
-        for f in &air[i].region.faces {
-            for g in &air[j].region.faces {
-                if f.plane.normal.dot(g.plane.normal) < -0.999_999
-                    && (f.plane.d + g.plane.d).abs() <= 2.0 * eps
-                {
-                    let common = overlap(&f.points, &g.points, g.plane.normal);
-                    if common.len() >= 3 && mean_width(&common, f.plane.normal) > crack {
-                        area += polygon_area(&common, f.plane.normal);
-                    }
-                }
-            }
-        }
+        let area: f64 = shared_faces(&air[i].region, &air[j].region, eps)
+            .filter(|(common, normal)| mean_width(common, *normal) > crack)
+            .map(|(common, normal)| polygon_area(&common, normal))
+            .sum();
         if area > eps * eps {
             shared[i] += area;
             shared[j] += area;
-            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-            if a != b {
-                parent[a.max(b)] = a.min(b);
-            }
+            parts.union(i, j);
         }
     }
     // Surfaces on the hull, by the hull face they lie on, cover what they face.
@@ -468,7 +467,7 @@ fn inside(
     // Per region: open area, held area, seeded.
     let mut regions: HashMap<usize, (f64, f64, bool)> = HashMap::new();
     for i in 0..n {
-        let r = root(&mut parent, i);
+        let r = parts.find(i);
         let e = regions.entry(r).or_insert((0.0, 0.0, false));
         e.0 += open[i];
         e.1 += (total[i] - shared[i] - open[i]).max(0.0);
@@ -479,7 +478,7 @@ fn inside(
     let any_inside = regions.values().any(is_inside);
     (0..n)
         .map(|i| {
-            let r = &regions[&root(&mut parent, i)];
+            let r = &regions[&parts.find(i)];
             if any_inside {
                 is_inside(r)
             } else {

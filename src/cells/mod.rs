@@ -61,6 +61,8 @@ use crate::tags::{Room, RoomId, Tagging};
 
 mod assign;
 pub use assign::drop_far_structure;
+mod areas;
+pub use areas::split as split_areas;
 mod blocks;
 mod footprint;
 mod interior;
@@ -1119,14 +1121,7 @@ fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
     let mut pts: Vec<DVec2> = tris.iter().flatten().copied().collect();
     pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     pts.dedup();
-    let mut parent: Vec<usize> = (0..pts.len()).collect();
-    fn find(parent: &mut [usize], mut x: usize) -> usize {
-        while parent[x] != x {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        x
-    }
+    let mut parts = crate::disjoint::DisjointSets::new(pts.len());
     if !(tol > 0.0 && tol.is_finite()) {
         return tris;
     }
@@ -1147,8 +1142,7 @@ fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
                 for &j in near {
                     if j > i && pts[i].distance(pts[j]) <= tol {
                         // The root is always the least index: the least point of the cluster.
-                        let (a, b) = (find(&mut parent, i), find(&mut parent, j));
-                        parent[a.max(b)] = a.min(b);
+                        parts.union(i, j);
                     }
                 }
             }
@@ -1161,7 +1155,7 @@ fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
     for t in &mut tris {
         for p in t.iter_mut() {
             if let Some(i) = at(*p) {
-                *p = pts[find(&mut parent, i)];
+                *p = pts[parts.find(i)];
             }
         }
     }

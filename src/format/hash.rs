@@ -106,7 +106,8 @@ fn hashed_bytes(scene: &Scene, tagging: &Tagging, what: Coverage, mut eat: impl 
             }
         }
     }
-    for r in &tagging.rooms {
+    // Areas are made from the geometry (hashed above), not declared.
+    for r in tagging.rooms.iter().filter(|r| r.area_of.is_none()) {
         eat(r.name.as_bytes());
         eat(&[0]);
     }

@@ -214,23 +214,15 @@ impl Layout {
                 }
             }
             edges.sort_by_key(|(k, d)| (*k, d.a, d.b));
-            let mut parent: Vec<usize> = (0..self.rooms.len()).collect();
-            fn root(p: &mut [usize], mut a: usize) -> usize {
-                while p[a] != a {
-                    p[a] = p[p[a]];
-                    a = p[a];
-                }
-                a
-            }
+            let mut parts = crate::disjoint::DisjointSets::new(self.rooms.len());
             let mut joined: std::collections::BTreeSet<(usize, usize)> = Default::default();
             for (_, d) in edges {
                 let pair = (d.a.min(d.b), d.a.max(d.b));
                 if joined.contains(&pair) {
                     continue;
                 }
-                let (ra, rb) = (root(&mut parent, d.a), root(&mut parent, d.b));
-                if ra != rb || rng.chance(0.25) {
-                    parent[ra] = rb;
+                // A door between parts joins them; one within a part makes a loop.
+                if parts.union(d.a, d.b) || rng.chance(0.25) {
                     joined.insert(pair);
                     self.doors.push(d);
                 }

@@ -130,6 +130,7 @@ pub fn build_cells(tagged: &mut Tagged) -> CellSet {
         &mut set,
         tagged.config.portals.max_wall_thickness,
     );
+    cells::split_areas(&mut tagged.tagging, &mut set);
     tagged.diagnostics.extend(set.diagnostics.iter().cloned());
     set
 }

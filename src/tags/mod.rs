@@ -64,6 +64,10 @@ pub struct Room {
     pub bounds: Vec<NodeId>,
     /// Footprint nodes of this room.
     pub footprints: Vec<NodeId>,
+    /// An area split off room `area_of` by its area portals (id Tech 4's areas): made by the
+    /// cells stage, not declared, so it owns no nodes and is not part of the input hash.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_of: Option<RoomId>,
 }
 
 /// A group of rooms (Godot's RoomGroup): it names them together, no volume of its own.
@@ -183,6 +187,32 @@ pub struct Tagging {
 }
 
 impl Tagging {
+    /// A room for an area of room `of` that its area portals cut off, called `name`: declared
+    /// by the same node, owning no nodes (`of`'s geometry renders in its cells).
+    pub fn add_area(&mut self, of: RoomId, name: String) -> RoomId {
+        let r = &self.rooms[of];
+        let area = Room {
+            name,
+            node: r.node,
+            path: r.path.clone(),
+            rule: format!("area of `{}`", r.name),
+            group: r.group,
+            volume: r.volume,
+            priority: r.priority,
+            structure: Vec::new(),
+            detail: Vec::new(),
+            bounds: Vec::new(),
+            footprints: Vec::new(),
+            area_of: Some(of),
+        };
+        let id = self.rooms.len();
+        if let Some(g) = area.group {
+            self.room_groups[g].rooms.push(id);
+        }
+        self.rooms.push(area);
+        id
+    }
+
     /// The room called `name` as `rules` compare names (case, wildcard).
     pub fn room_by_name(&self, rules: &RuleSet, name: &str) -> Option<RoomId> {
         match self.room_index.get(&rules.name_key(name)) {
@@ -668,6 +698,7 @@ fn add_room(
         detail: Vec::new(),
         bounds: Vec::new(),
         footprints: Vec::new(),
+        area_of: None,
     });
     t.rooms.len() - 1
 }
