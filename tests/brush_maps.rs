@@ -96,6 +96,26 @@ fn a_slot_through_a_brush_wall_leaks_from_the_player_start() {
     assert!(d.message.contains("from player start"), "{}", d.message);
 }
 
+/// A `func_detail` pillar half in a wall (its middle in the wall, a quarter of it in the room)
+/// is rendered by the cell it reaches into, not reported as lying in no cell.
+#[test]
+fn detail_with_its_middle_in_a_wall_is_rendered_by_the_cell_it_reaches() {
+    let mut text = room_map(false, false);
+    text += "{\n\"classname\" \"func_detail\"\n";
+    text += &box_brush([248.0, 100.0, 0.0], [272.0, 140.0, 128.0]);
+    text += "}\n";
+    let (t, c, leak, _) = verdict(&map::parse(&text).unwrap());
+    assert!(!leak);
+    assert_eq!(c.cells.len(), 1);
+    let pillar = t.tagging.rooms[0].detail[0];
+    assert!(c.cells[0].nodes.contains(&pillar));
+    assert!(
+        !t.diagnostics.has(Code::CELL_GEOMETRY_OUTSIDE),
+        "{:?}",
+        t.diagnostics
+    );
+}
+
 #[test]
 fn detail_does_not_seal_a_brush_map() {
     let (t, _, leak, _) = verdict(&map::parse(&room_map(true, true)).unwrap());

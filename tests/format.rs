@@ -34,6 +34,7 @@ fn full() -> Annotated {
         generator: "portcullis test".into(),
         input_hash: "xxh3v2:0123456789abcdef".into(),
         tolerance: 1e-5,
+        tags: Some("doom".into()),
         rooms: vec![RoomRecord {
             name: "hall".into(),
             cells: vec![0, 1],

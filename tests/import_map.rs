@@ -497,3 +497,34 @@ fn quake2_areas_are_the_rooms_qbsp_makes() {
         }
     }
 }
+
+/// A glTF written from a brush map says it was read with the `quake` preset, and `check` on it,
+/// given no preset, reads it so: its stored annotation is the level it was made from, not stale.
+#[test]
+fn a_gltf_written_from_a_brush_map_reads_back_as_the_same_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("doors.glb");
+    let run = |args: &[&std::ffi::OsStr]| {
+        assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let sample = common::sample("brush_doors.map");
+    let made = run(&[
+        "convert".as_ref(),
+        sample.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(made.status.success());
+    let (doc, _) = common::read_gltf(&std::fs::read(&out).unwrap());
+    assert_eq!(doc["extensions"]["PORTCULLIS_portals"]["tags"], "quake");
+    let checked = run(&["check".as_ref(), out.as_os_str()]);
+    let text = String::from_utf8_lossy(&checked.stderr).to_string()
+        + &String::from_utf8_lossy(&checked.stdout);
+    assert!(checked.status.success(), "{text}");
+    assert!(!text.contains("ANNOTATION_STALE"), "{text}");
+    assert!(text.contains("7 cells, 12 portals (stored): ok"), "{text}");
+}

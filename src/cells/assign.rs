@@ -1,6 +1,7 @@
 //! Which nodes each cell renders. Structure goes to every cell of its room it reaches into;
-//! props go to the cell containing their centre; geometry outside every room goes to every
-//! cell it reaches into, and geometry in no cell at all is reported.
+//! props go to the cell containing their centre, or, when their centre lies in a wall, to
+//! every cell they reach into; geometry outside every room goes to every cell it reaches
+//! into, and geometry in no cell at all is reported.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -124,9 +125,21 @@ pub(crate) fn find(
         if !any {
             return;
         }
-        match containing((b.min + b.max) * 0.5, prefer) {
-            Some(c) => out.0.push((c, n)),
-            None => out.1.push(n),
+        if let Some(c) = containing((b.min + b.max) * 0.5, prefer) {
+            out.0.push((c, n));
+            return;
+        }
+        // Its middle is in a wall (a trim, a pillar or a door half in the wall): every cell
+        // it reaches into renders it, as for structure; only what reaches none is outside.
+        let tris = node_triangles(scene, &[n], DVec3::ZERO);
+        let within = |c: &usize| node_in_cell(&tris, &set.cells[*c].poly, eps);
+        let mut hit: Vec<usize> = prefer.iter().copied().filter(within).collect();
+        if hit.is_empty() {
+            hit = (0..set.cells.len()).filter(within).collect();
+        }
+        match hit.is_empty() {
+            true => out.1.push(n),
+            false => out.0.extend(hit.into_iter().map(|c| (c, n))),
         }
     };
     let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();

@@ -20,6 +20,11 @@ pub struct Annotated {
     pub input_hash: String,
     /// The distance tolerance the level was built with, in metres.
     pub tolerance: f64,
+    /// The tag preset the level was read with, when not `default` (`--tags`, or `quake` for a
+    /// brush map): a reader given none reads the file with it, so the file reads back as the
+    /// level it was made from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tags: Option<String>,
     /// Rooms of more than one cell (left out when every room is one cell).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rooms: Vec<RoomRecord>,

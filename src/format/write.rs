@@ -378,6 +378,9 @@ fn build_with_hash<'a>(
     );
     root.insert("inputHash".into(), Value::Null);
     root.insert("tolerance".into(), num(cells.tolerance.distance));
+    if tagging.preset != "default" {
+        root.insert("tags".into(), json!(tagging.preset));
+    }
     if cells.room_cells.iter().any(|c| c.len() > 1) {
         let rooms: Vec<Value> = tagging
             .rooms

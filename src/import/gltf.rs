@@ -135,6 +135,7 @@ pub fn import(
     let buffers = buffers::resolve(&ctx, &doc, bin, base_dir, format)?;
 
     let mut scene = Scene::new(path.to_path_buf(), format);
+    scene.stored_tags = doc.stored_tags.clone();
     let mut diagnostics = Diagnostics::default();
     scene.materials = doc
         .materials

@@ -65,12 +65,24 @@ pub fn load_tagged(input: &Path, opts: &LoadOptions) -> Result<Tagged, Diagnosti
         Some(c) => c,
         None => config_for(input, opts)?,
     };
-    // A brush map is tagged by its importer: the `quake` preset unless one was chosen.
-    let preset = opts.preset.as_deref().or((config.tags.preset.is_none()
-        && imported.scene.format == crate::scene::Format::Map)
-        .then_some("quake"));
+    // A brush map is tagged by its importer: the `quake` preset unless one was chosen. A file
+    // portcullis wrote is read with the preset it was made with, unless one was chosen.
+    let stored = stored_preset(&imported.scene);
+    let preset = opts.preset.as_deref().or_else(|| {
+        config.tags.preset.is_none().then_some(())?;
+        match imported.scene.format {
+            crate::scene::Format::Map => Some("quake"),
+            _ => stored.as_deref(),
+        }
+    });
     let rules = config::rule_set(&config, preset)?;
     Ok(tag(imported, config, rules))
+}
+
+/// The known tag preset a glTF's stored annotation was made with (its `tags`), if any.
+fn stored_preset(scene: &crate::scene::Scene) -> Option<String> {
+    let name = scene.stored_tags.as_deref()?;
+    crate::tags::presets::spec(name).map(|_| name.to_string())
 }
 
 /// What of the configuration shapes the result, for the input hash: the rules as compiled

@@ -494,6 +494,9 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The original glTF document and buffers (glTF and GLB input only).
     pub gltf: Option<GltfSource>,
+    /// The tag preset a portcullis annotation in the input names (its `tags`): what a file
+    /// portcullis wrote was tagged with, so it is read back the same way.
+    pub stored_tags: Option<String>,
     /// The narrowest gap (m) the format's own compiler lets anything through, when it has one:
     /// for a brush map qbsp's 0.2 units (it drops portals with fewer than three edges longer).
     /// Narrower gaps are cracks, whatever the level's shortest edge says.
@@ -513,6 +516,7 @@ impl Scene {
             meshes: Vec::new(),
             materials: Vec::new(),
             gltf: None,
+            stored_tags: None,
             min_opening: None,
             precision: Precision::of_format(format),
         }

@@ -122,6 +122,8 @@ pub struct Material {
 #[derive(Debug, Default)]
 pub struct Doc {
     pub scene: Option<u64>,
+    /// The `tags` of a portcullis annotation in the root's extensions.
+    pub stored_tags: Option<String>,
     pub scenes: Vec<SceneDef>,
     pub nodes: Vec<Node>,
     pub meshes: Vec<Mesh>,
@@ -194,6 +196,7 @@ impl Doc {
         );
         Ok(Doc {
             scene,
+            stored_tags: stored_tags(root),
             scenes: scenes?,
             nodes: nodes?,
             meshes: meshes?,
@@ -203,6 +206,22 @@ impl Doc {
             materials: array(ctx, root, "materials")?,
         })
     }
+}
+
+/// The `tags` of the root's `PORTCULLIS_portals`, read past everything else in the extension
+/// without building it (a big level's annotation is most of its JSON).
+fn stored_tags(root: &Root) -> Option<String> {
+    #[derive(Deserialize)]
+    struct Extensions {
+        #[serde(rename = "PORTCULLIS_portals")]
+        portals: Option<Annotation>,
+    }
+    #[derive(Deserialize)]
+    struct Annotation {
+        tags: Option<String>,
+    }
+    let ext: Extensions = serde_json::from_str(root.get("extensions")?.get()).ok()?;
+    ext.portals?.tags
 }
 
 /// Deserializes the top-level array `key` item by item so an error names the item.
