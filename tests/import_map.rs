@@ -202,6 +202,45 @@ fn check_sealed_gives_qbsps_verdicts_on_maps_written_here() {
         out.contains("[LEAK]") && out.contains("from player start"),
         "{out}"
     );
+
+    // `--pts`: the leak as qbsp's point file, in map units (Z up), a point at most every 2
+    // units from the player start (128 128 40) out through the missing wall (x > 544).
+    let dir = tempfile::tempdir().unwrap();
+    let (map, pts) = (dir.path().join("leaky.map"), dir.path().join("leaky.pts"));
+    std::fs::write(&map, &leaky).unwrap();
+    let run = |map: &std::path::Path| {
+        assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args(["check", "--sealed", "--pts"])
+            .arg(&pts)
+            .arg(map)
+            .output()
+            .unwrap()
+    };
+    assert_eq!(run(&map).status.code(), Some(1));
+    let points: Vec<DVec3> = std::fs::read_to_string(&pts)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+            DVec3::new(v[0], v[1], v[2])
+        })
+        .collect();
+    assert!(points.len() > 200, "{}", points.len());
+    assert!(points[0].distance(DVec3::new(128.0, 128.0, 40.0)) < 1e-3);
+    assert!(points.last().unwrap().x > 544.0);
+    assert!(points.windows(2).all(|w| w[0].distance(w[1]) <= 2.0 + 1e-3));
+    assert!(
+        points.iter().all(|p| p.z > 0.0 && p.z < 128.0),
+        "inside the room's height"
+    );
+    // Sealed: no point file is written.
+    std::fs::remove_file(&pts).unwrap();
+    assert_eq!(
+        run(&common::sample("brush_rooms.map")).status.code(),
+        Some(0)
+    );
+    assert!(!pts.exists());
 }
 
 #[test]

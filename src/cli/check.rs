@@ -76,6 +76,12 @@ pub struct CheckArgs {
     #[arg(long, value_name = "REPORT.html")]
     pub html: Option<PathBuf>,
 
+    /// Also write the first leak's path as a point file (qbsp's .pts: a point every 2 units,
+    /// `x y z` a line, in the input's own units and axes) for the editor to show (TrenchBroom:
+    /// File > Load Point File). Only when there is a leak (with --sealed). One input.
+    #[arg(long, value_name = "LEAK.pts")]
+    pub pts: Option<PathBuf>,
+
     /// Rebuild cells and portals from the geometry even when the file carries a stored
     /// annotation, and check those.
     #[arg(long)]
@@ -98,8 +104,9 @@ impl CheckArgs {
     }
 }
 
-/// Checks one file; never fails, since a file that cannot be read is itself a finding.
-fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
+/// Checks one file; never fails, since a file that cannot be read is itself a finding. With
+/// the report, the leak paths found, in the file's own units (see `Scene::to_file`).
+fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> (FileReport, Leaks) {
     let mut report = FileReport {
         file: input.to_path_buf(),
         failed: false,
@@ -116,7 +123,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
         Err(d) => {
             report.failed = true;
             report.diagnostics = cli_policy.apply([d]);
-            return report;
+            return (report, Leaks::default());
         }
     };
     let policy = match t.config.check.policy() {
@@ -130,10 +137,11 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
                 Location::file(at),
             )
             .hint("fix the code or severity name in portcullis.toml")];
-            return report;
+            return (report, Leaks::default());
         }
     };
     let rays = a.sightlines.unwrap_or(t.config.check.sightlines);
+    let mut leaks = Vec::new();
     let stored = if a.recompute {
         None
     } else {
@@ -153,6 +161,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
                 };
                 let found = portcullis::check::run(&subject, &opts);
                 t.diagnostics.extend(found.diagnostics);
+                leaks = found.leaks;
                 if rays > 0 {
                     let audit = pipeline::audit_stored(&t, ann, &subject, rays);
                     t.diagnostics.extend(audit.diagnostics);
@@ -162,7 +171,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
         None => {
             let cells = pipeline::build_cells(&mut t);
             let portals = pipeline::build_portals(&mut t, &cells);
-            pipeline::check_level(&mut t, &cells, &portals, a.sealed);
+            leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
             if rays > 0 {
                 let pvs = pipeline::full_pvs(&t, &cells, &portals);
                 let audit = pipeline::audit_sightlines(&t, &cells, &portals, &pvs, rays);
@@ -173,7 +182,40 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> FileReport {
         }
     }
     report.diagnostics = policy.apply(t.diagnostics);
-    report
+    let to_file = t.scene.to_file;
+    (
+        report,
+        Leaks {
+            paths: leaks,
+            to_file,
+        },
+    )
+}
+
+/// The leak paths of one file and how to take them to its own units.
+#[derive(Default)]
+struct Leaks {
+    paths: Vec<Vec<glam::DVec3>>,
+    to_file: Option<glam::DMat4>,
+}
+
+impl Leaks {
+    /// The first path as a point file: a point every 2 file units (5 cm in a file of metres),
+    /// corners included, `x y z` a line; `None` without a leak.
+    fn point_file(&self) -> Option<String> {
+        let path = self.paths.first().filter(|p| !p.is_empty())?;
+        let m = self.to_file.unwrap_or(glam::DMat4::IDENTITY);
+        let step = if self.to_file.is_some() { 2.0 } else { 0.05 };
+        let pts: Vec<glam::DVec3> = path.iter().map(|p| m.transform_point3(*p)).collect();
+        let mut out = String::new();
+        let mut put = |p: glam::DVec3| out.push_str(&format!("{:.3} {:.3} {:.3}\n", p.x, p.y, p.z));
+        put(pts[0]);
+        for w in pts.windows(2) {
+            let n = (w[0].distance(w[1]) / step).ceil().max(1.0) as usize;
+            (1..=n).for_each(|k| put(w[0].lerp(w[1], k as f64 / n as f64)));
+        }
+        Some(out)
+    }
 }
 
 fn render(a: &CheckArgs, files: &[FileReport], totals: &Totals, style: &Style) -> String {
@@ -212,12 +254,13 @@ pub fn run(a: &CheckArgs, style: &Style) -> i32 {
         eprintln!("error: --html takes one input (a page shows one level)");
         return 2;
     }
+    if a.pts.is_some() && a.files.len() != 1 {
+        eprintln!("error: --pts takes one input (a point file is one level's leak)");
+        return 2;
+    }
     let policy = a.policy();
-    let reports: Vec<FileReport> = a
-        .files
-        .par_iter()
-        .map(|f| check_one(a, f, &policy))
-        .collect();
+    let (reports, leaks): (Vec<FileReport>, Vec<Leaks>) =
+        a.files.par_iter().map(|f| check_one(a, f, &policy)).unzip();
     let mut totals = Totals::default();
     for r in &reports {
         totals.files += 1;
@@ -259,6 +302,18 @@ pub fn run(a: &CheckArgs, style: &Style) -> i32 {
         if let Err(d) = write_html(a, report, path) {
             eprintln!("{}", portcullis::report::human::diagnostic(&d, style));
             return 2;
+        }
+    }
+    if let (Some(path), Some(leaks)) = (&a.pts, leaks.first()) {
+        match leaks.point_file() {
+            Some(text) => {
+                if let Err(e) = portcullis::export::atomic::write(path, text.as_bytes()) {
+                    let d = portcullis::export::atomic::failed(path, e);
+                    eprintln!("{}", portcullis::report::human::diagnostic(&d, style));
+                    return 2;
+                }
+            }
+            None => eprintln!("note: no leak, so `{}` was not written", path.display()),
         }
     }
     eprintln!("{}", totals.line());

@@ -494,6 +494,10 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// The original glTF document and buffers (glTF and GLB input only).
     pub gltf: Option<GltfSource>,
+    /// From the scene's metres and +Y up back to the file's own units and axes, when they
+    /// differ (a brush map's inches and Z up): for what is written for the file's own editor,
+    /// such as a leak's point file.
+    pub to_file: Option<glam::DMat4>,
     /// The tag preset a portcullis annotation in the input names (its `tags`): what a file
     /// portcullis wrote was tagged with, so it is read back the same way.
     pub stored_tags: Option<String>,
@@ -517,6 +521,7 @@ impl Scene {
             materials: Vec::new(),
             gltf: None,
             stored_tags: None,
+            to_file: None,
             min_opening: None,
             precision: Precision::of_format(format),
         }

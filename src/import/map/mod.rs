@@ -130,6 +130,13 @@ impl<'a> Builder<'a> {
     fn new(path: &'a Path, scale: f64) -> Self {
         let mut scene = Scene::new(path.to_path_buf(), Format::Map);
         scene.min_opening = Some(TINY_EDGE * scale);
+        // The inverse of `to_scene`: x = x / s, y = -z / s, z = y / s.
+        scene.to_file = Some(DMat4::from_cols(
+            glam::DVec4::new(1.0 / scale, 0.0, 0.0, 0.0),
+            glam::DVec4::new(0.0, 0.0, 1.0 / scale, 0.0),
+            glam::DVec4::new(0.0, -1.0 / scale, 0.0, 0.0),
+            glam::DVec4::W,
+        ));
         // The root is `map`, not the file's name: a name like `e1m1_rooms` would read as a tag.
         let root = scene.add_node(node(Some("map".into()), None, None, DMat4::IDENTITY, 1));
         Builder {
