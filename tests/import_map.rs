@@ -567,3 +567,55 @@ fn a_gltf_written_from_a_brush_map_reads_back_as_the_same_level() {
     assert!(!text.contains("ANNOTATION_STALE"), "{text}");
     assert!(text.contains("7 cells, 12 portals (stored): ok"), "{text}");
 }
+
+/// Quake 3 brush primitives (`brushDef`): the sample map rewritten in them reads as the same
+/// brushes (the oracle's volumes) and the same level (3 cells, the doorway's portals); a face's
+/// detail contents (Radiant writes 134217728) make its brush detail, even in a `func_group`.
+#[test]
+fn quake3_brush_primitives_read_as_the_same_brushes() {
+    let quake = std::fs::read_to_string(common::sample("brush_rooms.map")).unwrap();
+    let mut q3 = String::new();
+    let mut depth = 0;
+    for line in quake.lines() {
+        match line {
+            "{" => {
+                depth += 1;
+                q3 += if depth == 2 {
+                    "{\nbrushDef\n{\n"
+                } else {
+                    "{\n"
+                };
+            }
+            "}" => {
+                q3 += if depth == 2 { "}\n}\n" } else { "}\n" };
+                depth -= 1;
+            }
+            l if l.starts_with('(') => {
+                // `( p ) ( p ) ( p ) TEX 0 0 0 1 1` -> `( p ) ( p ) ( p ) ( ( m ) ( m ) ) TEX 0 0 0`
+                let cut = l.rfind(')').unwrap() + 1;
+                let tex = l[cut..].split_whitespace().next().unwrap();
+                let contents = if tex == "crate" { "134217728" } else { "0" };
+                q3 += &format!(
+                    "{} ( ( 0.03125 0 0 ) ( 0 0.03125 0 ) ) {tex} {contents} 0 0\n",
+                    &l[..cut]
+                );
+            }
+            l => q3 += &format!("{l}\n"),
+        }
+    }
+    // The crate's entity is a plain func_group here: only its contents make it detail.
+    let q3 = q3.replace("\"func_detail\"", "\"func_group\"");
+    assert!(q3.contains("brushDef") && !q3.contains("func_detail"));
+    assert_eq!(brush_volumes_agree(&q3, "brushDef"), 10);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("q3.map");
+    std::fs::write(&path, &q3).unwrap();
+    let (t, c, p) = common::load_level(&path, None);
+    assert_eq!(c.cells.len(), 3);
+    assert_eq!(p.portals.iter().filter(|q| q.to.is_some()).count(), 4);
+    assert_eq!(
+        t.tagging.rooms[0].detail.len(),
+        1,
+        "the crate, by its contents"
+    );
+}

@@ -1,5 +1,6 @@
-//! Brush maps (`.map`: TrenchBroom, J.A.C.K., Radiant; Quake, Valve 220, Quake 2, id Tech 4) as
-//! a level of solid blocks, tagged by the conventions of the formats as qbsp reads them:
+//! Brush maps (`.map`: TrenchBroom, J.A.C.K., Radiant; Quake, Valve 220, Quake 2, Quake 3,
+//! id Tech 4) as a level of solid blocks, tagged by the conventions of the formats as qbsp
+//! reads them:
 //!
 //! - the world's brushes (`worldspawn`, `func_group`) are closed solids of one room, `world`
 //!   (a `_portcullis_room` key on a `func_group` puts its brushes in a room of that name);

@@ -5,6 +5,8 @@
 //! - Valve 220: `... TEXTURE [ ux uy uz uoff ] [ vx vy vz voff ] rot xscale yscale`
 //! - Quake 2 (and Quake 3, Hexen 2): either, followed on the same line by up to three more
 //!   numbers (`contents flags value`)
+//! - Quake 3 brush primitives (`brushDef { ... }`): the three points, `( ( ... ) ( ... ) )
+//!   TEXTURE contents flags value`
 //! - id Tech 4 (`brushDef3 { ... }`, also `brushDef2`): `( a b c d ) ( ( ... ) ( ... ) )
 //!   "TEXTURE" ...`, the plane `a x + b y + c z + d = 0` with `(a, b, c)` out of the brush
 //!
@@ -250,9 +252,19 @@ impl<'a> Parser<'a> {
                 self.expect("}")?;
                 return Ok(Some(b));
             }
+            Some(("brushDef", false)) => {
+                // Quake 3 brush primitives: three points, a texture matrix, the texture.
+                self.at += 1;
+                self.expect("{")?;
+                while self.peek().is_some_and(|t| t.text != "}" || t.quoted) {
+                    b.faces.push(self.face_primitive()?);
+                }
+                self.expect("}")?;
+                self.expect("}")?;
+                return Ok(Some(b));
+            }
             Some((word, false)) if word != "(" && word != "}" => {
-                // patchDef2, patchDef3, brushDef (Quake 3 brush primitives are rare): skipped
-                // whole, braces balanced.
+                // patchDef2, patchDef3 and other primitives: skipped whole, braces balanced.
                 self.skip_block(line)?;
                 self.skipped += 1;
                 return Ok(None);
@@ -332,23 +344,47 @@ impl<'a> Parser<'a> {
         while extra.len() < 4 && Self::is_number(self.peek(), tex.line) {
             extra.push(self.number()?);
         }
-        let (u, v) = (sub(a, b), sub(c, b));
-        let n = cross(u, v);
-        let len = dot(n, n).sqrt();
-        let scale = dot(u, u).sqrt() * dot(v, v).sqrt();
-        if len <= 1e-12 * scale.max(1e-300) || len == 0.0 {
-            return Err(Error {
-                line,
-                message: "the face's three points are collinear: they give no plane".into(),
-                brush: true,
-            });
-        }
-        let normal = [n[0] / len, n[1] / len, n[2] / len];
+        let (normal, dist) = plane_of(a, b, c, line)?;
         Ok(Face {
             normal,
-            dist: dot(normal, b),
+            dist,
             texture: tex.text.to_string(),
             contents: extra.first().map(|&c| c as i64),
+        })
+    }
+
+    /// `( ( a b c ) ( d e f ) )`: a texture matrix (Quake 3 and id Tech 4), not read.
+    fn texture_matrix(&mut self) -> Result<(), Error> {
+        self.expect("(")?;
+        for _ in 0..2 {
+            self.expect("(")?;
+            for _ in 0..3 {
+                self.number()?;
+            }
+            self.expect(")")?;
+        }
+        self.expect(")")?;
+        Ok(())
+    }
+
+    /// A face of a Quake 3 `brushDef`: three points, a texture matrix, the texture and its
+    /// contents, flags and value (contents 0, as Radiant writes most faces, say nothing: the
+    /// texture's name decides then, as for Quake).
+    fn face_primitive(&mut self) -> Result<Face, Error> {
+        let line = self.peek().map_or(0, |t| t.line);
+        let (a, b, c) = (self.point()?, self.point()?, self.point()?);
+        self.texture_matrix()?;
+        let tex = self.next("a texture name")?;
+        let mut extra = Vec::new();
+        while extra.len() < 3 && Self::is_number(self.peek(), tex.line) {
+            extra.push(self.number()?);
+        }
+        let (normal, dist) = plane_of(a, b, c, line)?;
+        Ok(Face {
+            normal,
+            dist,
+            texture: tex.text.to_string(),
+            contents: extra.first().map(|&c| c as i64).filter(|&c| c != 0),
         })
     }
 
@@ -363,15 +399,7 @@ impl<'a> Parser<'a> {
             self.number()?,
         );
         self.expect(")")?;
-        self.expect("(")?;
-        for _ in 0..2 {
-            self.expect("(")?;
-            for _ in 0..3 {
-                self.number()?;
-            }
-            self.expect(")")?;
-        }
-        self.expect(")")?;
+        self.texture_matrix()?;
         let tex = self.next("a texture name")?;
         while Self::is_number(self.peek(), tex.line) {
             self.number()?;
@@ -391,6 +419,24 @@ impl<'a> Parser<'a> {
             contents: None,
         })
     }
+}
+
+/// The plane through three points, its normal `(a - b) × (c - b)` out of the brush (qbsp's
+/// rule), as (unit normal, distance); collinear points are the brush's error.
+fn plane_of(a: [f64; 3], b: [f64; 3], c: [f64; 3], line: usize) -> Result<([f64; 3], f64), Error> {
+    let (u, v) = (sub(a, b), sub(c, b));
+    let n = cross(u, v);
+    let len = dot(n, n).sqrt();
+    let scale = dot(u, u).sqrt() * dot(v, v).sqrt();
+    if len <= 1e-12 * scale.max(1e-300) || len == 0.0 {
+        return Err(Error {
+            line,
+            message: "the face's three points are collinear: they give no plane".into(),
+            brush: true,
+        });
+    }
+    let normal = [n[0] / len, n[1] / len, n[2] / len];
+    Ok((normal, dot(normal, b)))
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
