@@ -340,17 +340,22 @@ impl<'a> Parser<'a> {
             }
         }
         // Quake 2 contents, flags, value (and a Hexen 2 light value) on the same line.
-        let mut extra = Vec::new();
-        while extra.len() < 4 && Self::is_number(self.peek(), tex.line) {
-            extra.push(self.number()?);
+        let contents = self.contents(tex.line, 4)?;
+        face_through([a, b, c], tex.text, contents, line)
+    }
+
+    /// Up to `most` numbers after a face's texture on its line (`contents flags value`):
+    /// the first, the contents, if any.
+    fn contents(&mut self, line: usize, most: usize) -> Result<Option<i64>, Error> {
+        let mut first = None;
+        for _ in 0..most {
+            if !Self::is_number(self.peek(), line) {
+                break;
+            }
+            let x = self.number()?;
+            first = first.or(Some(x as i64));
         }
-        let (normal, dist) = plane_of(a, b, c, line)?;
-        Ok(Face {
-            normal,
-            dist,
-            texture: tex.text.to_string(),
-            contents: extra.first().map(|&c| c as i64),
-        })
+        Ok(first)
     }
 
     /// `( ( a b c ) ( d e f ) )`: a texture matrix (Quake 3 and id Tech 4), not read.
@@ -375,17 +380,8 @@ impl<'a> Parser<'a> {
         let (a, b, c) = (self.point()?, self.point()?, self.point()?);
         self.texture_matrix()?;
         let tex = self.next("a texture name")?;
-        let mut extra = Vec::new();
-        while extra.len() < 3 && Self::is_number(self.peek(), tex.line) {
-            extra.push(self.number()?);
-        }
-        let (normal, dist) = plane_of(a, b, c, line)?;
-        Ok(Face {
-            normal,
-            dist,
-            texture: tex.text.to_string(),
-            contents: extra.first().map(|&c| c as i64).filter(|&c| c != 0),
-        })
+        let contents = self.contents(tex.line, 3)?.filter(|&c| c != 0);
+        face_through([a, b, c], tex.text, contents, line)
     }
 
     /// A face of a plane equation (id Tech 4).
@@ -421,9 +417,14 @@ impl<'a> Parser<'a> {
     }
 }
 
-/// The plane through three points, its normal `(a - b) × (c - b)` out of the brush (qbsp's
-/// rule), as (unit normal, distance); collinear points are the brush's error.
-fn plane_of(a: [f64; 3], b: [f64; 3], c: [f64; 3], line: usize) -> Result<([f64; 3], f64), Error> {
+/// The face on the plane through three points, its normal `(a - b) × (c - b)` out of the brush
+/// (qbsp's rule); collinear points are the brush's error.
+fn face_through(
+    [a, b, c]: [[f64; 3]; 3],
+    texture: &str,
+    contents: Option<i64>,
+    line: usize,
+) -> Result<Face, Error> {
     let (u, v) = (sub(a, b), sub(c, b));
     let n = cross(u, v);
     let len = dot(n, n).sqrt();
@@ -436,7 +437,12 @@ fn plane_of(a: [f64; 3], b: [f64; 3], c: [f64; 3], line: usize) -> Result<([f64;
         });
     }
     let normal = [n[0] / len, n[1] / len, n[2] / len];
-    Ok((normal, dot(normal, b)))
+    Ok(Face {
+        normal,
+        dist: dot(normal, b),
+        texture: texture.to_string(),
+        contents,
+    })
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
