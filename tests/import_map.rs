@@ -537,8 +537,9 @@ fn quake2_areas_are_the_rooms_qbsp_makes() {
     }
 }
 
-/// A glTF written from a brush map says it was read with the `quake` preset, and `check` on it,
-/// given no preset, reads it so: its stored annotation is the level it was made from, not stale.
+/// A glTF written from a brush map (doors, area portals, areas) passes the Khronos validator,
+/// says it was read with the `quake` preset, and `check` on it, given no preset, reads it so:
+/// its stored annotation (checked against the schema) is the level it was made from.
 #[test]
 fn a_gltf_written_from_a_brush_map_reads_back_as_the_same_level() {
     let dir = tempfile::tempdir().unwrap();
@@ -560,6 +561,9 @@ fn a_gltf_written_from_a_brush_map_reads_back_as_the_same_level() {
     assert!(made.status.success());
     let (doc, _) = common::read_gltf(&std::fs::read(&out).unwrap());
     assert_eq!(doc["extensions"]["PORTCULLIS_portals"]["tags"], "quake");
+    if let Some(report) = common::khronos_validate(&out) {
+        assert_eq!(report["issues"]["numErrors"], 0, "{report}");
+    }
     let checked = run(&["check".as_ref(), out.as_os_str()]);
     let text = String::from_utf8_lossy(&checked.stderr).to_string()
         + &String::from_utf8_lossy(&checked.stdout);
