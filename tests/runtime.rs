@@ -944,7 +944,7 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
     let good = "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n";
     // (level, cameras, extra arguments, what the report must say); each run exits 2 and
     // prints nothing on stdout.
-    let cases: [(&Path, String, &[&str], &[&str]); 6] = [
+    let cases: [(&Path, String, &[&str], &[&str]); 9] = [
         (
             &glb,
             format!("{good}{{\"eye\":[1,1],\"look\":[1,0,0]}}\n"),
@@ -973,6 +973,28 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
                 "portal 7 does not exist",
                 "2 portals",
                 "#/extensions/PORTCULLIS_portals/portals",
+            ],
+        ),
+        // Door options that contradict each other or repeat (portals 0 and 1 are one door).
+        (
+            &glb,
+            good.into(),
+            &["--closed", "0", "--open", "0"],
+            &["error: portal 0 is given with both --closed and --open"],
+        ),
+        (
+            &glb,
+            good.into(),
+            &["--closed", "0", "--closed", "0"],
+            &["error: portal 0 is given twice (--closed 0)"],
+        ),
+        (
+            &glb,
+            good.into(),
+            &["--closed", "0", "--open", "1"],
+            &[
+                "portals 0 and 1 are the two sides of one door",
+                "give one of them",
             ],
         ),
         (

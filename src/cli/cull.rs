@@ -32,7 +32,7 @@ pub struct CullArgs {
     pub format: Format,
 
     /// Close a portal (the extension's index) and its partner, as a door at run time. Repeat
-    /// for several.
+    /// for several; a portal (or its partner) given twice, or with --open too, is an error.
     #[arg(long = "closed", value_name = "PORTAL")]
     pub closed: Vec<usize>,
 
@@ -151,6 +151,10 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
             return fail(d.hint(e.hint), style);
         }
     };
+    if let Some(message) = contradictory_doors(a, &level) {
+        eprintln!("error: {message}");
+        return 2;
+    }
     let mut doors = Doors::new(&level);
     for (&p, closed) in a
         .closed
@@ -301,4 +305,30 @@ fn human(out: &mut dyn Write, level: &Level, results: &[Value]) -> std::io::Resu
         }
     }
     Ok(())
+}
+
+/// `--closed` and `--open` that repeat a portal or disagree about one opening (a portal and its
+/// partner are one door): what is wrong, for an error with exit 2.
+fn contradictory_doors(a: &CullArgs, level: &Level) -> Option<String> {
+    let mut seen: std::collections::HashMap<usize, (usize, bool)> = Default::default();
+    let given = a.closed.iter().map(|&p| (p, true));
+    for (p, closed) in given.chain(a.open.iter().map(|&p| (p, false))) {
+        let door = level.partner(p).map_or(p, |q| q.min(p));
+        let flag = |c: bool| if c { "--closed" } else { "--open" };
+        if let Some(&(q, was)) = seen.get(&door) {
+            return Some(if q == p && was == closed {
+                format!("portal {p} is given twice ({} {p})", flag(closed))
+            } else if q == p {
+                format!("portal {p} is given with both --closed and --open")
+            } else {
+                format!(
+                    "portals {q} and {p} are the two sides of one door ({} {q}, {} {p}); give one of them",
+                    flag(was),
+                    flag(closed)
+                )
+            });
+        }
+        seen.insert(door, (p, closed));
+    }
+    None
 }

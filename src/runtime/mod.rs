@@ -356,6 +356,11 @@ impl Level {
         self.portals.len()
     }
 
+    /// The portal of the same opening seen from the other side, if any.
+    pub fn partner(&self, p: usize) -> Option<usize> {
+        self.portals.get(p)?.partner.map(|q| q as usize)
+    }
+
     /// The name of the room cell `c` belongs to.
     pub fn room(&self, c: usize) -> &str {
         &self.cells[c].room
