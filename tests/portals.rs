@@ -548,3 +548,45 @@ fn a_mirrored_instance_is_the_mirror_image() {
         assert_eq!((a.from, a.to), (b.from, b.to));
     }
 }
+
+/// A surface-built room (a one-sided shell facing in) with a shelf half through its wall, its
+/// middle outside the shell: the room's cell renders the shelf (it was reported as lying in no
+/// cell and rendered by none), as for a brush half in a wall (tests/brush_maps.rs).
+#[test]
+fn a_prop_with_its_middle_through_a_shell_wall_is_rendered_by_the_room() {
+    let v = DVec3::new;
+    let inward = |t: Vec<[DVec3; 3]>| t.into_iter().map(|[a, b, c]| [a, c, b]).collect();
+    let scene = common::scene_of(
+        vec![
+            ("hall-room", None, Vec::new(), None),
+            (
+                "Shell",
+                Some(0),
+                inward(cube(v(0., 0., 0.), v(4., 3., 4.))),
+                None,
+            ),
+            (
+                "Shelf-detail",
+                Some(0),
+                cube(v(3.8, 1., 1.), v(4.4, 1.2, 2.)),
+                None,
+            ),
+        ],
+        glam::DMat4::IDENTITY,
+    );
+    let rules = portcullis::tags::presets::load("default").unwrap();
+    let tagging = portcullis::tags::recognise(&scene, &rules);
+    assert_eq!(tagging.rooms.len(), 1);
+    let cells = portcullis::cells::build(&scene, &tagging, &Default::default());
+    assert_eq!(cells.cells.len(), 1);
+    assert!(
+        cells.cells[0].nodes.contains(&2),
+        "{:?}",
+        cells.cells[0].nodes
+    );
+    assert!(
+        !cells.diagnostics.has(Code::CELL_GEOMETRY_OUTSIDE),
+        "{:?}",
+        cells.diagnostics
+    );
+}
