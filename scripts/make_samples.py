@@ -1044,6 +1044,76 @@ def cross(u, v):
     return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
 
+# ---- No sightline lost (issue 43): two rooms whose air overlaps, a 4 cm wedge cell, and jambs
+# modelled in the reveal of a door through a thick wall.
+
+def overlap_rooms():
+    """west-room x 0..5 and east-room x 4..8 (z 0..4, height 3): box shells, each without the
+    wall facing the other, so their air overlaps over x 4..5."""
+    wf, wc, ww = box_room(0.0, 5.0, skip=(5.0,))
+    ef, ec, ew = box_room(4.0, 8.0, skip=(4.0,))
+    return level(room_node("west-room", wf, wc, ww), room_node("east-room", ef, ec, ew))
+
+
+WEDGE = (3.0, 6.0, 9.0, 0.04)  # the north wall's bend: from x, corner x, to x; how far out (m)
+
+
+def prism_up(ring, y0, y1):
+    """Outward-facing closed prism over the convex (x, z) ring from y0 to y1 (a bound)."""
+    cx = sum(x for x, _ in ring) / len(ring)
+    cz = sum(z for _, z in ring) / len(ring)
+    tris = facing(fan([(x, y0, z) for x, z in ring]), (0, -1, 0))
+    tris += facing(fan([(x, y1, z) for x, z in ring]), (0, 1, 0))
+    for (xa, za), (xb, zb) in zip(ring, ring[1:] + ring[:1]):
+        mx, mz = (xa + xb) / 2 - cx, (za + zb) / 2 - cz
+        tris += facing(quad((xa, y0, za), (xb, y0, zb), (xb, y1, zb), (xa, y1, za)), (mx, 0, mz))
+    return tris
+
+
+def wedge_room():
+    """hall-room x 0..12, z 0..4, height 3, whose north wall bends out at x = 6 to z = 4.04
+    between x = 3 and x = 9; its bounds make three cells: west x 0..6, east x 6..12, and the
+    wedge between z = 4 and the bend, 4 cm at its widest."""
+    xa, xq, xb, d = WEDGE
+    outline = [(0.0, 0.0), (0.0, 4.0), (xa, 4.0), (xq, 4.0 + d), (xb, 4.0), (12.0, 4.0), (12.0, 0.0)]
+    floor = facing(fan([(x, 0.0, z) for x, z in [(0.0, 0.0), (0.0, 4.0), (12.0, 4.0), (12.0, 0.0)]]), (0, 1, 0))
+    ceiling = facing(fan([(x, H, z) for x, z in [(0.0, 0.0), (0.0, 4.0), (12.0, 4.0), (12.0, 0.0)]]), (0, -1, 0))
+    wedge = [(xa, 4.0), (xq, 4.0 + d), (xb, 4.0)]
+    floor += facing(fan([(x, 0.0, z) for x, z in wedge]), (0, 1, 0))
+    ceiling += facing(fan([(x, H, z) for x, z in wedge]), (0, -1, 0))
+    walls = []
+    for (x0, z0), (x1, z1) in zip(outline, outline[1:] + outline[:1]):
+        walls += facing(quad((x0, 0, z0), (x1, 0, z1), (x1, H, z1), (x0, H, z0)), (z1 - z0, 0, x0 - x1))
+    room = room_node("hall-room", floor, ceiling, walls)
+    room["children"] += [
+        {"name": "Bound_west", "tris": box(0.0, 0.0, 0.0, xq, H, 4.0), "material": "bound"},
+        {"name": "Bound_east", "tris": box(xq, 0.0, 0.0, 12.0, H, 4.0), "material": "bound"},
+        {"name": "Bound_wedge", "tris": prism_up(wedge, 0.0, H), "material": "bound"},
+    ]
+    return level(room)
+
+
+JAMBS = (4.0, 4.5, 1.5, 2.5, 2.2)  # wall x from, to; door z from, to, height
+
+
+def reveal_jambs():
+    """west-room x 0..4 and east-room x 4.5..8.5 (z 0..4, height 3), box shells with a door
+    hole z 1.5..2.5, y 0..2.2 in the wall facing the other; between the walls, 0.5 m of wall
+    but for the doorway, whose jambs, lintel and sill are the node DoorFrame, in no room."""
+    xa, xb, dz0, dz1, dh = JAMBS
+    around = [rect_zy(0.0, 0.0, dz0, H), rect_zy(dz1, 0.0, 4.0, H), rect_zy(dz0, dh, dz1, H)]
+    wf, wc, ww = box_room(0.0, xa, skip=(xa,))
+    ww += wall_x(xa, around, -1)
+    ef, ec, ew = box_room(xb, xb + 4.0, skip=(xb,))
+    ew += wall_x(xb, around, 1)
+    reveal = facing(quad((xa, 0, dz0), (xb, 0, dz0), (xb, dh, dz0), (xa, dh, dz0)), (0, 0, 1))
+    reveal += facing(quad((xa, 0, dz1), (xb, 0, dz1), (xb, dh, dz1), (xa, dh, dz1)), (0, 0, -1))
+    reveal += facing(quad((xa, dh, dz0), (xb, dh, dz0), (xb, dh, dz1), (xa, dh, dz1)), (0, -1, 0))
+    reveal += facing(quad((xa, 0, dz0), (xb, 0, dz0), (xb, 0, dz1), (xa, 0, dz1)), (0, 1, 0))
+    return level(room_node("west-room", wf, wc, ww), room_node("east-room", ef, ec, ew),
+                 {"name": "DoorFrame", "tris": reveal, "material": "trim"})
+
+
 # ---- A brush map (.map, Quake format): two rooms of brushes through a doorway, a player
 # start, a func_detail crate and a light. Units are Quake's (inches, Z up).
 
@@ -1161,6 +1231,11 @@ if __name__ == "__main__":
         write_gltf(tree, OUT / f"{name}.gltf")
         print("wrote", OUT / f"{name}.gltf")
     print("self-check passed: every block is closed and faces out")
+    sightline_samples = {"overlap_rooms": overlap_rooms(), "wedge_room": wedge_room(),
+                         "reveal_jambs": reveal_jambs()}
+    for name, tree in sightline_samples.items():
+        write_gltf(tree, OUT / f"{name}.gltf")
+        print("wrote", OUT / f"{name}.gltf")
     (OUT / "brush_rooms.map").write_text(brush_rooms_map())
     print("wrote", OUT / "brush_rooms.map")
     (OUT / "brush_doors.map").write_text(brush_doors_map())

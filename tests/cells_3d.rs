@@ -388,7 +388,8 @@ fn ray_oracle_on_generated_buildings() {
 /// at least a tenth of the level's shortest edge thick, thickness taken as three times its
 /// volume over its surface (the inscribed ball's radius for a cell that holds one; a slab of
 /// thickness h gives under h). Volumes here from the divergence theorem, areas from the faces'
-/// cross products, the shortest edge from every triangle of the scene.
+/// cross products, the shortest edge from every triangle of the scene. A bound mesh is the
+/// designer's own cell, however thin (samples/wedge_room.gltf's 4 cm wedge), and is not judged.
 #[test]
 fn no_cell_is_thinner_than_a_tenth_of_the_shortest_edge() {
     let mut levels = common::levels_and_samples();
@@ -413,6 +414,9 @@ fn no_cell_is_thinner_than_a_tenth_of_the_shortest_edge() {
             }
         }
         for (i, cell) in c.cells.iter().enumerate() {
+            if cell.source == portcullis::cells::CellSource::Bound {
+                continue;
+            }
             let area: f64 = cell
                 .poly
                 .faces

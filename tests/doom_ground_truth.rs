@@ -61,12 +61,15 @@ fn ground_truth(file: &str) -> Openings {
 
 /// Every open linedef of the map is a portal between its two sectors with the opening's area
 /// (within 5 %, or 0.01 m² for slivers), no portal joins two sectors that share no open
-/// linedef, and no two sectors' cells overlap.
+/// linedef, and no two sectors' cells overlap: E3M3 draws two small sectors standing in a
+/// courtyard's air, and the courtyard's cells are cut around them (issue 43), so their open
+/// sides are portals too.
 #[test]
 fn doom_portals_match_the_maps_openings() {
     for (level, truth) in [
         ("E1M2_godot.glb", "freedoom1_E1M2_portals.json"),
         ("MAP01_godot.glb", "freedoom2_MAP01_portals.json"),
+        ("E3M3_godot.glb", "freedoom1_E3M3_portals.json"),
     ] {
         let truth = ground_truth(truth);
         let (t, c, p) = load_level(&fixture(level), None);
@@ -109,10 +112,26 @@ fn doom_portals_match_the_maps_openings() {
             extra.len() <= 2,
             "{level}: portals the map has not: {extra:?}"
         );
-        assert!(
-            !t.diagnostics.has(portcullis::diag::Code::CELL_OVERLAP),
-            "{level}: cells overlap"
-        );
+        let eps = c.tolerance.distance;
+        for a in 0..c.cells.len() {
+            for b in a + 1..c.cells.len() {
+                let (x, y) = (&c.cells[a], &c.cells[b]);
+                if (0..3).any(|k| {
+                    x.bounds.min[k] >= y.bounds.max[k] - eps
+                        || y.bounds.min[k] >= x.bounds.max[k] - eps
+                }) {
+                    continue;
+                }
+                let shared = x
+                    .poly
+                    .intersection(&y.poly, eps)
+                    .map_or(0.0, |p| p.volume());
+                assert!(
+                    shared <= 1e-3,
+                    "{level}: cells {a} and {b} overlap by {shared} m³"
+                );
+            }
+        }
     }
 }
 

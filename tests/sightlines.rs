@@ -34,6 +34,7 @@ fn no_level_has_a_sightline_its_pvs_misses() {
     let mut levels = common::levels_and_samples();
     levels.push((fixture("MAP01_godot.glb"), None));
     levels.push((fixture("E1M2_godot.glb"), None));
+    levels.push((fixture("E3M3_godot.glb"), None));
     levels.push((common::generated_building(dir.path(), 100, 7), None));
     let mut confirmed = 0;
     for (path, preset) in levels {

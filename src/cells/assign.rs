@@ -1,7 +1,9 @@
 //! Which nodes each cell renders. Structure goes to every cell of its room it reaches into;
 //! props go to the cell containing their centre, or, when their centre lies in a wall, to
 //! every cell they reach into; geometry outside every room goes to every cell it reaches
-//! into, and geometry in no cell at all is reported.
+//! into. What reaches into no cell but lies in a wall in front of a cell's face (the jambs
+//! of a door through a thick wall) goes to the cells it faces; geometry in no cell and
+//! facing none is reported.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -11,6 +13,39 @@ use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
+
+/// The cells a node lying in no cell faces from inside a wall: a jamb, sill or lintel in the
+/// reveal of a door through a thick wall, or trim buried in a wall, seen through the opening
+/// from the cells on either side. A triangle's corner or middle counts when it lies in front
+/// of a cell's face, at most `reach` (the thickest wall) away, and its foot on the face's
+/// plane is in the cell.
+fn facing_cells(tris: &[[DVec3; 3]], set: &CellSet, reach: f64, eps: f64) -> Vec<usize> {
+    let mut b = crate::geom::aabb::Aabb::EMPTY;
+    tris.iter().flatten().for_each(|p| b.add(*p));
+    if b.is_empty() {
+        return Vec::new();
+    }
+    let samples: Vec<DVec3> = tris
+        .iter()
+        .flat_map(|t| [t[0], t[1], t[2], (t[0] + t[1] + t[2]) / 3.0])
+        .collect();
+    let grow = reach + eps;
+    (0..set.cells.len())
+        .filter(|&c| {
+            let cb = &set.cells[c].bounds;
+            (b.min - grow).cmple(cb.max).all() && (b.max + grow).cmpge(cb.min).all()
+        })
+        .filter(|&c| {
+            let poly = &set.cells[c].poly;
+            poly.faces.iter().any(|f| {
+                samples.iter().any(|&p| {
+                    let d = f.plane.distance(p);
+                    d > eps && d <= grow && poly.contains(p - f.plane.normal * d, eps)
+                })
+            })
+        })
+        .collect()
+}
 
 /// Whether a meaningful part of the triangle (not a sliver along a shared face) is in the cell.
 fn triangle_in_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
@@ -98,12 +133,16 @@ fn outside_diagnostic(scene: &Scene, n: NodeId) -> Diagnostic {
 }
 
 /// Per cell, the nodes it renders (ascending), and a diagnostic for each node in no cell.
-/// Rooms are placed in parallel and their findings joined in room order, so the result does
-/// not depend on the thread count.
+/// `took[r]` lists the cells of other rooms that took part of room `r`'s space where they
+/// overlapped (`overlap.rs`): they render the room's structure they reach into too. Rooms
+/// are placed in parallel and their findings joined in room order, so the result does not
+/// depend on the thread count.
 pub(crate) fn find(
     scene: &Scene,
     tagging: &Tagging,
     set: &CellSet,
+    took: &[Vec<usize>],
+    reach: f64,
 ) -> (Vec<Vec<NodeId>>, Vec<Diagnostic>) {
     let eps = set.tolerance.distance;
     let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
@@ -137,6 +176,9 @@ pub(crate) fn find(
         if hit.is_empty() {
             hit = (0..set.cells.len()).filter(within).collect();
         }
+        if hit.is_empty() {
+            hit = facing_cells(&tris, set, reach, eps);
+        }
         match hit.is_empty() {
             true => out.1.push(n),
             false => out.0.extend(hit.into_iter().map(|c| (c, n))),
@@ -157,6 +199,7 @@ pub(crate) fn find(
                 let tris = node_triangles(scene, &[n], DVec3::ZERO);
                 let hit: Vec<usize> = mine
                     .iter()
+                    .chain(&took[ri])
                     .copied()
                     .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
                     .collect();
@@ -189,9 +232,12 @@ pub(crate) fn find(
     if !set.cells.is_empty() {
         for u in &tagging.unassigned {
             let tris = node_triangles(scene, &[u.node], DVec3::ZERO);
-            let hit: Vec<usize> = (0..set.cells.len())
+            let mut hit: Vec<usize> = (0..set.cells.len())
                 .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
                 .collect();
+            if hit.is_empty() {
+                hit = facing_cells(&tris, set, reach, eps);
+            }
             if hit.is_empty() {
                 loose.1.push(u.node);
             }

@@ -67,6 +67,7 @@ mod blocks;
 mod footprint;
 mod interior;
 mod overlap;
+pub use overlap::Overlap;
 mod prism;
 mod solids;
 pub mod split;
@@ -170,8 +171,9 @@ pub struct CellSet {
     /// Why each of `props` is one, in the same order (what `inspect` shows the designer, who
     /// can override it with a tag).
     pub prop_reasons: Vec<PropReason>,
-    /// Where cells of different rooms overlap (each reported as `CELL_OVERLAP`).
-    pub overlaps: Vec<ConvexPolyhedron>,
+    /// Where cells of different rooms overlapped before one was cut around the other (those
+    /// of equal priority reported as `CELL_OVERLAP`).
+    pub overlaps: Vec<Overlap>,
     /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
@@ -328,8 +330,17 @@ fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
         )
 }
 
-/// Builds the cells of every tagged room.
+/// Builds the cells of every tagged room, with walls up to the default
+/// `[portals] max_wall_thickness` thick (see [`build_reaching`]).
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
+    let reach = crate::config::PortalsConfig::default().max_wall_thickness;
+    build_reaching(scene, tagging, cfg, reach)
+}
+
+/// Builds the cells of every tagged room. Geometry in no cell that lies in a wall at most
+/// `reach` thick, in front of a cell's face (a jamb in a door's reveal), is rendered by the
+/// cells it faces.
+pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach: f64) -> CellSet {
     let (level, spacing, world_abs) = level_frame(scene);
     let extent = level.size().length();
     let steps = scene.precision.steps();
@@ -406,13 +417,8 @@ pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
         overlaps: Vec::new(),
         diagnostics: diags,
     };
-    // Both only read the cells: found side by side, applied in the order they always were.
-    let ((overlaps, regions), (lists, outside)) = rayon::join(
-        || overlap::find(scene, tagging, cfg, &set),
-        || assign::find(scene, tagging, &set),
-    );
-    set.diagnostics.extend(overlaps);
-    set.overlaps = regions;
+    let took = overlap::resolve(scene, tagging, cfg, &mut set, origin);
+    let (lists, outside) = assign::find(scene, tagging, &set, &took, reach);
     set.diagnostics.extend(outside);
     for (c, l) in set.cells.iter_mut().zip(lists) {
         c.nodes = l;

@@ -97,6 +97,9 @@ pub struct Subject<'a> {
     pub max_wall_thickness: f64,
     /// Player starts: where leak searches begin (none: no leak search).
     pub starts: Vec<Start>,
+    /// Where two rooms' cells overlapped before one was cut around the other (the region and
+    /// the two rooms' names), for the sightline audit to name; none for a stored annotation.
+    pub overlaps: Vec<(crate::geom::polyhedron::ConvexPolyhedron, [String; 2])>,
 }
 
 /// What the checks found.
@@ -178,6 +181,16 @@ impl<'a> Subject<'a> {
             },
             max_wall_thickness: tagged.config.portals.max_wall_thickness,
             starts: starts(tagged),
+            overlaps: cells
+                .overlaps
+                .iter()
+                .map(|o| {
+                    (
+                        o.region.clone(),
+                        o.rooms.map(|r| tagged.tagging.rooms[r].name.clone()),
+                    )
+                })
+                .collect(),
         }
     }
 

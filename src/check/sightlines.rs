@@ -130,6 +130,44 @@ fn clip(poly: &ConvexPolyhedron, o: DVec3, d: DVec3, len: f64) -> Option<(f64, f
     Some((t0, t1))
 }
 
+/// `PVS_MISSES_SIGHTLINE` for the ray `line` from cell `c` into cell `x`; the hint names the
+/// overlap the ray passes through, if any.
+fn missed(s: &Subject, c: usize, x: usize, line: &[DVec3]) -> Diagnostic {
+    let (from, to) = (line[0], line[line.len() - 1]);
+    let hint = match through_overlap(&s.overlaps, line) {
+        Some([a, b]) => format!(
+            "the ray passes where the cells of rooms `{a}` and `{b}` overlapped (CELL_OVERLAP): move the geometry of one out of the other, or give the nested one a higher `priority`; with `[check] sightlines = N` in portcullis.toml, `convert --debug` draws the ray and the overlap"
+        ),
+        None => "if the geometry should block this ray, close the gap it passes through; if not, the PVS is wrong: convert the level again (a stored PVS may be stale), and report it if a fresh one misses the pair too; with `[check] sightlines = N` in portcullis.toml, `convert --debug` draws the ray".to_string(),
+    };
+    Diagnostic::new(
+        Code::PVS_MISSES_SIGHTLINE,
+        format!(
+            "a sightline from {} reaches {}, which its PVS leaves out: the ray from ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})",
+            s.cell(c),
+            s.cell(x),
+            from.x, from.y, from.z, to.x, to.y, to.z
+        ),
+        s.cells[c].at.clone().with_position(from.to_array()),
+    )
+    .hint(hint)
+}
+
+/// The rooms of the first overlap (see [`Subject::overlaps`]) a polyline passes through.
+fn through_overlap<'a>(
+    overlaps: &'a [(ConvexPolyhedron, [String; 2])],
+    line: &[DVec3],
+) -> Option<&'a [String; 2]> {
+    overlaps.iter().find_map(|(region, rooms)| {
+        line.windows(2)
+            .any(|w| {
+                let len = w[0].distance(w[1]);
+                len > 0.0 && clip(region, w[0], (w[1] - w[0]) / len, len).is_some()
+            })
+            .then_some(rooms)
+    })
+}
+
 /// Whether the segment from `o` along `d` for `len` meets the box.
 fn meets_box(b: &Aabb, o: DVec3, d: DVec3, len: f64) -> bool {
     let (mut t0, mut t1) = (0.0f64, len);
@@ -357,20 +395,7 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
                 out.confirmed += 1;
                 continue;
             }
-            let (from, to) = (line[0], line[line.len() - 1]);
-            out.diagnostics.push(
-                Diagnostic::new(
-                    Code::PVS_MISSES_SIGHTLINE,
-                    format!(
-                        "a sightline from {} reaches {}, which its PVS leaves out: the ray from ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})",
-                        s.cell(c),
-                        s.cell(x),
-                        from.x, from.y, from.z, to.x, to.y, to.z
-                    ),
-                    s.cells[c].at.clone().with_position(from.to_array()),
-                )
-                .hint("if the geometry should block this ray, close the gap it passes through; if not, the PVS is wrong: convert the level again (a stored PVS may be stale), and report it if a fresh one misses the pair too; with `[check] sightlines = N` in portcullis.toml, `convert --debug` draws the ray"),
-            );
+            out.diagnostics.push(missed(s, c, x, line));
             out.lines.push(line.clone());
         }
     }
@@ -388,4 +413,33 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         Location::file(&s.file),
     ));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::aabb::Aabb;
+
+    #[test]
+    fn a_ray_through_an_overlap_is_told_by_its_rooms() {
+        let region = ConvexPolyhedron::from_aabb(&Aabb {
+            min: DVec3::new(4.0, 0.0, 0.0),
+            max: DVec3::new(5.0, 3.0, 4.0),
+        });
+        let overlaps = vec![(region, ["east".to_string(), "west".to_string()])];
+        let through = [DVec3::new(1.0, 1.0, 2.0), DVec3::new(7.0, 1.0, 2.0)];
+        assert_eq!(
+            through_overlap(&overlaps, &through),
+            Some(&["east".to_string(), "west".to_string()])
+        );
+        // A polyline whose second leg (after a teleporter) crosses it.
+        let bent = [
+            DVec3::new(1.0, 1.0, 6.0),
+            DVec3::new(3.0, 1.0, 6.0),
+            DVec3::new(4.5, 1.0, 1.0),
+        ];
+        assert!(through_overlap(&overlaps, &bent).is_some());
+        let beside = [DVec3::new(1.0, 1.0, 6.0), DVec3::new(7.0, 1.0, 6.0)];
+        assert_eq!(through_overlap(&overlaps, &beside), None);
+    }
 }

@@ -240,5 +240,6 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
         },
         max_wall_thickness: t.config.portals.max_wall_thickness,
         starts: super::starts(t),
+        overlaps: Vec::new(),
     }
 }

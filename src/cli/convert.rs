@@ -313,7 +313,7 @@ fn write_shows(
 ) -> Result<(), Diagnostic> {
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
-            overlaps: cells.overlaps.clone(),
+            overlaps: cells.overlaps.iter().map(|o| o.region.clone()).collect(),
             leaks: shown.leaks,
             sightlines: shown.sightlines,
         };

@@ -135,7 +135,12 @@ fn read_stdin(opts: &LoadOptions) -> Result<import::Imported, Diagnostic> {
 
 /// The cells of a tagged level; their diagnostics are appended to `tagged.diagnostics`.
 pub fn build_cells(tagged: &mut Tagged) -> CellSet {
-    let mut set = cells::build(&tagged.scene, &tagged.tagging, &tagged.config.cells);
+    let mut set = cells::build_reaching(
+        &tagged.scene,
+        &tagged.tagging,
+        &tagged.config.cells,
+        tagged.config.portals.max_wall_thickness,
+    );
     cells::drop_far_structure(
         &tagged.scene,
         &tagged.tagging,

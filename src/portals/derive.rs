@@ -418,6 +418,7 @@ fn face_exterior(
         frame: &f,
         thin: true,
         near,
+        beyond: &[],
     };
     cx.opaque.shadows(&bb, &slab, shadows);
     let mut covered: Vec<&[DVec2]> = cx.claimed.on(c, i).collect();
@@ -768,6 +769,21 @@ impl<'f> FacePair<'f> {
         let bb = Aabb::from_points(self.fa.points.iter().chain(self.fb.points.iter()))
             .grown(eps + beside)
             .intersection(&near);
+        // On one plane, what lies outside either cell (on or past another of its faces)
+        // cannot stand between them.
+        let beyond: Vec<Plane> = if thin {
+            let (pa, pb) = (&cx.cells.cells[self.a].poly, &cx.cells.cells[self.b].poly);
+            let others = pa.faces.iter().enumerate().filter(|(i, _)| *i != self.ia);
+            others
+                .chain(pb.faces.iter().enumerate().filter(|(i, _)| *i != self.ib))
+                .map(|(_, face)| Plane {
+                    normal: face.plane.normal,
+                    d: face.plane.d - eps,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let slab = Slab {
             n: na,
             lo,
@@ -775,6 +791,7 @@ impl<'f> FacePair<'f> {
             frame: f,
             thin,
             near: beside,
+            beyond: &beyond,
         };
         cx.opaque.shadows(&bb, &slab, shadows);
         (slo, shi, bb, beside)

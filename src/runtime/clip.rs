@@ -73,6 +73,17 @@ pub fn area2(poly: &[[f64; 2]]) -> f64 {
         .sum()
 }
 
+/// The perimeter of a polygon on the screen.
+pub fn perimeter2(poly: &[[f64; 2]]) -> f64 {
+    let n = poly.len();
+    (0..n)
+        .map(|i| {
+            let (p, q) = (poly[i], poly[(i + 1) % n]);
+            (q[0] - p[0]).hypot(q[1] - p[1])
+        })
+        .sum()
+}
+
 /// Clips a screen polygon to the left of the directed line `a`-`b` (counter-clockwise inside),
 /// keeping what lies within `eps` of it, into `out` (cleared first).
 pub fn clip2(input: &[[f64; 2]], a: [f64; 2], b: [f64; 2], eps: f64, out: &mut Vec<[f64; 2]>) {
