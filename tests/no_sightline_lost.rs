@@ -185,3 +185,116 @@ fn geometry_facing_no_cell_is_still_reported() {
     assert!(c.cells.iter().all(|cell| !cell.nodes.contains(&frame)));
     assert!(t.diagnostics.has(Code::CELL_GEOMETRY_OUTSIDE));
 }
+
+/// Two triangles of the quad a-b-c-d, facing `n`.
+fn quad(a: DVec3, b: DVec3, c: DVec3, d: DVec3, n: DVec3) -> Vec<[DVec3; 3]> {
+    [[a, b, c], [a, c, d]]
+        .into_iter()
+        .map(|t| {
+            if (t[1] - t[0]).cross(t[2] - t[0]).dot(n) > 0.0 {
+                t
+            } else {
+                [t[0], t[2], t[1]]
+            }
+        })
+        .collect()
+}
+
+/// An outward prism over the convex (x, z) ring from y = 0 to `h` (a bound).
+fn prism(ring: &[(f64, f64)], h: f64) -> Vec<[DVec3; 3]> {
+    let v = |(x, z): (f64, f64), y: f64| DVec3::new(x, y, z);
+    let mut t = Vec::new();
+    for k in 1..ring.len() - 1 {
+        t.extend(
+            quad(
+                v(ring[0], 0.0),
+                v(ring[k], 0.0),
+                v(ring[k + 1], 0.0),
+                v(ring[k + 1], 0.0),
+                -DVec3::Y,
+            )
+            .into_iter()
+            .take(1),
+        );
+        t.extend(
+            quad(
+                v(ring[0], h),
+                v(ring[k], h),
+                v(ring[k + 1], h),
+                v(ring[k + 1], h),
+                DVec3::Y,
+            )
+            .into_iter()
+            .take(1),
+        );
+    }
+    let (cx, cz) = (
+        ring.iter().map(|p| p.0).sum::<f64>() / ring.len() as f64,
+        ring.iter().map(|p| p.1).sum::<f64>() / ring.len() as f64,
+    );
+    for k in 0..ring.len() {
+        let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+        let out = DVec3::new((a.0 + b.0) / 2.0 - cx, 0.0, (a.1 + b.1) / 2.0 - cz);
+        t.extend(quad(v(a, 0.0), v(b, 0.0), v(b, h), v(a, h), out));
+    }
+    t
+}
+
+/// Item 2: a face two cells of one room share is a portal over all of it however narrow. A
+/// 4 x 4 m room with a 4 m slot off its corner that narrows from 5 cm to nothing (bounds make
+/// the slot a cell): the slot opens onto the room over its whole 5 cm x 3 m end. (The crack
+/// rule does not apply to such a face: `portals/derive.rs`'s unit test.)
+#[test]
+fn a_slot_cell_five_centimetres_wide_opens_onto_its_room() {
+    let (h, w) = (3.0, 0.05);
+    let v = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+    let room = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)];
+    let slot = [(4.0, 4.0 - w), (8.0, 4.0), (4.0, 4.0)];
+    // Inward walls along the outline (x, z).
+    let outline = [
+        (0.0, 0.0),
+        (4.0, 0.0),
+        (4.0, 4.0 - w),
+        (8.0, 4.0),
+        (0.0, 4.0),
+    ];
+    let mut shell = Vec::new();
+    for k in 0..outline.len() {
+        let ((x0, z0), (x1, z1)) = (outline[k], outline[(k + 1) % outline.len()]);
+        let inward = v(z0 - z1, 0.0, x1 - x0);
+        shell.extend(quad(
+            v(x0, 0.0, z0),
+            v(x1, 0.0, z1),
+            v(x1, h, z1),
+            v(x0, h, z0),
+            inward,
+        ));
+    }
+    // Floor and ceiling: the bounds' caps, turned to face the air.
+    for t in prism(&room, h).into_iter().chain(prism(&slot, h)) {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        if n.x == 0.0 && n.z == 0.0 {
+            shell.push([t[0], t[2], t[1]]);
+        }
+    }
+    let scene = common::scene_of(
+        vec![
+            ("hall-room", None, vec![], None),
+            ("Shell", Some(0), shell, None),
+            ("Bound_room", Some(0), prism(&room, h), None),
+            ("Bound_slot", Some(0), prism(&slot, h), None),
+        ],
+        glam::DMat4::IDENTITY,
+    );
+    let mut t = common::tagged(scene);
+    let c = pipeline::build_cells(&mut t);
+    let p = pipeline::build_portals(&mut t, &c);
+    assert_eq!(c.cells.len(), 2, "{:?}", t.diagnostics);
+    let slot = (0..2).find(|&i| c.cells[i].volume < 1.0).unwrap();
+    let a = areas(&p, slot, 1 - slot);
+    assert_eq!(a.len(), 1, "{:?}", t.diagnostics);
+    assert!((a[0] - w * h).abs() < 1e-9, "{a:?}");
+    let (missed, confirmed) = audit(&t, &c, &p);
+    assert!(missed.is_empty(), "{missed:?}");
+    assert_eq!(confirmed, 2);
+}

@@ -105,7 +105,7 @@ codes! {
     CELL_ROOM_DEGENERATE = Error, "a room's geometry has no volume (flat, a line or a point)";
     CELL_BOUND_NOT_CONVEX = Warning, "a bound mesh is not convex; its convex hull was used";
     CELL_TOO_MANY_PLANES = Warning, "a cell has more planes than configured";
-    CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap";
+    CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap (one keeps the space, the other is cut around it)";
     CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
 
     // --- annotated files ---

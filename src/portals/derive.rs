@@ -134,8 +134,11 @@ pub(crate) fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
 
 /// What is an opening of a region left open: the region without its vertices within the
 /// tolerance of a straight edge ([`drop_near_collinear`]) and without its cracks
-/// (`geom/crack.rs`), if that is at least `min_width` wide on average.
-fn opening(o: &Polygon2, k: &Limits) -> Option<Polygon2> {
+/// (`geom/crack.rs`), if that is at least `min_width` wide on average. A region nothing
+/// blocks (`clear`: a face two cells of the same air share, on one plane) is no gap between
+/// blockers: it is kept whole however narrow (a sliver cell's face), unless it is float noise
+/// (under ten tolerances wide on average).
+fn opening(o: &Polygon2, k: &Limits, clear: bool) -> Option<Polygon2> {
     let straight = Polygon2 {
         outer: drop_near_collinear(&o.outer, k.eps),
         holes: o
@@ -144,6 +147,9 @@ fn opening(o: &Polygon2, k: &Limits) -> Option<Polygon2> {
             .map(|h| drop_near_collinear(h, k.eps))
             .collect(),
     };
+    if clear {
+        return Some(straight).filter(|o| o.mean_width() >= 10.0 * k.eps);
+    }
     without_cracks(&straight, k.crack).filter(|o| o.mean_width() >= k.min_width)
 }
 
@@ -444,7 +450,7 @@ fn face_exterior(
     .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
     for o in difference(&whole, &covered, grid)
         .iter()
-        .filter_map(|o| opening(o, k))
+        .filter_map(|o| opening(o, k, false))
     {
         for piece in pieces(&o, cx.cfg.conservative, eps) {
             let piece = exact.restore(piece);
@@ -827,7 +833,8 @@ impl<'f> FacePair<'f> {
         let mut through: Vec<Vec<DVec2>> = Vec::new();
         let open = difference(&self.shared, blockers, self.grid);
         let exact = self.exact(blockers);
-        for o in open.iter().filter_map(|o| opening(o, cx.k)) {
+        let clear = self.gap <= eps && blockers.is_empty();
+        for o in open.iter().filter_map(|o| opening(o, cx.k, clear)) {
             for piece in pieces(&o, cx.cfg.conservative, eps) {
                 let piece = exact.restore(piece);
                 // CCW about na in 2D: seen from A (behind the plane) it turns the
@@ -959,4 +966,41 @@ fn cells_between(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 5 cm x 3 m region where the crack width is 0.3 m (a tenth of a level's 3 m shortest
+    /// edge): between blockers it is a crack and goes; as a face two cells of the same air
+    /// share with nothing on it, it is kept whole.
+    #[test]
+    fn a_narrow_region_is_a_crack_only_between_blockers() {
+        let mut k = Limits::new(1e-5, &PortalsConfig::default());
+        k.crack = 0.3;
+        k.min_width = k.min_width.max(k.crack);
+        let slot = Polygon2 {
+            outer: vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(0.05, 0.0),
+                DVec2::new(0.05, 3.0),
+                DVec2::new(0.0, 3.0),
+            ],
+            holes: vec![],
+        };
+        assert!(opening(&slot, &k, false).is_none());
+        let kept = opening(&slot, &k, true).unwrap();
+        assert!((kept.area() - 0.15).abs() < 1e-12);
+        // Float noise stays noise: under ten tolerances wide.
+        let hair = Polygon2 {
+            outer: slot
+                .outer
+                .iter()
+                .map(|p| DVec2::new(p.x * 1e-3, p.y))
+                .collect(),
+            holes: vec![],
+        };
+        assert!(opening(&hair, &k, true).is_none());
+    }
 }
