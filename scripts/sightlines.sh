@@ -12,7 +12,7 @@ bin=target/release/portcullis
 shared=../shared/levels
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-"$bin" gen --rooms 300 --seed 1 -o "$tmp/building_300.glb" >/dev/null
+"$bin" gen --rooms 300 --seed 1 -o "$tmp/building_300.glb" >/dev/null 2>&1
 
 levels=()
 for f in samples/*.gltf samples/*.obj samples/*.map; do levels+=("$f|"); done
@@ -22,9 +22,11 @@ for f in "$shared"/freedoom/*.glb; do
     *) levels+=("$f|doom") ;;
   esac
 done
-for f in "$shared"/godot/*.glb "$shared"/godot/*.obj "$shared"/lportal/*.glb "$shared"/panda3d/*.glb \
-  "$shared"/sauerbraten/*.obj; do
+for f in "$shared"/godot/*.glb "$shared"/godot/*.obj "$shared"/lportal/*.glb "$shared"/sauerbraten/*.obj; do
   [ -e "$f" ] && levels+=("$f|")
+done
+for f in "$shared"/panda3d/*.glb; do
+  [ -e "$f" ] && levels+=("$f|panda3d")
 done
 levels+=("$tmp/building_300.glb|")
 
@@ -49,7 +51,9 @@ diags = f.get("diagnostics", [])
 missed = sum(1 for d in diags if d["code"] == "PVS_MISSES_SIGHTLINE")
 info = next((d["message"] for d in diags if d["code"] == "SIGHTLINES_CONFIRMED"), "")
 m = re.search(r"each of (\d+) cells confirmed (\d+) of the PVS's (\d+) pairs .*?\(([\d.]+)%\)", info)
-if m:
+if m and m.group(1) == "0":
+    print(f"| {sys.argv[2]} | 0 | - | no rooms tagged | {missed} |")
+elif m:
     cells, conf, pairs, share = m.groups()
     print(f"| {sys.argv[2]} | {cells} | {pairs} | {conf} ({share}%) | {missed} |")
 else:

@@ -90,20 +90,24 @@ fn rooms_whose_air_overlaps_are_cut_apart_and_joined_by_a_portal() {
     assert_eq!(confirmed, 2);
 }
 
-/// A nested room of higher priority keeps the space it shares with the room around it, and is
-/// not reported: east given priority 1 keeps its 48 m³ whole, as it does by size.
-#[test]
-fn a_room_of_higher_priority_keeps_the_shared_space_silently() {
-    let mut scene =
-        portcullis::import::import_path(&sample("overlap_rooms.gltf"), &Default::default())
-            .unwrap()
-            .scene;
-    // West is given the higher priority: it keeps its 60 m³, and east is cut to x 5..8.
-    let w = scene
+/// A sample's scene as imported, and the index of its node named `node`.
+fn scene_and_node(name: &str, node: &str) -> (portcullis::scene::Scene, usize) {
+    let scene = portcullis::import::import_path(&sample(name), &Default::default())
+        .unwrap()
+        .scene;
+    let n = scene
         .nodes
         .iter()
-        .position(|n| n.name.as_deref() == Some("west-room"))
+        .position(|n| n.name.as_deref() == Some(node))
         .unwrap();
+    (scene, n)
+}
+
+/// A room of higher priority keeps the space it shares with another, whatever their sizes,
+/// and nothing is reported: west given priority 1 keeps its 60 m³, and east is cut to x 5..8.
+#[test]
+fn a_room_of_higher_priority_keeps_the_shared_space_silently() {
+    let (mut scene, w) = scene_and_node("overlap_rooms.gltf", "west-room");
     scene.nodes[w].extras = Some(serde_json::json!({"priority": 1}));
     let mut t = common::tagged(scene);
     let c = pipeline::build_cells(&mut t);
@@ -169,15 +173,7 @@ fn jambs_in_a_thick_walls_reveal_are_rendered_by_the_cells_on_either_side() {
 /// Geometry in no cell and facing none (a crate 30 m from every room) is still reported.
 #[test]
 fn geometry_facing_no_cell_is_still_reported() {
-    let mut scene =
-        portcullis::import::import_path(&sample("reveal_jambs.gltf"), &Default::default())
-            .unwrap()
-            .scene;
-    let frame = scene
-        .nodes
-        .iter()
-        .position(|n| n.name.as_deref() == Some("DoorFrame"))
-        .unwrap();
+    let (mut scene, frame) = scene_and_node("reveal_jambs.gltf", "DoorFrame");
     scene.nodes[frame].world =
         glam::DMat4::from_translation(DVec3::new(0.0, 0.0, 30.0)) * scene.nodes[frame].world;
     let mut t = common::tagged(scene);

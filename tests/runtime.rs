@@ -693,6 +693,15 @@ fn closing_a_door_or_narrowing_the_view_only_removes_cells() {
     );
 }
 
+/// Trace options without the PVS prefilter and with no depth limit to speak of.
+fn unfiltered() -> TraceOptions {
+    TraceOptions {
+        use_pvs: false,
+        max_depth: 10_000,
+        ..Default::default()
+    }
+}
+
 #[test]
 fn without_transformed_portals_a_trace_stays_in_the_camera_cells_pvs() {
     let dir = tempfile::tempdir().unwrap();
@@ -702,11 +711,7 @@ fn without_transformed_portals_a_trace_stays_in_the_camera_cells_pvs() {
         if ext.portals.iter().any(|p| p.transform.is_some()) {
             continue;
         }
-        let opts = TraceOptions {
-            use_pvs: false,
-            max_depth: 10_000,
-            ..Default::default()
-        };
+        let opts = unfiltered();
         let doors = Doors::new(&level);
         let mut t = Trace::default();
         for cam in cameras(&ext, 12, &mut rng) {
@@ -759,11 +764,7 @@ fn a_trace_from_a_cells_middle_stays_in_its_pvs() {
         let glb = convert(&common::fixture(level_file), None, dir.path());
         let level = Level::load(&glb).unwrap();
         let ext = read_ext(&glb);
-        let opts = TraceOptions {
-            use_pvs: false,
-            max_depth: 10_000,
-            ..Default::default()
-        };
+        let opts = unfiltered();
         let doors = Doors::new(&level);
         let mut t = Trace::default();
         let (fov, aspect, near) = (90.0f64, 16.0 / 9.0, 0.05);
