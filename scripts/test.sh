@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The whole test suite, as the README gives it and .ci/run calls it.
 # Sets up what the tests need (the npm Khronos glTF-Validator, Debian's chromium with the npm
-# playwright-core for the browser tests, and Pixar's usd-core in a Python venv for the `usd`
-# feature) and caches them in ignored folders, then runs formatting, lint
-# (with and without the feature) and every test with the feature on. Needs the Rust toolchain,
+# playwright-core for the browser tests, Pixar's usd-core in a Python venv for the `usd`
+# feature, and Blender's bpy module in another for the add-on's tests) and caches them in
+# ignored folders, then runs formatting, lint (with and without the feature) and every test
+# with the feature on. Needs the Rust toolchain,
 # Node (npm) and Python 3 built with a shared libpython (python3 -m venv, pip).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,6 +44,21 @@ if ! .venv/bin/python -c "import importlib.metadata as m, sys; sys.exit(m.versio
   python3 -m venv .venv
   .venv/bin/pip install --quiet --disable-pip-version-check "$USD_CORE"
 fi
+# Blender as a Python module (PyPI `bpy`, pinned; wheels for CPython 3.11 only) for the add-on's
+# tests (tests/blender.rs), cached in .venv-blender.
+BPY="bpy==4.5.15"
+if ! .venv-blender/bin/python -c "import importlib.metadata as m, sys; sys.exit(m.version('bpy') != '${BPY#bpy==}')" 2>/dev/null; then
+  PY311=$(command -v python3.11 || command -v python3)
+  if "$PY311" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))'; then
+    echo "== installing $BPY into .venv-blender (Blender as a Python module, ~370 MB)"
+    "$PY311" -m venv .venv-blender
+    .venv-blender/bin/pip install --quiet --disable-pip-version-check "$BPY" \
+      || echo "warning: could not install $BPY; the Blender tests fail under CI=true and skip otherwise" >&2
+  else
+    echo "warning: bpy needs CPython 3.11; the Blender tests fail under CI=true and skip otherwise" >&2
+  fi
+fi
+
 export PYO3_PYTHON="$PWD/.venv/bin/python"
 unset VIRTUAL_ENV
 # A clean CI build gains nothing from incremental caches, which would take gigabytes of its disk.
