@@ -326,17 +326,37 @@ fn oracle_with(
     judged
 }
 
+/// Levels whose rooms the oracle cannot judge, and why: it judges a room's cells against
+/// parity on the room's own triangles, which says nothing where a cell is the designer's own
+/// (a bound or a footprint) or where every point is near a room's open rim.
+const NOT_JUDGED: [(&str, &str); 4] = [
+    ("bound_boxes.gltf", "every room is its bound box"),
+    ("panda3d_culling.glb", "every room is an extruded floor"),
+    ("panda3d_culling.obj", "every room is an extruded floor"),
+    ("courtyard.gltf", "two courts open to the sky: every point is near the open top"),
+];
+
+/// Issue 45, item 11: the oracle says how much it judged, and every level it can judge is
+/// judged (at least 5 points), so the test cannot pass having checked nothing.
 #[test]
 fn ray_oracle_on_samples_and_third_party_levels() {
     let mut levels = levels_with_rooms();
     for (file, _) in SAMPLES_3D {
         levels.push((sample(file), None));
     }
+    let mut total = 0;
     for (path, preset) in levels {
         let (t, c) = load(&path, preset);
         let judged = oracle(&t, &c, 400, &path.display().to_string());
         eprintln!("{}: {judged} points judged", path.display());
+        let name = path.file_name().unwrap().to_str().unwrap();
+        match NOT_JUDGED.iter().find(|(n, _)| *n == name) {
+            Some((_, why)) => assert_eq!(judged, 0, "{name} is listed as not judged ({why})"),
+            None => assert!(judged >= 5, "{name}: only {judged} points judged"),
+        }
+        total += judged;
     }
+    assert!(total > 5000, "{total} points judged in all");
 }
 
 #[test]
