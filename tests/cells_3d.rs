@@ -333,7 +333,10 @@ const NOT_JUDGED: [(&str, &str); 4] = [
     ("bound_boxes.gltf", "every room is its bound box"),
     ("panda3d_culling.glb", "every room is an extruded floor"),
     ("panda3d_culling.obj", "every room is an extruded floor"),
-    ("courtyard.gltf", "two courts open to the sky: every point is near the open top"),
+    (
+        "courtyard.gltf",
+        "two courts open to the sky: every point is near the open top",
+    ),
 ];
 
 /// Issue 45, item 11: the oracle says how much it judged, and every level it can judge is

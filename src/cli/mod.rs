@@ -107,6 +107,47 @@ pub struct LevelArgs {
     pub shard: Option<Shard>,
 }
 
+impl LevelArgs {
+    /// The options as given on the command line (without `--shard`), for a command suggested
+    /// to the user: `--tags doom` given to `view` belongs in the `check` it suggests.
+    pub fn echo(&self) -> String {
+        let mut out = String::new();
+        let mut add = |flag: &str, value: Option<String>| {
+            out.push_str(&format!(" {flag}"));
+            if let Some(v) = value {
+                out.push(' ');
+                out.push_str(&shell_word(&v));
+            }
+        };
+        if let Some(t) = &self.tags {
+            add("--tags", Some(t.clone()));
+        }
+        if let Some(c) = &self.config {
+            add("--config", Some(c.display().to_string()));
+        }
+        if self.obj_flat_names {
+            add("--obj-flat-names", None);
+        }
+        if let Some(v) = &self.python_venv {
+            add("--python-venv", Some(v.display().to_string()));
+        }
+        out
+    }
+}
+
+/// A word as a POSIX shell reads it back: as is when it holds only safe characters, else in
+/// single quotes.
+pub fn shell_word(s: &str) -> String {
+    let safe = !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./:=+,@%".contains(c));
+    if safe {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
 /// `--shard K/N`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Shard {
@@ -193,10 +234,16 @@ pub fn run(cli: Cli) -> i32 {
             &a,
             &portcullis::report::style::Style::for_stderr(&cli.color),
         ),
-        Command::View(a) => view::run(
-            &a,
-            &portcullis::report::style::Style::for_stderr(&cli.color),
-        ),
+        Command::View(a) => {
+            // The same rule as the other commands': an empty shard processes nothing.
+            if shard_inputs(vec![a.file.clone()], a.level.shard).is_empty() {
+                return 0;
+            }
+            view::run(
+                &a,
+                &portcullis::report::style::Style::for_stderr(&cli.color),
+            )
+        }
         Command::Vis(mut a) => {
             a.files = shard_inputs(expand_inputs(&a.files), a.level.shard);
             vis::run(
@@ -228,4 +275,17 @@ pub fn expand_inputs(files: &[PathBuf]) -> Vec<PathBuf> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_word;
+
+    #[test]
+    fn shell_words_read_back_as_given() {
+        assert_eq!(shell_word("levels/e1m2.glb"), "levels/e1m2.glb");
+        assert_eq!(shell_word("my level.glb"), "'my level.glb'");
+        assert_eq!(shell_word("it's.glb"), "'it'\\''s.glb'");
+        assert_eq!(shell_word(""), "''");
+    }
 }

@@ -89,8 +89,10 @@ pub fn run(a: &ViewArgs, style: &Style) -> i32 {
             eprintln!("{} -> {}", a.file.display(), out.display());
             if !diags.is_empty() {
                 eprintln!(
-                    "(`portcullis check {}` lists its diagnostics, `check --html` beside the view)",
-                    a.file.display()
+                    "(`portcullis check{}{} {}` lists its diagnostics, `check --html` beside the view)",
+                    a.level.echo(),
+                    if a.sealed { " --sealed" } else { "" },
+                    super::shell_word(&a.file.display().to_string())
                 );
             }
         }
