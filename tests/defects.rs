@@ -53,3 +53,37 @@ fn a_suggested_command_carries_the_users_options() {
     );
     assert!(err.contains(&want), "{err}");
 }
+
+/// Item 4: `check --html` lists errors first, then warnings, then infos (on a Doom map the
+/// first error came after 48 other entries), and the page has a filter per severity.
+#[test]
+fn the_html_report_lists_errors_first_with_a_severity_filter() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("report.html");
+    let o = portcullis()
+        .args(["check", "--sealed", "--html"])
+        .arg(&page)
+        .arg(common::fixture("E1M2_godot.glb"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let html = std::fs::read_to_string(&page).unwrap();
+    let start = html.find("type=\"application/json\">").unwrap() + 24;
+    let end = start + html[start..].find("</script>").unwrap();
+    let data: serde_json::Value = serde_json::from_str(&html[start..end]).unwrap();
+    let rank = |s: &str| {
+        ["error", "warning", "info"]
+            .iter()
+            .position(|x| *x == s)
+            .unwrap()
+    };
+    let listed: Vec<usize> = data["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| rank(d["severity"].as_str().unwrap()))
+        .collect();
+    assert!(listed.contains(&0) && listed.contains(&1) && listed.contains(&2));
+    assert!(listed.windows(2).all(|w| w[0] <= w[1]), "{listed:?}");
+    assert!(html.contains("severity-filter"));
+}

@@ -210,10 +210,32 @@
   });
   if (data.diagnostics.length) {
     el('h2', 'Diagnostics (' + data.diagnostics.length + ')');
+    // Errors first (the page's data is in that order); a filter per severity.
+    const filter = el('div', null);
+    filter.id = 'severity-filter';
+    const shown = { error: true, warning: true, info: true };
+    const rows = [];
+    ['error', 'warning', 'info'].forEach((sev) => {
+      const n = data.diagnostics.filter((d) => d.severity === sev).length;
+      if (!n) return;
+      const label = el('label', null, filter);
+      const box = document.createElement('input');
+      box.type = 'checkbox';
+      box.checked = true;
+      box.dataset.severity = sev;
+      label.appendChild(box);
+      label.appendChild(document.createTextNode(' ' + sev + 's (' + n + ') '));
+      box.addEventListener('change', () => {
+        shown[sev] = box.checked;
+        rows.forEach((r) => { r.style.display = shown[r.dataset.severity] ? '' : 'none'; });
+      });
+    });
     const box = el('div', null);
     box.id = 'diagnostics';
     data.diagnostics.forEach((d) => {
       const row = el('div', null, box);
+      row.dataset.severity = d.severity;
+      rows.push(row);
       const head = el('span', d.severity + '[' + d.code + ']', row);
       head.className = 'code sev-' + d.severity;
       row.appendChild(document.createTextNode(' ' + d.message));
