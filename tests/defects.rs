@@ -87,3 +87,36 @@ fn the_html_report_lists_errors_first_with_a_severity_filter() {
     assert!(listed.windows(2).all(|w| w[0] <= w[1]), "{listed:?}");
     assert!(html.contains("severity-filter"));
 }
+
+/// Item 6: a `.prt` given to `check`, `convert` or `view` is named for what it is, with the
+/// commands that read it (`vis` and `inspect`, which still do), not "cannot tell the format".
+#[test]
+fn a_portal_file_is_sent_to_the_commands_that_read_it() {
+    let prt = common::root().join("tests/fixtures/prt/qbspfeatures.prt");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.glb");
+    for args in [
+        vec!["check"],
+        vec!["convert", "-o", out.to_str().unwrap()],
+        vec!["view", "-o", dir.path().join("p.html").to_str().unwrap()],
+    ] {
+        let o = portcullis().args(&args).arg(&prt).output().unwrap();
+        let err = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("is a Quake portal file (.prt)")
+                && err.contains("portcullis vis")
+                && !err.contains("cannot tell the format"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!out.exists());
+    for cmd in ["vis", "inspect"] {
+        let o = portcullis().arg(cmd).arg(&prt).output().unwrap();
+        assert_eq!(o.status.code(), Some(0), "{cmd}");
+    }
+}

@@ -119,6 +119,25 @@ fn read_file(path: &Path) -> std::io::Result<Vec<u8>> {
 
 /// Reads the level at `path`, its format told by the extension; the stages start here.
 pub fn import_path(path: &Path, opts: &ImportOptions) -> Result<Imported, Diagnostic> {
+    let is_prt = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("prt"));
+    if is_prt {
+        // A portal file is cells and portals without the level's geometry: nothing to build
+        // cells from, to check against or to draw.
+        return Err(Diagnostic::new(
+            Code::INPUT_FORMAT_UNKNOWN,
+            format!(
+                "`{}` is a Quake portal file (.prt): it holds a level's cells and portals but not its geometry, so it cannot be converted, checked or viewed",
+                path.display()
+            ),
+            Location::file(path),
+        )
+        .hint(format!(
+            "`portcullis vis {0}` computes its PVS and `portcullis inspect {0}` summarises it; give the level it came from (the .map, or a glTF or OBJ) to the other commands",
+            path.display()
+        )));
+    }
     let format = format_from_path(path).ok_or_else(|| {
         Diagnostic::new(
             Code::INPUT_FORMAT_UNKNOWN,
