@@ -120,3 +120,45 @@ fn a_portal_file_is_sent_to_the_commands_that_read_it() {
         assert_eq!(o.status.code(), Some(0), "{cmd}");
     }
 }
+
+/// Item 3: `schema preset:NAME` prints a valid `portcullis.toml` that tags as `--tags NAME`
+/// does, for every preset (on a level each preset is meant for).
+#[test]
+fn every_printed_preset_is_a_config_that_tags_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("portcullis.toml");
+    for (preset, level) in [
+        ("default", sample("two_rooms.gltf")),
+        ("godot", sample("two_rooms.gltf")),
+        ("lportal", common::fixture("lportal_boxrooms.glb")),
+        ("panda3d", common::fixture("panda3d_culling.glb")),
+        ("doom", common::fixture("E3M3_godot.glb")),
+        ("quake", sample("brush_doors.map")),
+    ] {
+        let printed = portcullis()
+            .args(["schema", &format!("preset:{preset}")])
+            .output()
+            .unwrap();
+        assert_eq!(printed.status.code(), Some(0), "{preset}");
+        std::fs::write(&config, &printed.stdout).unwrap();
+        let tags = |args: &[&str]| {
+            let o = portcullis()
+                .args(["inspect", "--format", "json"])
+                .args(args)
+                .arg(&level)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr).to_string();
+            assert_eq!(o.status.code(), Some(0), "{preset} {args:?}: {err}");
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+            let f = &v["files"][0];
+            let mut t = f["tags"].clone();
+            t.as_object_mut().unwrap().remove("preset");
+            (t, f["cells"].as_array().map_or(0, |c| c.len()))
+        };
+        let by_flag = tags(&["--tags", preset]);
+        let by_file = tags(&["--config", config.to_str().unwrap()]);
+        assert!(by_flag.1 > 0, "{preset}: no cells on its level");
+        assert_eq!(by_file, by_flag, "{preset}");
+    }
+}

@@ -27,10 +27,7 @@ pub fn run(a: &SchemaArgs) -> i32 {
         return 0;
     };
     let text = match name.strip_prefix("preset:") {
-        Some(p) => PRESETS
-            .iter()
-            .find(|(n, _)| n.eq_ignore_ascii_case(p))
-            .map(|(_, t)| *t),
+        Some(p) => portcullis::tags::presets::as_config(p),
         None => FILES
             .iter()
             .find(|(n, _)| {
@@ -38,7 +35,7 @@ pub fn run(a: &SchemaArgs) -> i32 {
                     || n.trim_end_matches(".schema.json")
                         .eq_ignore_ascii_case(name)
             })
-            .map(|(_, t)| *t),
+            .map(|(_, t)| t.to_string()),
     };
     match text {
         Some(t) => {

@@ -25,6 +25,39 @@ pub fn spec(name: &str) -> Option<RuleSetSpec> {
     Some(toml::from_str(text).unwrap_or_else(|e| panic!("built-in preset {name} is invalid: {e}")))
 }
 
+/// A preset as a `portcullis.toml` (issue 45): its comment, then a `[tags]` table naming it,
+/// its rules as `[[tags.rule]]` replacing the built-in ones, so the file tags exactly as
+/// `--tags NAME` does and can be edited from there. `None` for an unknown name.
+pub fn as_config(name: &str) -> Option<String> {
+    let (name, text) = PRESETS.iter().find(|(n, _)| n.eq_ignore_ascii_case(name))?;
+    let spec = spec(name)?;
+    let mut out: String = text
+        .lines()
+        .take_while(|l| l.starts_with('#'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    out.push_str(&format!(
+        "# The `{name}` preset as a portcullis.toml: {}.\n# Its rules replace the built-in ones (`replace = true`), so this file tags as `--tags {name}` does; edit from here.\n",
+        spec.description.trim_end_matches('.')
+    ));
+    let mut tags = toml::Table::new();
+    tags.insert("preset".into(), toml::Value::String(name.to_string()));
+    tags.insert("replace".into(), toml::Value::Boolean(true));
+    tags.insert(
+        "case_sensitive".into(),
+        toml::Value::Boolean(spec.case_sensitive),
+    );
+    if let Some(w) = spec.wildcard {
+        tags.insert("wildcard".into(), toml::Value::String(w.to_string()));
+    }
+    let rules = toml::Value::try_from(&spec.rules).ok()?;
+    tags.insert("rule".into(), rules);
+    let mut root = toml::Table::new();
+    root.insert("tags".into(), toml::Value::Table(tags));
+    out.push_str(&toml::to_string(&root).ok()?);
+    Some(out)
+}
+
 /// A compiled preset.
 pub fn load(name: &str) -> Option<RuleSet> {
     let spec = spec(name)?;
