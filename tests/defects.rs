@@ -162,3 +162,62 @@ fn every_printed_preset_is_a_config_that_tags_the_same() {
         assert_eq!(by_file, by_flag, "{preset}");
     }
 }
+
+/// Item 7: a portal quad tagged only by its material, the material misspelt (`visportl`), is a
+/// near miss with the fix, as a misspelt node name is; the door was silently closed before.
+#[test]
+fn a_misspelt_portal_material_is_a_near_miss() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sample("two_rooms.gltf")).unwrap()).unwrap();
+    for n in doc["nodes"].as_array_mut().unwrap() {
+        if n["name"] == "lounge-portal" {
+            n["name"] = "DoorQuad".into();
+        }
+    }
+    for m in doc["materials"].as_array_mut().unwrap() {
+        if m["name"] == "portal" {
+            m["name"] = "textures/editor/visportl".into();
+        }
+    }
+    let path = dir.path().join("level.gltf");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let o = portcullis()
+        .args(["check", "--format", "json"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let miss = v["files"][0]["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|d| d["code"] == "TAG_NEAR_MISS")
+        .unwrap_or_else(|| panic!("{v:#}"))
+        .clone();
+    let (msg, hint) = (
+        miss["message"].as_str().unwrap(),
+        miss["hint"].as_str().unwrap(),
+    );
+    assert!(
+        msg.contains("material `textures/editor/visportl`") && msg.contains("portal tag"),
+        "{msg}"
+    );
+    assert!(hint.contains("`textures/editor/visportal`"), "{hint}");
+    // Spelt right, the quad is the door again and nothing is missed.
+    let fixed = doc.to_string().replace("visportl", "visportal");
+    std::fs::write(&path, fixed).unwrap();
+    let o = portcullis()
+        .args(["check", "--format", "json"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let codes: Vec<&str> = v["files"][0]["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["code"].as_str().unwrap())
+        .collect();
+    assert!(!codes.contains(&"TAG_NEAR_MISS"), "{codes:?}");
+}

@@ -255,6 +255,18 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
 /// What `recognise` carries from pass to pass: every node's classification, which room each
 /// node belongs to so far, and the tagging and diagnostics being built, so that each pass is
 /// one function over the same facts and the diagnostics keep the order the passes make them.
+/// The first material of node `n`'s mesh that no rule accepts but a material rule narrowly
+/// misses.
+fn material_miss(scene: &Scene, rules: &RuleSet, n: NodeId) -> Option<near_miss::Miss> {
+    let mesh = scene.nodes[n].mesh?;
+    scene
+        .mesh_material_names(mesh)
+        .into_iter()
+        .flatten()
+        .filter(|m| rules.match_text(MatchOn::Material, m).is_none())
+        .find_map(|m| near_miss::check_material(rules, m))
+}
+
 struct Recognition<'a> {
     scene: &'a Scene,
     rules: &'a RuleSet,
@@ -284,7 +296,8 @@ impl<'a> Recognition<'a> {
                     let miss = match (&class, scene.nodes[n].name.as_deref()) {
                         (None, Some(name)) => near_miss::check(rules, name),
                         _ => None,
-                    };
+                    }
+                    .or_else(|| class.is_none().then(|| material_miss(scene, rules, n))?);
                     (class, miss, d)
                 })
                 .collect();
@@ -571,37 +584,59 @@ impl<'a> Recognition<'a> {
                 }),
             }
         }
-        if let Some(name) = scene.nodes[n].name.as_deref() {
-            if let Some(miss) = self.misses[n].take() {
-                let rule = &self.rules.rules[miss.rule].spec;
-                let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
-                self.diags.push(
-                    Diagnostic::new(
-                        Code::TAG_NEAR_MISS,
-                        format!(
-                            "`{name}` looks like a {} tag but matches no rule ({}: rule `{}` accepts names like `{example}`)",
-                            rule.kind.as_str(),
-                            miss.slip,
-                            rule.id
-                        ),
-                        node_location(scene, n),
-                    )
-                    .hint(format!(
+        let Some(miss) = self.misses[n].take() else {
+            return;
+        };
+        let rule = &self.rules.rules[miss.rule].spec;
+        let example = rule.example.as_deref().unwrap_or(rule.id.as_str());
+        let (what, name, hint) = match &miss.material {
+            Some(m) => (
+                format!("material `{m}` of `{}`", scene.node_label(n)),
+                m.clone(),
+                format!(
+                    "rename the material to `{}`, or add a rule for this spelling in portcullis.toml",
+                    miss.suggestion
+                ),
+            ),
+            None => {
+                let name = scene.nodes[n].name.clone().unwrap_or_default();
+                (
+                    format!("`{name}`"),
+                    name,
+                    format!(
                         "rename it to `{}`, or add a rule for this spelling in portcullis.toml",
                         miss.suggestion
-                    )),
-                );
-                self.t.near_misses.push(NearMiss {
-                    node: n,
-                    path: scene.node_path(n),
-                    name: name.to_string(),
-                    kind: rule.kind,
-                    rule: rule.id.clone(),
-                    suggestion: miss.suggestion,
-                    slip: miss.slip.to_string(),
-                });
+                    ),
+                )
             }
-        }
+        };
+        let named = if miss.material.is_some() {
+            "materials"
+        } else {
+            "names"
+        };
+        self.diags.push(
+            Diagnostic::new(
+                Code::TAG_NEAR_MISS,
+                format!(
+                    "{what} looks like a {} tag but matches no rule ({}: rule `{}` accepts {named} like `{example}`)",
+                    rule.kind.as_str(),
+                    miss.slip,
+                    rule.id
+                ),
+                node_location(scene, n),
+            )
+            .hint(hint),
+        );
+        self.t.near_misses.push(NearMiss {
+            node: n,
+            path: scene.node_path(n),
+            name,
+            kind: rule.kind,
+            rule: rule.id.clone(),
+            suggestion: miss.suggestion,
+            slip: miss.slip.to_string(),
+        });
     }
 
     /// Reports a level in which no room was found, then hands the tagging over with every

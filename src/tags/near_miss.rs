@@ -15,6 +15,8 @@ pub struct Miss {
     pub rule: usize,
     pub suggestion: String,
     pub slip: &'static str,
+    /// The material name that missed, for a material rule's near miss (else the node's name).
+    pub material: Option<String>,
 }
 
 const SEPARATORS: [char; 4] = ['-', '_', '.', ' '];
@@ -171,6 +173,7 @@ fn misspelt_affix(rules: &RuleSet, name: &str) -> Option<Miss> {
                 rule: m.rule,
                 suggestion,
                 slip: "a misspelt tag word",
+                material: None,
             });
         }
     }
@@ -186,9 +189,92 @@ pub fn check(rules: &RuleSet, name: &str) -> Option<Miss> {
                 rule: m.rule,
                 suggestion: v,
                 slip,
+                material: None,
             })
         })
         .or_else(|| misspelt_affix(rules, name))
+}
+
+/// The material rule a material name narrowly misses, if any: the typical slips of
+/// [`check`], or the last part of its path (after any folder) within an edit or two of the
+/// last part of a material rule's example (`visportl` for `textures/editor/visportal`), the
+/// first letter right. A misspelt portal material is a door silently closed, so it is said.
+/// Call only for materials no rule accepts.
+pub fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
+    if let Some(m) = variants(material).into_iter().find_map(|(v, slip)| {
+        rules.match_text(MatchOn::Material, &v).map(|m| Miss {
+            rule: m.rule,
+            suggestion: v,
+            slip,
+            material: Some(material.to_string()),
+        })
+    }) {
+        return Some(m);
+    }
+    let base = strip_duplicate_suffix(material.trim());
+    let (folder, last) = match base.rfind('/') {
+        Some(i) => (&base[..=i], &base[i + 1..]),
+        None => ("", base.as_str()),
+    };
+    let word = last.to_lowercase();
+    for (i, r) in rules.rules.iter().enumerate() {
+        if r.spec.on != MatchOn::Material {
+            continue;
+        }
+        for want in material_words(r) {
+            if word == want || word.chars().next() != want.chars().next() {
+                continue;
+            }
+            let allowed = if want.chars().count() >= 7 { 2 } else { 1 };
+            if strsim::damerau_levenshtein(&word, &want) > allowed {
+                continue;
+            }
+            let suggestion = format!("{folder}{want}");
+            if rules
+                .match_text(MatchOn::Material, &suggestion)
+                .is_some_and(|m| m.rule == i)
+            {
+                return Some(Miss {
+                    rule: i,
+                    suggestion,
+                    slip: "a misspelt tag word",
+                    material: Some(material.to_string()),
+                });
+            }
+        }
+    }
+    None
+}
+
+/// The words a material rule accepts at the end of a name: its example's last part, and the
+/// literal endings its pattern allows (`nodraw`, `skip`, `caulk`), lower case.
+fn material_words(r: &Rule) -> Vec<String> {
+    use regex_syntax::hir::literal::{ExtractKind, Extractor};
+    let mut out: Vec<String> = r
+        .spec
+        .example
+        .iter()
+        .map(|e| e.rsplit('/').next().unwrap_or(e).to_lowercase())
+        .collect();
+    if let Some(hir) = r
+        .spec
+        .pattern
+        .as_deref()
+        .and_then(|p| regex_syntax::parse(p).ok())
+    {
+        let seq = Extractor::new().kind(ExtractKind::Suffix).extract(&hir);
+        for lit in seq.literals().unwrap_or(&[]) {
+            if let Ok(text) = std::str::from_utf8(lit.as_bytes()) {
+                let w = text.rsplit('/').next().unwrap_or(text).to_lowercase();
+                if w.chars().count() >= 3 && w.chars().all(char::is_alphanumeric) {
+                    out.push(w);
+                }
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
 }
 
 #[cfg(test)]
@@ -287,6 +373,23 @@ mod tests {
             );
         }
         assert!(r.match_text(MatchOn::Name, "kitchen-room.5").is_none());
+    }
+
+    #[test]
+    fn misspelt_portal_and_tool_materials_are_caught() {
+        let r = default_rules();
+        for (material, want) in [
+            ("visportl", "visportal"),
+            ("textures/editor/visportl", "textures/editor/visportal"),
+            ("Portal ", "Portal"),
+            ("textures/common/cualk", "textures/common/caulk"),
+        ] {
+            let m = check_material(&r, material).unwrap_or_else(|| panic!("{material}"));
+            assert_eq!(m.suggestion, want, "{material}");
+        }
+        for ordinary in ["concrete", "wall_portrait", "brick/red", "plaster", "sky"] {
+            assert!(check_material(&r, ordinary).is_none(), "{ordinary} flagged");
+        }
     }
 
     #[test]
