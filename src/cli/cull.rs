@@ -1,7 +1,7 @@
 //! `portcullis cull LEVEL --cameras FILE`: what each camera sees, by the runtime an engine
 //! would run ([`portcullis::runtime`]), so a designer can ask "what is drawn from here".
 
-use std::io::Write;
+use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
 use clap::Args;
@@ -12,7 +12,16 @@ use portcullis::diag::{Code, Diagnostic, Location as At};
 use portcullis::report::{human, style::Style};
 use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
 
-use super::Format;
+/// How `cull` writes its answers, each as soon as its camera is traced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CullFormat {
+    /// Text for people.
+    Human,
+    /// One JSON array, one object per camera in order (written as the cameras are traced).
+    Json,
+    /// One JSON object per line, per camera in order: for fly-throughs of any length.
+    Jsonl,
+}
 
 #[derive(Debug, Args)]
 pub struct CullArgs {
@@ -23,13 +32,17 @@ pub struct CullArgs {
 
     /// Cameras, one JSON object per line: {"eye":[x,y,z], "look":[x,y,z] (a direction),
     /// "up":[x,y,z], "fov_y":degrees, "aspect":width/height, "near":metres}. `up` defaults to
-    /// [0,1,0], `fov_y` to 60, `aspect` to 16/9, `near` to 0.05; blank lines are skipped.
+    /// [0,1,0], `fov_y` to 60, `aspect` to 16/9, `near` to 0.05; blank lines are skipped. `-`
+    /// reads them from standard input as they come. A file is checked whole before any answer
+    /// is written; from standard input or a pipe, a bad line stops the run where it is.
     #[arg(long, value_name = "FILE")]
     pub cameras: PathBuf,
 
-    /// Output format: human, or json (an array, one object per camera in order).
+    /// Output format: human, json (an array, one object per camera in order) or jsonl (one
+    /// object per line). Answers are written as the cameras are traced: memory does not grow
+    /// with their number.
     #[arg(long, value_enum, default_value = "human")]
-    pub format: Format,
+    pub format: CullFormat,
 
     /// Close a portal (the extension's index) and its partner, as a door at run time. Repeat
     /// for several; a portal (or its partner) given twice, or with --open too, is an error.
@@ -89,49 +102,69 @@ fn fail(d: Diagnostic, style: &Style) -> i32 {
 
 const CAMERA_HINT: &str = "one JSON object per line, e.g. {\"eye\":[1,1.6,2],\"look\":[1,0,0],\"up\":[0,1,0],\"fov_y\":70,\"aspect\":1.78,\"near\":0.05}";
 
-/// Every camera of `path`, or what is wrong with the file or its first bad line.
-fn read_cameras(path: &Path) -> Result<Vec<View>, Diagnostic> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        Diagnostic::new(
-            Code::IO_READ_FAILED,
-            format!("the cameras file cannot be read: {e}"),
-            At::file(path),
-        )
-        .hint("check the path given with --cameras")
-    })?;
-    let mut views = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let bad = |m: String| {
-            Diagnostic::new(
-                Code::CULL_CAMERA_INVALID,
-                m,
-                At::file(path).with_line(i + 1),
-            )
-            .hint(CAMERA_HINT)
-        };
-        // The line is the location; serde's own "at line 1 column N" would name another line.
-        let c: Camera = serde_json::from_str(line).map_err(|e| {
-            let text = e.to_string();
-            let what = text
-                .rsplit_once(" at line ")
-                .map_or(text.as_str(), |(w, _)| w);
-            bad(format!("not a camera: {what} (column {})", e.column()))
-        })?;
-        let v = View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
-            .map_err(|e| bad(format!("not a usable camera: {e}")))?;
-        views.push(v);
+/// The camera on line `i` (0-based) of `path`, `None` for a blank line, or what is wrong
+/// with it.
+fn parse_camera(path: &Path, i: usize, line: &str) -> Result<Option<View>, Diagnostic> {
+    if line.trim().is_empty() {
+        return Ok(None);
     }
-    Ok(views)
+    let bad = |m: String| {
+        Diagnostic::new(
+            Code::CULL_CAMERA_INVALID,
+            m,
+            At::file(path).with_line(i + 1),
+        )
+        .hint(CAMERA_HINT)
+    };
+    // The line is the location; serde's own "at line 1 column N" would name another line.
+    let c: Camera = serde_json::from_str(line).map_err(|e| {
+        let text = e.to_string();
+        let what = text
+            .rsplit_once(" at line ")
+            .map_or(text.as_str(), |(w, _)| w);
+        bad(format!("not a camera: {what} (column {})", e.column()))
+    })?;
+    View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
+        .map(Some)
+        .map_err(|e| bad(format!("not a usable camera: {e}")))
+}
+
+fn unreadable(path: &Path, e: std::io::Error) -> Diagnostic {
+    Diagnostic::new(
+        Code::IO_READ_FAILED,
+        format!("the cameras file cannot be read: {e}"),
+        At::file(path),
+    )
+    .hint("check the path given with --cameras")
+}
+
+/// The cameras' lines, from the file or (for `-`) standard input, read as they come.
+fn camera_lines(path: &Path) -> Result<Box<dyn BufRead>, Diagnostic> {
+    if path == Path::new("-") {
+        return Ok(Box::new(std::io::stdin().lock()));
+    }
+    let f = std::fs::File::open(path).map_err(|e| unreadable(path, e))?;
+    Ok(Box::new(std::io::BufReader::new(f)))
+}
+
+/// A regular file's cameras are all checked before any answer is written (a bad line is an
+/// error with nothing printed); keeps nothing but the first problem.
+fn check_cameras(path: &Path) -> Result<(), Diagnostic> {
+    let regular = path != Path::new("-") && std::fs::metadata(path).is_ok_and(|m| m.is_file());
+    if !regular {
+        return Ok(());
+    }
+    for (i, line) in camera_lines(path)?.lines().enumerate() {
+        let line = line.map_err(|e| unreadable(path, e))?;
+        parse_camera(path, i, &line)?;
+    }
+    Ok(())
 }
 
 pub fn run(a: &CullArgs, style: &Style) -> i32 {
-    let views = match read_cameras(&a.cameras) {
-        Ok(v) => v,
-        Err(d) => return fail(d, style),
-    };
+    if let Err(d) = check_cameras(&a.cameras) {
+        return fail(d, style);
+    }
     let level = match Level::load(&a.level) {
         Ok(l) => l,
         Err(e) => {
@@ -181,22 +214,17 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
         max_transform_depth: a.transform_depth,
         use_pvs: !a.no_pvs,
     };
-    let mut trace = Trace::default();
-    let mut results = Vec::with_capacity(views.len());
-    for v in &views {
-        level.trace(v, &doors, &opts, &mut trace);
-        results.push(report(&trace));
-    }
+    let lines = match camera_lines(&a.cameras) {
+        Ok(l) => l,
+        Err(d) => return fail(d, style),
+    };
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    let written = match a.format {
-        Format::Json => serde_json::to_writer_pretty(&mut out, &Value::Array(results))
-            .map_err(std::io::Error::other)
-            .and_then(|_| writeln!(out)),
-        Format::Human => human(&mut out, &level, &results),
-    }
-    .and_then(|_| out.flush());
-    match written {
-        Ok(()) => 0,
+    match stream(a, &level, &doors, &opts, lines, &mut out) {
+        Ok(Ok(())) => 0,
+        Ok(Err(d)) => {
+            let _ = out.flush();
+            fail(d, style)
+        }
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => 0,
         Err(e) => fail(
             Diagnostic::new(
@@ -208,6 +236,66 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
             style,
         ),
     }
+}
+
+/// Traces each camera as its line is read and writes its answer at once: nothing but the
+/// trace's buffers is kept from one camera to the next. The outer error is the output's;
+/// the inner one a camera line that stopped the run (from a pipe, where lines are not
+/// checked first).
+fn stream(
+    a: &CullArgs,
+    level: &Level,
+    doors: &Doors,
+    opts: &TraceOptions,
+    lines: Box<dyn BufRead>,
+    out: &mut dyn Write,
+) -> std::io::Result<Result<(), Diagnostic>> {
+    let mut trace = Trace::default();
+    let mut n = 0;
+    if a.format == CullFormat::Json {
+        out.write_all(b"[")?;
+    }
+    for (i, line) in lines.lines().enumerate() {
+        let line = match line {
+            Ok(l) => l,
+            Err(e) => return Ok(Err(unreadable(&a.cameras, e))),
+        };
+        let view = match parse_camera(&a.cameras, i, &line) {
+            Ok(Some(v)) => v,
+            Ok(None) => continue,
+            Err(d) => return Ok(Err(d)),
+        };
+        level.trace(&view, doors, opts, &mut trace);
+        let r = report(&trace);
+        n += 1;
+        match a.format {
+            // As serde_json's pretty array: each element indented by two spaces.
+            CullFormat::Json => {
+                out.write_all(if n == 1 { b"\n" } else { b",\n" })?;
+                let text = serde_json::to_string_pretty(&r).map_err(std::io::Error::other)?;
+                for (k, l) in text.lines().enumerate() {
+                    if k > 0 {
+                        out.write_all(b"\n")?;
+                    }
+                    write!(out, "  {l}")?;
+                }
+            }
+            CullFormat::Jsonl => {
+                serde_json::to_writer(&mut *out, &r).map_err(std::io::Error::other)?;
+                out.write_all(b"\n")?;
+            }
+            CullFormat::Human => human(out, level, n, &r)?,
+        }
+        // A pipe's reader sees each answer as its camera is done.
+        if a.cameras == Path::new("-") {
+            out.flush()?;
+        }
+    }
+    if a.format == CullFormat::Json {
+        out.write_all(if n == 0 { b"]\n" } else { b"\n]\n" })?;
+    }
+    out.flush()?;
+    Ok(Ok(()))
 }
 
 /// One camera's result as `cull --format json` prints it.
@@ -250,12 +338,14 @@ fn round(x: f64) -> f64 {
     }
 }
 
-fn human(out: &mut dyn Write, level: &Level, results: &[Value]) -> std::io::Result<()> {
+/// Camera `number`'s answer as text.
+fn human(out: &mut dyn Write, level: &Level, number: usize, r: &Value) -> std::io::Result<()> {
     let name = |c: &Value| match c.as_u64() {
         Some(c) => format!("cell {c} ({})", level.room(c as usize)),
         None => "the outside".to_string(),
     };
-    for (i, r) in results.iter().enumerate() {
+    {
+        let i = number - 1;
         let visible = r["visible"].as_array().map_or(&[][..], |v| v.as_slice());
         let at = match r["location"].as_str() {
             Some("outside") => match r["nearest"].as_u64() {
