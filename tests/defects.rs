@@ -308,3 +308,52 @@ fn cull_streams_its_answers() {
     assert_eq!(o.status.code(), Some(2));
     assert!(o.stdout.is_empty(), "a file is checked before any answer");
 }
+
+/// Item 2: files whose names are not UTF-8 keep their entries and diagnostics in every report
+/// (`check --format json` wrote `"files":[null, null]` while counting their warnings;
+/// `inspect --format json` panicked): the name written lossily, its bytes in `file_bytes`.
+#[cfg(unix)]
+#[test]
+fn reports_keep_files_whose_names_are_not_utf8() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for name in [&b"a\xff.gltf"[..], &b"b\xfe.gltf"[..]] {
+        let path = dir.path().join(std::ffi::OsStr::from_bytes(name));
+        std::fs::copy(sample("overlap_rooms.gltf"), &path).unwrap();
+        files.push(path);
+    }
+    let run = |args: &[&str]| {
+        let o = portcullis().args(args).args(&files).output().unwrap();
+        assert!(
+            o.status.code() == Some(0),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        o.stdout
+    };
+    let v: serde_json::Value =
+        serde_json::from_slice(&run(&["check", "--format", "json"])).unwrap();
+    let listed = v["files"].as_array().unwrap();
+    assert_eq!(listed.len(), 2);
+    let mut warnings = 0;
+    for (f, path) in listed.iter().zip(&files) {
+        assert!(f.is_object(), "{v:#}");
+        assert_eq!(f["file"], path.to_string_lossy().as_ref());
+        let bytes: Vec<u8> = serde_json::from_value(f["file_bytes"].clone()).unwrap();
+        assert_eq!(bytes, path.as_os_str().as_bytes());
+        warnings += f["diagnostics"].as_array().unwrap().len();
+    }
+    assert_eq!(v["summary"]["warnings"], warnings);
+    let sarif: serde_json::Value =
+        serde_json::from_slice(&run(&["check", "--format", "sarif"])).unwrap();
+    assert_eq!(sarif["runs"][0]["results"].as_array().unwrap().len(), 2);
+    let junit = String::from_utf8(run(&["check", "--format", "junit"])).unwrap();
+    assert_eq!(junit.matches("<testcase").count(), 2);
+    let inspected: serde_json::Value =
+        serde_json::from_slice(&run(&["inspect", "--format", "json"])).unwrap();
+    for (f, path) in inspected["files"].as_array().unwrap().iter().zip(&files) {
+        let bytes: Vec<u8> = serde_json::from_value(f["path_bytes"].clone()).unwrap();
+        assert_eq!(bytes, path.as_os_str().as_bytes());
+    }
+}

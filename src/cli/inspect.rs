@@ -47,10 +47,17 @@ pub struct InspectArgs {
 /// The JSON view of one file.
 #[derive(Debug, Serialize)]
 struct FileReport {
+    #[serde(serialize_with = "portcullis::diag::lossy_path")]
     path: PathBuf,
+    /// The name's bytes when it is not UTF-8 (`path` is then written lossily).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    path_bytes: Option<Vec<u8>>,
     /// False when the file could not be read at all.
     ok: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "portcullis::diag::lossy_path_opt"
+    )]
     config: Option<PathBuf>,
     #[serde(skip_serializing_if = "Option::is_none")]
     scene: Option<SceneSummary>,
@@ -102,6 +109,7 @@ fn failed_report(path: &std::path::Path, d: Diagnostic) -> FileReport {
 fn bare_report(path: &std::path::Path, ok: bool, diagnostics: Vec<Diagnostic>) -> FileReport {
     FileReport {
         path: path.to_path_buf(),
+        path_bytes: portcullis::diag::raw_path_bytes(path),
         ok,
         config: None,
         scene: None,
@@ -493,6 +501,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                 totals.add(t.diagnostics.iter());
                 FileReport {
                     path: path.clone(),
+                    path_bytes: portcullis::diag::raw_path_bytes(path),
                     ok: true,
                     config: t.config.path.clone(),
                     scene: Some(summarize(&t.scene)),

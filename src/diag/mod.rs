@@ -46,12 +46,38 @@ impl fmt::Display for Severity {
     }
 }
 
+/// A path as text for reports: a name that is not UTF-8 is written lossily (each bad byte as
+/// U+FFFD) but readably, never dropped (serde refuses such a path, and a whole report entry
+/// became `null`).
+pub fn lossy_path<S: serde::Serializer>(p: &std::path::Path, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&p.to_string_lossy())
+}
+
+/// [`lossy_path`] for an optional path.
+pub fn lossy_path_opt<S: serde::Serializer>(p: &Option<PathBuf>, s: S) -> Result<S::Ok, S::Error> {
+    match p {
+        Some(p) => lossy_path(p, s),
+        None => s.serialize_none(),
+    }
+}
+
+/// The bytes of a path whose name is not UTF-8 (what a script needs to open it again), else
+/// `None`.
+pub fn raw_path_bytes(p: &std::path::Path) -> Option<Vec<u8>> {
+    p.to_str()
+        .is_none()
+        .then(|| p.as_os_str().as_encoded_bytes().to_vec())
+}
+
 /// A place in a level: the file, and as much of node path / JSON pointer / line / 3D point as
 /// is known.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Location {
     /// The file the finding is in (`None`: not about a file, e.g. a bad option).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "lossy_path_opt"
+    )]
     pub file: Option<PathBuf>,
     /// The node's slash-separated path, as in the designer's outliner.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -9,7 +9,9 @@ use crate::diag::{Diagnostic, Severity};
 /// What `check` found for one input file, as every report format shows it.
 #[derive(Debug, Clone, Serialize)]
 pub struct FileReport {
-    /// The input as given on the command line.
+    /// The input as given on the command line (as text, lossily when the name is not UTF-8;
+    /// the JSON report adds its bytes as `file_bytes` then).
+    #[serde(serialize_with = "crate::diag::lossy_path")]
     pub file: PathBuf,
     /// The file could not be checked at all (unreadable, not a level); its diagnostics say why.
     /// In JSON `unprocessed`, so a level with errors is not reported `"failed": false`.

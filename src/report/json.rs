@@ -14,6 +14,9 @@ pub fn report(files: &[FileReport], totals: &Totals) -> Value {
             let mut v = serde_json::to_value(f).unwrap_or(Value::Null);
             if let Some(o) = v.as_object_mut() {
                 o.insert("status".into(), json!(f.status()));
+                if let Some(bytes) = crate::diag::raw_path_bytes(&f.file) {
+                    o.insert("file_bytes".into(), json!(bytes));
+                }
             }
             v
         }).collect::<Vec<_>>(),
