@@ -14,24 +14,20 @@ fn portcullis() -> assert_cmd::Command {
 fn view_writes_nothing_for_an_empty_shard() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("page.html");
-    let o = portcullis()
-        .args(["view", "--shard", "2/2"])
-        .arg(sample("two_rooms.gltf"))
-        .arg("-o")
-        .arg(&page)
-        .output()
-        .unwrap();
+    let view = |shard: &str| {
+        portcullis()
+            .args(["view", "--shard", shard])
+            .arg(sample("two_rooms.gltf"))
+            .arg("-o")
+            .arg(&page)
+            .output()
+            .unwrap()
+    };
+    let o = view("2/2");
     assert_eq!(o.status.code(), Some(0));
     assert!(!page.exists(), "an empty shard wrote the page");
     assert!(String::from_utf8_lossy(&o.stderr).contains("shard 2/2: 0 of 1 inputs"));
-    let o = portcullis()
-        .args(["view", "--shard", "1/2"])
-        .arg(sample("two_rooms.gltf"))
-        .arg("-o")
-        .arg(&page)
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(view("1/2").status.code(), Some(0));
     assert!(page.exists());
 }
 
