@@ -177,13 +177,16 @@ fn a_misspelt_portal_material_is_a_near_miss() {
         }
     }
     let path = dir.path().join("level.gltf");
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let o = portcullis()
-        .args(["check", "--format", "json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let check = |text: String| -> serde_json::Value {
+        std::fs::write(&path, text).unwrap();
+        let o = portcullis()
+            .args(["check", "--format", "json"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let v = check(doc.to_string());
     let miss = v["files"][0]["diagnostics"]
         .as_array()
         .unwrap()
@@ -201,14 +204,7 @@ fn a_misspelt_portal_material_is_a_near_miss() {
     );
     assert!(hint.contains("`textures/editor/visportal`"), "{hint}");
     // Spelt right, the quad is the door again and nothing is missed.
-    let fixed = doc.to_string().replace("visportl", "visportal");
-    std::fs::write(&path, fixed).unwrap();
-    let o = portcullis()
-        .args(["check", "--format", "json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let v = check(doc.to_string().replace("visportl", "visportal"));
     let codes: Vec<&str> = v["files"][0]["diagnostics"]
         .as_array()
         .unwrap()
