@@ -255,16 +255,34 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
 /// What `recognise` carries from pass to pass: every node's classification, which room each
 /// node belongs to so far, and the tagging and diagnostics being built, so that each pass is
 /// one function over the same facts and the diagnostics keep the order the passes make them.
-/// The first material of node `n`'s mesh that no rule accepts but a material rule narrowly
-/// misses.
-fn material_miss(scene: &Scene, rules: &RuleSet, n: NodeId) -> Option<near_miss::Miss> {
-    let mesh = scene.nodes[n].mesh?;
+/// Per material of the scene (its index), the near miss of a material rule, when no rule
+/// accepts the material: found once per material, not per node using it.
+fn material_misses(scene: &Scene, rules: &RuleSet) -> Vec<Option<near_miss::Miss>> {
     scene
-        .mesh_material_names(mesh)
-        .into_iter()
-        .flatten()
-        .filter(|m| rules.match_text(MatchOn::Material, m).is_none())
-        .find_map(|m| near_miss::check_material(rules, m))
+        .materials
+        .iter()
+        .map(|m| {
+            let name = m.name.as_deref()?;
+            if rules.match_text(MatchOn::Material, name).is_some() {
+                return None;
+            }
+            near_miss::check_material(rules, name)
+        })
+        .collect()
+}
+
+/// The first material of node `n`'s mesh that no rule accepts but a material rule narrowly
+/// misses (`misses` from [`material_misses`]).
+fn material_miss(
+    scene: &Scene,
+    misses: &[Option<near_miss::Miss>],
+    n: NodeId,
+) -> Option<near_miss::Miss> {
+    let mesh = scene.nodes[n].mesh?;
+    scene.meshes[mesh]
+        .primitives
+        .iter()
+        .find_map(|p| misses.get(p.material?)?.clone())
 }
 
 struct Recognition<'a> {
@@ -287,6 +305,7 @@ impl<'a> Recognition<'a> {
         // Each node is classified on its own (on every thread: a big level has tens of thousands),
         // what that reports kept in node order; so are the near misses of unclassified names.
         use rayon::prelude::*;
+        let by_material = material_misses(scene, rules);
         let classified: Vec<(Option<Class>, Option<near_miss::Miss>, Diagnostics)> =
             (0..scene.nodes.len())
                 .into_par_iter()
@@ -297,7 +316,11 @@ impl<'a> Recognition<'a> {
                         (None, Some(name)) => near_miss::check(rules, name),
                         _ => None,
                     }
-                    .or_else(|| class.is_none().then(|| material_miss(scene, rules, n))?);
+                    .or_else(|| {
+                        class
+                            .is_none()
+                            .then(|| material_miss(scene, &by_material, n))?
+                    });
                     (class, miss, d)
                 })
                 .collect();

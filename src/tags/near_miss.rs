@@ -217,16 +217,14 @@ pub fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
         None => ("", base.as_str()),
     };
     let word = last.to_lowercase();
-    for (i, r) in rules.rules.iter().enumerate() {
-        if r.spec.on != MatchOn::Material {
-            continue;
-        }
-        for want in material_words(r) {
-            if word == want || word.chars().next() != want.chars().next() {
+    for (i, words) in &rules.material_words {
+        let i = *i;
+        for want in words {
+            if word == *want || word.chars().next() != want.chars().next() {
                 continue;
             }
             let allowed = if want.chars().count() >= 7 { 2 } else { 1 };
-            if strsim::damerau_levenshtein(&word, &want) > allowed {
+            if strsim::damerau_levenshtein(&word, want) > allowed {
                 continue;
             }
             let suggestion = format!("{folder}{want}");
@@ -246,9 +244,20 @@ pub fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
     None
 }
 
+/// For each material rule (its index), the words it accepts at the end of a name; computed
+/// once per rule set, as the affixes are.
+pub fn material_words(rules: &[Rule]) -> Vec<(usize, Vec<String>)> {
+    rules
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.spec.on == MatchOn::Material)
+        .map(|(i, r)| (i, rule_material_words(r)))
+        .collect()
+}
+
 /// The words a material rule accepts at the end of a name: its example's last part, and the
 /// literal endings its pattern allows (`nodraw`, `skip`, `caulk`), lower case.
-fn material_words(r: &Rule) -> Vec<String> {
+fn rule_material_words(r: &Rule) -> Vec<String> {
     use regex_syntax::hir::literal::{ExtractKind, Extractor};
     let mut out: Vec<String> = r
         .spec

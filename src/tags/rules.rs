@@ -203,6 +203,8 @@ pub struct RuleSet {
     pub(crate) rules: Vec<Rule>,
     /// The literal prefixes and suffixes of the name rules, for near misses.
     pub(crate) affixes: Vec<super::near_miss::Affix>,
+    /// Per material rule (its index), the words it accepts at a name's end, for near misses.
+    pub(crate) material_words: Vec<(usize, Vec<String>)>,
 }
 
 /// The parts a rule pulled out of a name or extras value.
@@ -267,12 +269,14 @@ impl RuleSet {
             });
         }
         let affixes = super::near_miss::affixes(&rules);
+        let material_words = super::near_miss::material_words(&rules);
         Ok(RuleSet {
             name: spec.name.clone(),
             case_sensitive: spec.case_sensitive,
             wildcard: spec.wildcard,
             rules,
             affixes,
+            material_words,
         })
     }
 
