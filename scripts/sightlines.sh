@@ -3,13 +3,18 @@
 # every bundled sample, every shared level (../shared/levels, the Doom maps under --tags doom)
 # and a generated 300-room building, as one Markdown table: cells, the PVS's pairs of
 # different cells, the share some ray confirmed, and the sightlines the PVS misses (must be 0).
-# Release build; not a test (minutes). Usage: scripts/sightlines.sh [RAYS]
+# Release build; not a test (minutes). Usage: [SHARED_LEVELS=DIR] scripts/sightlines.sh [RAYS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rays="${1:-5000}"
 cargo build --release --quiet
 bin=target/release/portcullis
-shared=../shared/levels
+# The shared third-party levels: beside the project, or where SHARED_LEVELS says.
+shared="${SHARED_LEVELS:-../shared/levels}"
+if [ ! -d "$shared/freedoom" ]; then
+  echo "error: no shared levels in $shared; set SHARED_LEVELS to the folder holding freedoom/, godot/, ..." >&2
+  exit 2
+fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$bin" gen --rooms 300 --seed 1 -o "$tmp/building_300.glb" >/dev/null 2>&1
