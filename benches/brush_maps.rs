@@ -16,7 +16,7 @@ use std::time::Instant;
 mod common;
 
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, build_portals, check_level, load_tagged, LoadOptions};
+use portcullis::pipeline::{check, load, LoadOptions};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -29,15 +29,13 @@ fn ours(path: &Path) -> (f64, f64, usize, usize, bool) {
     let mut last = (0, 0, false);
     for _ in 0..5 {
         let start = Instant::now();
-        let mut t = load_tagged(path, &LoadOptions::default()).expect("the map reads");
-        let c = build_cells(&mut t);
-        let p = build_portals(&mut t, &c);
-        check_level(&mut t, &c, &p, true);
+        let mut level = load(path, &LoadOptions::default()).expect("the map reads");
+        check(&mut level, true);
         times.push(start.elapsed().as_secs_f64());
         last = (
-            c.cells.len(),
-            p.portals.len(),
-            t.diagnostics.has(Code::LEAK),
+            level.cells.cells.len(),
+            level.portals.portals.len(),
+            level.diagnostics.has(Code::LEAK),
         );
     }
     let slowest = times.iter().copied().fold(0.0, f64::max);

@@ -42,7 +42,8 @@ mod map;
 #[path = "../src/rng.rs"]
 mod rng;
 
-use portcullis::pipeline::{build_cells, build_portals, full_pvs, load_tagged, LoadOptions};
+use portcullis::pipeline::{load, pvs, LoadOptions};
+use portcullis::vis::Method;
 
 /// Brushes shrink by this much (map units) for sight, so a segment that only grazes a face or
 /// runs along a seam between two brushes is not blocked (touching is not blocking).
@@ -307,11 +308,10 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
 
     // Ours: the whole job up to the PVS, as `portcullis convert` runs it.
     let start = Instant::now();
-    let mut t = load_tagged(path, &LoadOptions::default()).map_err(|d| d.message.clone())?;
-    let c = build_cells(&mut t);
-    let p = build_portals(&mut t, &c);
+    let level = load(path, &LoadOptions::default()).map_err(|d| d.message.clone())?;
+    let c = &level.cells;
     let pvs_start = Instant::now();
-    let pvs = full_pvs(&t, &c, &p);
+    let pvs = pvs(&level, Method::Full);
     let ours_s = start.elapsed().as_secs_f64();
     let pvs_s = pvs_start.elapsed().as_secs_f64();
 

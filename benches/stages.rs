@@ -18,10 +18,10 @@ mod rng;
 #[path = "../src/bin/portcullis-floor/round_trip.rs"]
 mod round_trip;
 use portcullis::cells::CellSet;
-use portcullis::export::gltf_out::{self, OutFormat};
+use portcullis::export::output::{self, Output};
+use portcullis::export::{gltf_out, OutFormat, Target};
 use portcullis::gen::{self, GenOptions};
 use portcullis::pipeline::{self, Tagged};
-use portcullis::portals::PortalSet;
 use portcullis::vis::{Method, VisGraph, VisOptions};
 
 fn main() {
@@ -70,10 +70,10 @@ fn with_cells(rooms: usize) -> (Tagged, CellSet) {
     (t, cells)
 }
 
-fn with_portals(rooms: usize) -> (Tagged, CellSet, PortalSet) {
+fn with_portals(rooms: usize) -> pipeline::Level {
     let (mut t, cells) = with_cells(rooms);
     let portals = pipeline::build_portals(&mut t, &cells);
-    (t, cells, portals)
+    pipeline::Level::new(t, cells, portals)
 }
 
 /// Reading and writing the same file with the gltf crate alone.
@@ -113,22 +113,14 @@ fn portals(b: Bencher, rooms: usize) {
 #[divan::bench(args = sizes(), sample_count = 10)]
 fn check(b: Bencher, rooms: usize) {
     b.with_inputs(|| with_portals(rooms))
-        .bench_refs(|(t, cells, portals)| pipeline::check_level(t, cells, portals, false));
+        .bench_refs(|level| pipeline::check(level, false));
 }
 
 #[divan::bench(args = sizes(), sample_count = 10)]
 fn export(b: Bencher, rooms: usize) {
-    let (t, cells, portals) = with_portals(rooms);
+    let level = with_portals(rooms);
     let out = output("export", rooms);
-    b.bench(|| {
-        pipeline::write(
-            &t,
-            &cells,
-            &portals,
-            &pipeline::WriteOptions::file(&out, OutFormat::Glb),
-        )
-        .unwrap()
-    });
+    b.bench(|| output::level(&level, None, &Output::file(&out, Target::Glb)).unwrap());
 }
 
 /// A PVS method, as a type: divan names each benchmark of a generic function by its type.
@@ -157,8 +149,9 @@ impl PvsMethod for Sampled {
 /// Each PVS method on the level's portal graph.
 #[divan::bench(types = [Flood, Fast, Full, Sampled], args = sizes(), sample_count = 10)]
 fn pvs<M: PvsMethod>(b: Bencher, rooms: usize) {
-    let (_, cells, portals) = with_portals(rooms);
-    let graph = VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance);
+    let level = with_portals(rooms);
+    let (cells, portals) = (&level.cells, &level.portals);
+    let graph = VisGraph::from_portal_set(cells.cells.len(), portals, cells.tolerance.distance);
     let opts = VisOptions {
         method: M::METHOD,
         ..Default::default()
@@ -174,11 +167,9 @@ fn sightlines(b: Bencher, level: &str) {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fixtures/third_party")
         .join(level);
-    let mut t = pipeline::load_tagged(&path, &Default::default()).unwrap();
-    let cells = pipeline::build_cells(&mut t);
-    let portals = pipeline::build_portals(&mut t, &cells);
-    let pvs = pipeline::full_pvs(&t, &cells, &portals);
-    b.bench(|| pipeline::audit_sightlines(&t, &cells, &portals, &pvs, 200));
+    let level = pipeline::load(&path, &Default::default()).unwrap();
+    let pvs = pipeline::pvs(&level, portcullis::vis::Method::Full);
+    b.bench(|| pipeline::audit(&level, &pvs, 200));
 }
 
 /// The converted level a `cull` benchmark traces: a Doom map of tests/fixtures, or the

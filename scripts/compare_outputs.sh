@@ -47,9 +47,9 @@ run() { # name, command... : stdout, stderr (paths made relative) and exit code 
     sed -i "s#$work#WORK#g; s#$here#HERE#g" "$out/$name.stdout" "$out/$name.stderr"
 }
 
-levels=$(ls samples/*.gltf samples/*.obj; find samples/broken -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' \) | sort;
-    find tests/fixtures -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' \) | sort;
-    ls ../shared/levels/{freedoom,godot,lportal,panda3d}/*.{glb,obj} 2> /dev/null)
+levels=$(ls samples/*.gltf samples/*.obj samples/*.map; find samples/broken -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' -o -name '*.map' \) | sort;
+    find tests/fixtures -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' -o -name '*.map' \) | sort;
+    ls ../shared/levels/*/*.{glb,gltf,obj,map} 2> /dev/null)
 for level in $levels; do
     name=$(echo "$level" | sed 's#^\.\./##; s#/#_#g')
     src=$(realpath "$level")

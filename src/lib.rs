@@ -10,14 +10,13 @@
 //! ```
 //! use portcullis::pipeline;
 //!
-//! let mut tagged = pipeline::load_tagged("samples/two_rooms.gltf".as_ref(), &Default::default())?;
-//! let cells = pipeline::build_cells(&mut tagged);
-//! let portals = pipeline::build_portals(&mut tagged, &cells);
-//! let pvs = pipeline::full_pvs(&tagged, &cells, &portals);
-//! println!("{} rooms, {} cells, {} portals", tagged.tagging.rooms.len(), cells.cells.len(),
-//!     portals.portals.len());
+//! let mut level = pipeline::load("samples/two_rooms.gltf".as_ref(), &Default::default())?;
+//! pipeline::check(&mut level, false);
+//! let pvs = pipeline::pvs(&level, portcullis::vis::Method::Full);
+//! println!("{} rooms, {} cells, {} portals", level.tagging().rooms.len(),
+//!     level.cells.cells.len(), level.portals.portals.len());
 //! assert!(pvs.sees(0, 0));
-//! for d in tagged.diagnostics.iter() {
+//! for d in level.diagnostics.iter() {
 //!     println!("{d}");
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())

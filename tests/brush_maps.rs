@@ -18,14 +18,14 @@ use common::map::{self, Entity};
 use glam::DVec3;
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, build_portals, check_level, Tagged};
+use portcullis::pipeline::{build_cells, build_portals, Tagged};
 
 /// Cells, portals and whether `check --sealed` finds a leak.
 fn verdict(entities: &[Entity]) -> (Tagged, CellSet, bool, Vec<(String, DVec3)>) {
     let (mut t, points) = level(entities);
     let c = build_cells(&mut t);
     let p = build_portals(&mut t, &c);
-    check_level(&mut t, &c, &p, true);
+    common::check_parts(&mut t, &c, &p, true);
     let leak = t.diagnostics.has(Code::LEAK);
     (t, c, leak, points)
 }

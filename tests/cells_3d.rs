@@ -383,7 +383,7 @@ fn the_benchmark_stair_hall_is_one_cell_per_step() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("stairs.glb");
     let scene = portcullis::gen::stair_hall(90);
-    let fmt = portcullis::export::gltf_out::OutFormat::Glb;
+    let fmt = portcullis::export::target::OutFormat::Glb;
     std::fs::write(
         &path,
         portcullis::export::gltf_out::write_plain(&scene, fmt),

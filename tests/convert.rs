@@ -723,34 +723,28 @@ fn convert_notes_the_transform_depth_of_the_pvs() {
 /// meantime is an error with nothing written, never a mix of old and new.
 #[test]
 fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
-    use portcullis::export::gltf_out::OutFormat;
+    use portcullis::export::output::{self, Output};
+    use portcullis::export::Target;
     use portcullis::pipeline;
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("level.glb");
     std::fs::copy(fixture("lportal_boxrooms.glb"), &input).unwrap();
     let bytes = std::fs::read(&input).unwrap();
-    let run = |t: &mut pipeline::Tagged, out: &Path, format| {
-        let cells = pipeline::build_cells(t);
-        let portals = pipeline::build_portals(t, &cells);
-        pipeline::write(
-            t,
-            &cells,
-            &portals,
-            &pipeline::WriteOptions::file(out, format),
-        )
+    let run = |t: pipeline::Tagged, out: &Path, target| {
+        output::level(&pipeline::build(t), None, &Output::file(out, target))
     };
-    for format in [OutFormat::Glb, OutFormat::Gltf] {
+    for format in [Target::Glb, Target::Gltf] {
         let out = dir.path().join(match format {
-            OutFormat::Glb => "out.glb",
-            OutFormat::Gltf => "out.gltf",
+            Target::Glb => "out.glb",
+            _ => "out.gltf",
         });
-        let mut from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        let from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
         let src = from_file.scene.gltf.as_ref().unwrap();
         assert!(
             src.bin_file.as_ref().is_some_and(|b| b.released) && src.buffers[0].is_empty(),
             "the BIN chunk was not let go"
         );
-        run(&mut from_file, &out, format).unwrap();
+        run(from_file, &out, format).unwrap();
         let released = std::fs::read(&out).unwrap();
         // The same level from bytes in memory keeps its buffers.
         let imported = portcullis::import::import_bytes(
@@ -765,25 +759,17 @@ fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
         let held = {
             let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
             t.scene.gltf = imported.scene.gltf.clone();
-            let cells = pipeline::build_cells(&mut t);
-            let portals = pipeline::build_portals(&mut t, &cells);
-            pipeline::write(
-                &t,
-                &cells,
-                &portals,
-                &portcullis::pipeline::WriteOptions::memory(&out, format),
-            )
-            .unwrap()
+            output::level(&pipeline::build(t), None, &Output::memory(&out, format)).unwrap()
         };
         assert!(released == held, "{format:?}: bytes differ");
     }
     // Changed after import: the export fails and leaves no output.
-    let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+    let t = pipeline::load_tagged(&input, &Default::default()).unwrap();
     let mut changed = bytes.clone();
     changed.extend_from_slice(&[0; 4]);
     std::fs::write(&input, &changed).unwrap();
     let out = dir.path().join("changed.glb");
-    let err = run(&mut t, &out, OutFormat::Glb).unwrap_err();
+    let err = run(t, &out, Target::Glb).unwrap_err();
     assert!(
         err.message.contains("changed while it was being converted"),
         "{}",
@@ -801,18 +787,12 @@ fn a_released_bin_chunk_is_read_back_from_an_unchanged_file_only() {
 /// even to one of the same length, is an error with nothing written.
 #[test]
 fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
-    use portcullis::export::gltf_out::OutFormat;
+    use portcullis::export::output::{self, Output};
+    use portcullis::export::Target;
     use portcullis::pipeline;
     let dir = tempfile::tempdir().unwrap();
-    let run = |t: &mut pipeline::Tagged, out: &Path| {
-        let cells = pipeline::build_cells(t);
-        let portals = pipeline::build_portals(t, &cells);
-        pipeline::write(
-            t,
-            &cells,
-            &portals,
-            &pipeline::WriteOptions::file(out, OutFormat::Glb),
-        )
+    let run = |t: pipeline::Tagged, out: &Path| {
+        output::level(&pipeline::build(t), None, &Output::file(out, Target::Glb))
     };
     for (from, name) in [
         (sample("door_window.gltf"), "level.gltf"),
@@ -822,8 +802,8 @@ fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
         std::fs::copy(&from, &input).unwrap();
         let bytes = std::fs::read(&input).unwrap();
         let out = dir.path().join("out.glb");
-        let mut from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
-        run(&mut from_file, &out).unwrap();
+        let from_file = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        run(from_file, &out).unwrap();
         let released = std::fs::read(&out).unwrap();
         let imported = portcullis::import::import_bytes(
             &bytes,
@@ -836,26 +816,23 @@ fn a_released_json_text_is_read_back_from_an_unchanged_file_only() {
         let held = {
             let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
             t.scene.gltf = imported.scene.gltf.clone();
-            let cells = pipeline::build_cells(&mut t);
-            let portals = pipeline::build_portals(&mut t, &cells);
-            pipeline::write(
-                &t,
-                &cells,
-                &portals,
-                &portcullis::pipeline::WriteOptions::memory(&out, OutFormat::Glb),
+            output::level(
+                &pipeline::build(t),
+                None,
+                &Output::memory(&out, Target::Glb),
             )
             .unwrap()
         };
         assert!(released == held, "{name}: bytes differ");
 
         // One letter of the text changed after import, the length kept.
-        let mut t = pipeline::load_tagged(&input, &Default::default()).unwrap();
+        let t = pipeline::load_tagged(&input, &Default::default()).unwrap();
         let at = bytes.windows(7).position(|w| w == b"\"asset\"").unwrap() + 1;
         let mut changed = bytes.clone();
         changed[at] = b'A';
         std::fs::write(&input, &changed).unwrap();
         let out = dir.path().join("changed.glb");
-        let err = run(&mut t, &out).unwrap_err();
+        let err = run(t, &out).unwrap_err();
         assert!(
             err.message.contains("changed while it was being converted"),
             "{name}: {}",

@@ -9,13 +9,11 @@ use std::process::Command;
 
 use common::{fixture, root, sample};
 use glam::DVec3;
-use portcullis::cells::CellSet;
 use portcullis::export::debug::{debug_glb, DebugExtras};
 use portcullis::export::svg::{svg_map, PVS_HIDDEN_FILL, PVS_SOURCE_FILL, PVS_VISIBLE_FILL};
 use portcullis::geom::aabb::Aabb;
 use portcullis::geom::polyhedron::ConvexPolyhedron;
-use portcullis::pipeline::Tagged;
-use portcullis::portals::PortalSet;
+use portcullis::pipeline::Level;
 
 fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
     vec![
@@ -26,10 +24,10 @@ fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
     ]
 }
 
-fn load(path: &Path, preset: Option<&str>) -> (Tagged, CellSet, PortalSet) {
+fn load(path: &Path, preset: Option<&str>) -> Level {
     let (t, c, p) = common::load_level(path, preset);
     assert!(!c.cells.is_empty(), "{}: no cells", path.display());
-    (t, c, p)
+    Level::new(t, c, p)
 }
 
 /// Runs the Khronos validator when it is installed; without it the check is skipped, except on
@@ -85,9 +83,10 @@ fn validate(file: &Path) {
 fn debug_glb_parses_validates_and_repeats() {
     let dir = tempfile::tempdir().unwrap();
     for (path, preset) in levels() {
-        let (t, c, p) = load(&path, preset);
-        let bytes = debug_glb(&t.tagging, &c, &p, &DebugExtras::default());
-        let again = debug_glb(&t.tagging, &c, &p, &DebugExtras::default());
+        let level = load(&path, preset);
+        let (t, c, p) = (&level.tagged, &level.cells, &level.portals);
+        let bytes = debug_glb(&level, &DebugExtras::default());
+        let again = debug_glb(&level, &DebugExtras::default());
         assert!(
             bytes == again,
             "{}: output not deterministic",
@@ -130,7 +129,8 @@ fn debug_glb_parses_validates_and_repeats() {
 
 #[test]
 fn debug_glb_draws_leaks_missed_sightlines_and_overlaps() {
-    let (t, c, p) = load(&sample("two_rooms.gltf"), None);
+    let level = load(&sample("two_rooms.gltf"), None);
+    let (c, p) = (&level.cells, &level.portals);
     let b = c.cells[0].bounds;
     let extras = DebugExtras {
         leaks: vec![
@@ -147,7 +147,7 @@ fn debug_glb_draws_leaks_missed_sightlines_and_overlaps() {
         })],
         sightlines: vec![vec![b.min, b.max]],
     };
-    let bytes = debug_glb(&t.tagging, &c, &p, &extras);
+    let bytes = debug_glb(&level, &extras);
     let gltf = gltf::Gltf::from_slice(&bytes).unwrap();
     let base = c.cells.len() + p.portals.len();
     assert_eq!(gltf.nodes().count(), base + 4);
@@ -242,9 +242,10 @@ fn cell_fills(svg: &str) -> Vec<String> {
 #[test]
 fn svg_map_is_well_formed_and_highlights_the_visible_set() {
     for (path, preset) in levels() {
-        let (t, c, p) = load(&path, preset);
-        let svg = svg_map(&t.tagging, &c, &p, None);
-        assert_eq!(svg, svg_map(&t.tagging, &c, &p, None), "not deterministic");
+        let level = load(&path, preset);
+        let (t, c) = (&level.tagged, &level.cells);
+        let svg = svg_map(&level, None);
+        assert_eq!(svg, svg_map(&level, None), "not deterministic");
         assert!(svg.contains(r#"xmlns="http://www.w3.org/2000/svg""#));
         assert!(svg.contains("<title>"));
         assert_eq!(svg.matches("<svg").count(), 1);
@@ -291,8 +292,8 @@ fn svg_map_is_well_formed_and_highlights_the_visible_set() {
 
         // Cell 0 sees every other odd cell; compare with it seeing nothing.
         let visible: Vec<usize> = (1..c.cells.len()).step_by(2).collect();
-        let lit = svg_map(&t.tagging, &c, &p, Some((0, &visible)));
-        let dark = svg_map(&t.tagging, &c, &p, Some((0, &[])));
+        let lit = svg_map(&level, Some((0, &visible)));
+        let dark = svg_map(&level, Some((0, &[])));
         assert_well_formed(&lit);
         assert!(lit.contains("visible from cell 0"));
         let (lit, dark) = (cell_fills(&lit), cell_fills(&dark));

@@ -65,7 +65,7 @@ fn the_same_seed_gives_the_same_bytes() {
         seed: 4,
         props: true,
     });
-    let fmt = portcullis::export::gltf_out::OutFormat::Glb;
+    let fmt = portcullis::export::target::OutFormat::Glb;
     assert_eq!(
         portcullis::export::gltf_out::write_plain(&a, fmt),
         portcullis::export::gltf_out::write_plain(&b, fmt)
@@ -94,7 +94,7 @@ fn generated_levels_pass_the_khronos_validator() {
         &path,
         portcullis::export::gltf_out::write_plain(
             &scene,
-            portcullis::export::gltf_out::OutFormat::Glb,
+            portcullis::export::target::OutFormat::Glb,
         ),
     )
     .unwrap();

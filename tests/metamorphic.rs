@@ -24,7 +24,7 @@ use common::{fixture, sample};
 use glam::{DMat4, DVec3};
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
-use portcullis::pipeline::{build_cells, build_portals, check_level, load_tagged, Tagged};
+use portcullis::pipeline::{build_cells, build_portals, load_tagged, Tagged};
 use portcullis::portals::PortalSet;
 use portcullis::scene::Scene;
 
@@ -188,7 +188,7 @@ fn run_with(scene: Scene, base: &Tagged, m: DMat4, factor: f64) -> Outcome {
     };
     let cells = build_cells(&mut tagged);
     let portals = build_portals(&mut tagged, &cells);
-    check_level(&mut tagged, &cells, &portals, false);
+    common::check_parts(&mut tagged, &cells, &portals, false);
     let full = portcullis::vis::of_level(
         cells.cells.len(),
         &portals,

@@ -19,8 +19,9 @@ fn load(name: &str) -> (Tagged, CellSet, PortalSet) {
 
 /// Missed sightlines of 2000 rays from each cell (none wanted), and the confirmed pairs.
 fn audit(t: &Tagged, c: &CellSet, p: &PortalSet) -> (Vec<String>, usize) {
-    let pvs = pipeline::full_pvs(t, c, p);
-    let a = pipeline::audit_sightlines(t, c, p, &pvs, 2000);
+    let level = pipeline::Level::new(t.clone(), c.clone(), p.clone());
+    let pvs = pipeline::pvs(&level, portcullis::vis::Method::Full);
+    let a = pipeline::audit(&level, &pvs, 2000);
     let missed = a
         .diagnostics
         .0

@@ -10,12 +10,13 @@ use std::collections::BTreeSet;
 use common::{fixture, sample};
 use portcullis::diag::Code;
 use portcullis::pipeline;
+use portcullis::vis::Method;
 use serde_json::Value;
 
 fn audit(path: &std::path::Path, preset: Option<&str>) -> portcullis::check::sightlines::Audit {
-    let (t, c, p) = common::load_level(path, preset);
-    let pvs = pipeline::full_pvs(&t, &c, &p);
-    pipeline::audit_sightlines(&t, &c, &p, &pvs, 200)
+    let level = common::built(path, preset);
+    let pvs = pipeline::pvs(&level, Method::Full);
+    pipeline::audit(&level, &pvs, 200)
 }
 
 fn missed(a: &portcullis::check::sightlines::Audit) -> Vec<String> {
@@ -125,9 +126,7 @@ fn pairs_removed_from_a_stored_pvs_are_reported() {
         let mut doc: Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
         let ext = &mut doc["extensions"]["PORTCULLIS_portals"];
         let cells = ext["cells"].as_array().unwrap().len();
-        let (_, c, p) = common::load_level(&level, preset);
-        let t = common::load_level(&level, preset).0;
-        let pvs = pipeline::full_pvs(&t, &c, &p);
+        let pvs = pipeline::pvs(&common::built(&level, preset), Method::Full);
         assert_eq!(pvs.cells(), cells);
         let lists: Vec<Vec<usize>> = (0..cells)
             .map(|r| pvs.visible(r).filter(|&v| r != 0 || v == 0).collect())
@@ -163,8 +162,8 @@ fn pairs_removed_from_a_stored_pvs_are_reported() {
 /// and the findings are gathered in cell order.
 #[test]
 fn the_audit_does_not_depend_on_the_thread_count() {
-    let (t, c, p) = common::load_level(&fixture("lportal_boxrooms.glb"), None);
-    let mut pvs = pipeline::full_pvs(&t, &c, &p);
+    let level = common::built(&fixture("lportal_boxrooms.glb"), None);
+    let mut pvs = pipeline::pvs(&level, Method::Full);
     // Some findings to compare too: cell 0 sees only itself.
     for (k, w) in pvs.bits.row_mut(0).iter_mut().enumerate() {
         *w = u64::from(k == 0);
@@ -174,7 +173,7 @@ fn the_audit_does_not_depend_on_the_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| pipeline::audit_sightlines(&t, &c, &p, &pvs, 100))
+        pool.install(|| pipeline::audit(&level, &pvs, 100))
     };
     let (one, three) = (run(1), run(3));
     assert!(!missed(&one).is_empty());

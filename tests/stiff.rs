@@ -14,9 +14,7 @@ mod stiff;
 use glam::{DMat4, DVec3};
 use portcullis::cells::CellSet;
 use portcullis::diag::Code;
-use portcullis::pipeline::{
-    build_cells, build_portals, check_level, load_tagged, LoadOptions, Tagged,
-};
+use portcullis::pipeline::{build_cells, build_portals, load_tagged, LoadOptions, Tagged};
 use portcullis::portals::{Portal, PortalSet};
 use serde_json::json;
 use stiff::{box_room, hole, Face, ObjLevel};
@@ -81,7 +79,7 @@ fn build_obj(level: &ObjLevel) -> Built {
 fn finish(t: &mut Tagged) -> Built {
     let c = build_cells(t);
     let p = build_portals(t, &c);
-    check_level(t, &c, &p, false);
+    common::check_parts(t, &c, &p, false);
     Built { t: t.clone(), c, p }
 }
 

@@ -1,15 +1,21 @@
 //! Tidy tests, in the style of rust-analyzer's: they read the source, not run it, and hold the
 //! shape ARCHITECTURE.md promises. The pipeline's modules form layers, and a module may use
 //! only modules in its own layer's past: an import that goes up the pipeline (a stage reaching
-//! into a later one, or a helper into a stage) fails here with the file and line.
+//! into a later one, or a helper into a stage) fails here with the file and line, as does one
+//! that a module promises never to make, whatever the ranks allow (`ONLY`). Files of one module
+//! that use each other in a circle fail too: neither can be understood, tested or moved alone.
+//! Test-only items (`#[cfg(test)]`) are exempt, as they may drive anything; only those items,
+//! though: production code after a test helper is held like any other.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// The library's top-level modules, lowest first. A module may use modules of a lower rank,
 /// and none of its own rank or above (modules of one rank know nothing of each other).
 const LAYERS: &[&[&str]] = &[
     &["rng", "scc", "free", "schema", "disjoint"],
+    &["format"],
+    &["runtime"],
     &["geom"],
     &["scene"],
     &["diag"],
@@ -21,12 +27,16 @@ const LAYERS: &[&[&str]] = &[
     &["level"],
     &["vis"],
     &["prt"],
-    &["format"],
-    &["check", "runtime"],
     &["export"],
+    &["check"],
     &["pipeline"],
     &["gen", "report"],
 ];
+
+/// Modules that may use only the modules listed, whatever their rank allows: a promise about
+/// what a module drags in that a rank cannot state. The runtime is what engines take, so it
+/// may depend on the extension format's floor alone, never on the stages that wrote it.
+const ONLY: &[(&str, &[&str])] = &[("runtime", &["format"])];
 
 fn rank_of(module: &str) -> Option<usize> {
     LAYERS.iter().position(|l| l.contains(&module))
@@ -45,8 +55,7 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 
 /// The top-level module a file belongs to (`src/cells/split.rs` → `cells`), or None for the
 /// crate root and the binaries (`lib.rs`, `main.rs`, `cli/`, `bin/`), which may use anything.
-fn module_of(src: &Path, file: &Path) -> Option<String> {
-    let rel = file.strip_prefix(src).unwrap();
+fn module_of(rel: &Path) -> Option<String> {
     let first = rel.components().next()?.as_os_str().to_str()?.to_string();
     let name = first.trim_end_matches(".rs").to_string();
     match name.as_str() {
@@ -55,60 +64,425 @@ fn module_of(src: &Path, file: &Path) -> Option<String> {
     }
 }
 
-/// The code of a line, without its `//` comment (doc comments name other modules in links,
-/// which is no dependency).
-fn code(line: &str) -> &str {
-    let mut in_str = false;
-    let b = line.as_bytes();
-    let mut i = 0;
-    while i < b.len() {
-        match b[i] {
-            b'\\' if in_str => i += 1,
-            b'"' => in_str = !in_str,
-            b'/' if !in_str && b.get(i + 1) == Some(&b'/') => return &line[..i],
-            _ => {}
-        }
-        i += 1;
+/// The module path of a file relative to `src/` (`import/gltf/mesh.rs` → `import::gltf::mesh`,
+/// `vis/mod.rs` → `vis`, `lib.rs` → the crate root), for what its `super::` and `self::` mean.
+fn module_path(rel: &Path) -> Vec<String> {
+    let mut p: Vec<String> = rel
+        .with_extension("")
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if p.last().is_some_and(|l| l == "mod") || p == ["lib"] || p == ["main"] {
+        p.pop();
     }
-    line
+    p
+}
+
+/// Every `.rs` file of `src/` the library or binary is built from, relative to `src/`, with its
+/// text. A module declared `#[cfg(test)] mod x;` is test code throughout, so its files are left
+/// out, as its declaration is.
+fn production_sources() -> Vec<(PathBuf, String)> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let all: Vec<(PathBuf, String)> = files
+        .iter()
+        .map(|f| {
+            let rel = f.strip_prefix(&src).unwrap().to_path_buf();
+            (rel, std::fs::read_to_string(f).unwrap())
+        })
+        .collect();
+    let mut test_only = Vec::new();
+    for (rel, text) in &all {
+        for child in test_only_modules(text) {
+            let mut p = module_path(rel);
+            p.push(child);
+            test_only.push(p);
+        }
+    }
+    all.into_iter()
+        .filter(|(rel, _)| !test_only.iter().any(|t| module_path(rel).starts_with(t)))
+        .collect()
+}
+
+/// Each line of `text` as code alone: string and char literals emptied (`""`, `''`, raw ones
+/// and ones over several lines too) and comments cut. Braces, `;` and paths in a literal are no
+/// code, and doc comments name other modules in links, which is no dependency.
+fn code_lines(text: &str) -> Vec<String> {
+    let mut out = vec![String::new()];
+    let mut chars = text.chars().peekable();
+    // the identifier being read, to tell `r"..."` and `br#"..."#` from a name ending in `r`
+    let mut word = String::new();
+    while let Some(c) = chars.next() {
+        let raw_hashes = (c == 'r' && (word.is_empty() || word == "b"))
+            .then(|| {
+                let mut look = chars.clone();
+                let mut n = 0;
+                while look.next_if_eq(&'#').is_some() {
+                    n += 1;
+                }
+                (look.peek() == Some(&'"')).then_some(n)
+            })
+            .flatten();
+        word = if c.is_alphanumeric() || c == '_' {
+            word + &c.to_string()
+        } else {
+            String::new()
+        };
+        if let Some(n) = raw_hashes {
+            for _ in 0..=n {
+                chars.next();
+            }
+            out.last_mut().unwrap().push('"');
+            while let Some(d) = chars.next() {
+                match d {
+                    '\n' => out.push(String::new()),
+                    '"' => {
+                        let mut look = chars.clone();
+                        if (0..n).all(|_| look.next() == Some('#')) {
+                            for _ in 0..n {
+                                chars.next();
+                            }
+                            break;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            out.last_mut().unwrap().push('"');
+            word.clear();
+            continue;
+        }
+        match c {
+            '\n' => out.push(String::new()),
+            '"' => {
+                out.last_mut().unwrap().push('"');
+                while let Some(d) = chars.next() {
+                    match d {
+                        // an escape, perhaps of the line's end
+                        '\\' => out.extend((chars.next() == Some('\n')).then(String::new)),
+                        '\n' => out.push(String::new()),
+                        '"' => break,
+                        _ => {}
+                    }
+                }
+                out.last_mut().unwrap().push('"');
+            }
+            // a char literal ('{', '\''), not a lifetime ('a)
+            '\'' => {
+                let mut look = chars.clone();
+                let first = look.next();
+                let literal = match first {
+                    Some('\\') => true,
+                    Some(_) => look.next() == Some('\''),
+                    None => false,
+                };
+                if literal {
+                    if first == Some('\\') {
+                        // the escaped char may be the quote itself: `'\''`
+                        chars.next();
+                        chars.next();
+                    }
+                    for d in chars.by_ref() {
+                        if d == '\'' {
+                            break;
+                        }
+                    }
+                    out.last_mut().unwrap().push_str("''");
+                } else {
+                    out.last_mut().unwrap().push(c);
+                }
+            }
+            '/' if chars.peek() == Some(&'/') => while chars.next_if(|&d| d != '\n').is_some() {},
+            '/' if chars.peek() == Some(&'*') => {
+                chars.next();
+                let mut depth = 1;
+                while depth > 0 {
+                    match chars.next() {
+                        None => break,
+                        Some('\n') => out.push(String::new()),
+                        Some('*') if chars.next_if_eq(&'/').is_some() => depth -= 1,
+                        Some('/') if chars.next_if_eq(&'*').is_some() => depth += 1,
+                        _ => {}
+                    }
+                }
+                out.last_mut().unwrap().push(' ');
+            }
+            _ => out.last_mut().unwrap().push(c),
+        }
+    }
+    out
+}
+
+/// The braces of a line of code (from [`code_lines`]).
+fn braces(code: &str) -> impl Iterator<Item = i64> + '_ {
+    code.chars().filter_map(|c| match c {
+        '{' => Some(1),
+        '}' => Some(-1),
+        _ => None,
+    })
+}
+
+/// What follows a `#[cfg(..)]` attribute at the start of `line` that compiles its item for
+/// tests only (`test`, `all(test, ..)`), or None.
+fn after_test_cfg(line: &str) -> Option<&str> {
+    let rest = line.trim_start().strip_prefix("#[cfg(")?;
+    let end = rest.find(")]")?;
+    let predicate = rest[..end].trim();
+    let test_only = predicate == "test"
+        || predicate
+            .strip_prefix("all(")
+            .is_some_and(|all| all.split([',', ')']).any(|w| w.trim() == "test"));
+    test_only.then(|| &rest[end + 2..])
+}
+
+/// `text` with its test-only items blanked: each `#[cfg(test)]`, the attributes and doc
+/// comments after it, and the item they belong to, through its closing brace or its `;`.
+/// Blanked lines stay as empty lines, so the lines reported about the rest stay right. A file's
+/// test helpers sit among its production code, which must not go unchecked after them.
+fn without_test_items(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    let code = code_lines(text);
+    let mut kept = vec![true; lines.len()];
+    let mut i = 0;
+    while i < lines.len() {
+        let Some(after) = after_test_cfg(&code[i]) else {
+            i += 1;
+            continue;
+        };
+        // the item's first line, past attributes (perhaps over several lines) and comments
+        let (mut start, mut rest, mut brackets) = (i, after, 0i64);
+        loop {
+            let t = rest.trim_start();
+            if brackets > 0 || t.starts_with("#[") {
+                let mut closed = None;
+                for (k, c) in t.char_indices() {
+                    brackets += match c {
+                        '[' => 1,
+                        ']' => -1,
+                        _ => 0,
+                    };
+                    if c == ']' && brackets == 0 {
+                        closed = Some(k + 1);
+                        break;
+                    }
+                }
+                if let Some(k) = closed {
+                    rest = &t[k..];
+                    continue;
+                }
+            } else if !t.is_empty() {
+                rest = t;
+                break;
+            }
+            start += 1;
+            match code.get(start) {
+                Some(l) if start < lines.len() => rest = l,
+                _ => break,
+            }
+        }
+        // the item, to where its braces close or its `;` ends it outside any brace
+        let (mut end, mut depth) = (start, 0i64);
+        while end < lines.len() {
+            let part = if end == start { rest } else { &code[end] };
+            for b in braces(part) {
+                depth += b;
+                if depth < 0 {
+                    break;
+                }
+            }
+            if depth < 0 {
+                // a brace of the block around the item (a field's, say), not the item's
+                break;
+            }
+            end += 1;
+            let last = part.trim_end();
+            if depth == 0 && (last.ends_with(';') || last.ends_with('}')) {
+                break;
+            }
+        }
+        for k in &mut kept[i..end] {
+            *k = false;
+        }
+        i = end.max(i + 1);
+    }
+    lines
+        .iter()
+        .zip(&kept)
+        .map(|(l, &k)| {
+            if k {
+                format!("{l}\n")
+            } else {
+                "\n".to_string()
+            }
+        })
+        .collect()
+}
+
+/// The modules a text declares for tests only (`#[cfg(test)] mod oracle;`): their files are
+/// test code.
+fn test_only_modules(text: &str) -> Vec<String> {
+    let stripped = without_test_items(text);
+    code_lines(text)
+        .iter()
+        .zip(stripped.lines())
+        .filter(|(was, now)| now.is_empty() && !was.is_empty())
+        .filter_map(|(was, _)| {
+            let t = was.trim();
+            let t = t.strip_prefix("pub ").unwrap_or(t);
+            let t = match t.strip_prefix("pub(") {
+                Some(r) => r.split_once(") ")?.1,
+                None => t,
+            };
+            let name = t.strip_prefix("mod ")?.strip_suffix(';')?.trim();
+            Some(name.to_string())
+        })
+        .collect()
+}
+
+/// A path's segments, each with the line it is on.
+type Segments = Vec<(String, usize)>;
+
+/// Every path in a text's code that starts at `crate::`, `super::` or `self::`, one for each
+/// name it reaches (`use super::{a, b::C}` is two, and `{self, ..}` names the module itself),
+/// each segment with its line. Doc comments are left out: a link is no dependency.
+fn paths(text: &str) -> Vec<Segments> {
+    let code = code_lines(text).join("\n");
+    let newlines: Vec<usize> = code.match_indices('\n').map(|(i, _)| i).collect();
+    let line_at = |pos: usize| newlines.partition_point(|&n| n < pos) + 1;
+    let b = code.as_bytes();
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    let mut out = Vec::new();
+    for i in 0..b.len() {
+        let at_start = ["crate::", "super::", "self::"]
+            .iter()
+            .any(|p| b[i..].starts_with(p.as_bytes()));
+        let after_path_char = i > 0 && (ident(b[i - 1]) || b[i - 1] == b'$' || b[i - 1] == b':');
+        if at_start && !after_path_char {
+            use_tree(&code, i, Vec::new(), &line_at, &mut out);
+        }
+    }
+    out
+}
+
+/// Reads the path (or `use` tree) at `i` of `code`, its segments so far `base`, into `out`;
+/// returns where it ends.
+fn use_tree(
+    code: &str,
+    mut i: usize,
+    base: Segments,
+    line_at: &dyn Fn(usize) -> usize,
+    out: &mut Vec<Segments>,
+) -> usize {
+    let b = code.as_bytes();
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    let skip_space = |mut i: usize| {
+        while b.get(i).is_some_and(|c| c.is_ascii_whitespace()) {
+            i += 1;
+        }
+        i
+    };
+    i = skip_space(i);
+    match b.get(i) {
+        Some(b'{') => {
+            i += 1;
+            loop {
+                i = skip_space(i);
+                match b.get(i) {
+                    None => return i,
+                    Some(b'}') => return i + 1,
+                    Some(b',') => i += 1,
+                    _ => {
+                        i = use_tree(code, i, base.clone(), line_at, out);
+                        // past an `as name` to the next item
+                        while b
+                            .get(i)
+                            .is_some_and(|&c| c != b',' && c != b'}' && c != b'{')
+                        {
+                            i += 1;
+                        }
+                        if b.get(i) == Some(&b'{') {
+                            return i;
+                        }
+                    }
+                }
+            }
+        }
+        Some(b'*') => {
+            out.push(base);
+            i + 1
+        }
+        Some(&c) if ident(c) => {
+            let start = i;
+            while b.get(i).is_some_and(|&c| ident(c)) {
+                i += 1;
+            }
+            let name = &code[start..i];
+            if name == "self" && !base.is_empty() {
+                out.push(base);
+                return i;
+            }
+            let mut path = base;
+            path.push((name.to_string(), line_at(start)));
+            let next = skip_space(i);
+            if b[next..].starts_with(b"::") {
+                use_tree(code, next + 2, path, line_at, out)
+            } else {
+                out.push(path);
+                i
+            }
+        }
+        _ => {
+            if !base.is_empty() {
+                out.push(base);
+            }
+            i
+        }
+    }
 }
 
 /// Every top-level module a text names through `crate::` (also inside `use crate::{a, b::c}`
 /// groups, across lines), with the line it is on.
 fn crate_paths(text: &str) -> Vec<(String, usize)> {
-    let code: String = text.lines().map(|l| format!("{}\n", code(l))).collect();
-    let line_at = |pos: usize| code[..pos].matches('\n').count() + 1;
+    let mut out: Vec<(String, usize)> = Vec::new();
+    for p in paths(text) {
+        match (p.first(), p.get(1)) {
+            (Some((root, _)), Some(m)) if root == "crate" && out.last() != Some(m) => {
+                out.push(m.clone());
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The imports in one file's text, of top-level `module`, that LAYERS or ONLY forbid, each
+/// with its line. A file's test-only items may drive the whole pipeline.
+fn import_faults(module: &str, text: &str) -> Vec<(usize, String)> {
+    let text = without_test_items(text);
+    // `super::super::x` from a folder's file is `crate::x` too
+    let text = text.replace("super::super::", "crate::");
+    let only = ONLY.iter().find(|(m, _)| *m == module).map(|(_, o)| *o);
     let mut out = Vec::new();
-    let ident = |s: &str| -> String {
-        s.chars()
-            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-            .collect()
-    };
-    for (pos, _) in code.match_indices("crate::") {
-        let before = code[..pos].chars().last();
-        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_' || c == '$') {
+    for (to, line) in crate_paths(&text) {
+        if to == module {
             continue;
         }
-        let rest = &code[pos + "crate::".len()..];
-        if let Some(group) = rest.strip_prefix('{') {
-            // the group's top-level items, each led by a module name
-            let mut depth = 0;
-            let mut start = true;
-            for (i, c) in group.char_indices() {
-                match c {
-                    '{' => depth += 1,
-                    '}' if depth == 0 => break,
-                    '}' => depth -= 1,
-                    ',' if depth == 0 => start = true,
-                    c if start && !c.is_whitespace() => {
-                        start = false;
-                        out.push((ident(&group[i..]), line_at(pos + 8 + i)));
-                    }
-                    _ => {}
-                }
-            }
-        } else {
-            out.push((ident(rest), line_at(pos)));
+        if !matches!((rank_of(&to), rank_of(module)), (Some(t), Some(f)) if t < f) {
+            out.push((
+                line,
+                format!("`{module}` uses `{to}`, which is not below it in tests/tidy.rs LAYERS"),
+            ));
+        }
+        if let Some(only) = only.filter(|o| !o.contains(&to.as_str())) {
+            out.push((
+                line,
+                format!(
+                    "`{module}` uses `{to}`; the {module} may use only [{}] (tests/tidy.rs ONLY)",
+                    only.join(", ")
+                ),
+            ));
         }
     }
     out
@@ -116,45 +490,37 @@ fn crate_paths(text: &str) -> Vec<(String, usize)> {
 
 #[test]
 fn imports_go_down_the_pipeline_only() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
     let mut wrong = Vec::new();
     let mut unranked = BTreeMap::new();
-    for f in &files {
-        let Some(from) = module_of(&src, f) else {
+    for (rel, text) in production_sources() {
+        let Some(from) = module_of(&rel) else {
             continue;
         };
-        let Some(r_from) = rank_of(&from) else {
-            unranked.insert(from, f.clone());
+        if rank_of(&from).is_none() {
+            unranked.insert(from, rel);
             continue;
-        };
-        let text = std::fs::read_to_string(f).unwrap();
-        // a file's unit tests (its last item, by convention) may drive the whole pipeline
-        let text = text.split("#[cfg(test)]").next().unwrap();
-        // `super::super::x` from a folder's file is `crate::x` too
-        let text = text.replace("super::super::", "crate::");
-        for (to, line) in crate_paths(&text) {
-            if to == from || to.is_empty() {
-                continue;
-            }
-            match rank_of(&to) {
-                Some(r_to) if r_to < r_from => {}
-                _ => wrong.push(format!(
-                    "{}:{line}: `{from}` uses `{to}`, which is not below it in tests/tidy.rs LAYERS",
-                    f.strip_prefix(&src).unwrap().display()
-                )),
-            }
+        }
+        for (line, fault) in import_faults(&from, &text) {
+            wrong.push(format!("src/{}:{line}: {fault}", rel.display()));
         }
     }
     assert!(
         unranked.is_empty(),
         "modules missing from LAYERS in tests/tidy.rs: {unranked:?}"
     );
+    let unknown: Vec<&str> = ONLY
+        .iter()
+        .flat_map(|(m, o)| std::iter::once(m).chain(o.iter()))
+        .copied()
+        .filter(|m| rank_of(m).is_none())
+        .collect();
+    assert!(
+        unknown.is_empty(),
+        "tests/tidy.rs ONLY names modules not in LAYERS: {unknown:?}"
+    );
     assert!(
         wrong.is_empty(),
-        "{} imports go up the pipeline:\n{}",
+        "{} imports break tests/tidy.rs LAYERS or ONLY:\n{}",
         wrong.len(),
         wrong.join("\n")
     );
@@ -174,63 +540,106 @@ fn the_checker_sees_an_upward_import() {
         ]
     );
     assert!(rank_of("export") > rank_of("cells"));
+    assert_eq!(
+        import_faults("cells", text),
+        vec![
+            (
+                2,
+                "`cells` uses `export`, which is not below it in tests/tidy.rs LAYERS".to_string()
+            ),
+            (
+                3,
+                "`cells` uses `vis`, which is not below it in tests/tidy.rs LAYERS".to_string()
+            ),
+        ]
+    );
+}
+
+#[test]
+fn the_checker_sees_a_never_rule_broken() {
+    // Each use but the floor's is reported as the never rule's, whatever the ranks say.
+    let text =
+        "use crate::format::Annotated;\nuse crate::scene::Scene;\nuse crate::cells::CellSet;\n";
+    let faults = import_faults("runtime", text);
+    for (line, module) in [(2, "scene"), (3, "cells")] {
+        let never = format!(
+            "`runtime` uses `{module}`; the runtime may use only [format] (tests/tidy.rs ONLY)"
+        );
+        assert!(faults.contains(&(line, never)), "{faults:?}");
+    }
+    assert!(faults.iter().all(|(line, _)| *line != 1), "{faults:?}");
+}
+
+#[test]
+fn test_items_are_dropped_and_the_rest_kept() {
+    let text = "use crate::geom::Plane;\n\
+                fn first() {\n}\n\
+                #[cfg(test)]\n/// A helper.\n#[allow(dead_code)]\nfn helper() -> u32 {\n    crate::export::x()\n}\n\
+                fn second() {\n    crate::vis::run();\n}\n\
+                #[cfg(test)]\nuse crate::{\n    report,\n    gen,\n};\n\
+                #[cfg(test)] const N: [u8; 2] = [1, 2];\n\
+                #[cfg(test)]\nmod tests {\n    use crate::gen::x;\n    #[test]\n    fn t() { let _ = '}'; }\n}\n\
+                fn third() {}\n";
+    let kept = without_test_items(text);
+    assert_eq!(kept.lines().count(), text.lines().count());
+    assert_eq!(
+        kept.lines()
+            .enumerate()
+            .filter(|(_, l)| !l.is_empty())
+            .map(|(i, _)| i + 1)
+            .collect::<Vec<_>>(),
+        vec![1, 2, 3, 10, 11, 12, 25]
+    );
+    assert_eq!(
+        crate_paths(&kept),
+        vec![("geom".to_string(), 1), ("vis".to_string(), 11)]
+    );
+    assert_eq!(
+        import_faults("cells", text),
+        vec![(
+            11,
+            "`cells` uses `vis`, which is not below it in tests/tidy.rs LAYERS".to_string()
+        )]
+    );
+    assert_eq!(
+        function_lengths(text),
+        vec![
+            ("first".to_string(), 2, 2),
+            ("second".to_string(), 10, 3),
+            ("third".to_string(), 25, 1)
+        ]
+    );
+    let decl =
+        "pub mod a;\n#[cfg(test)]\nmod oracle;\n#[cfg(all(test, unix))]\npub(crate) mod b;\n";
+    assert_eq!(test_only_modules(decl), vec!["oracle", "b"]);
+}
+
+#[test]
+fn the_code_reader_skips_literals_and_comments() {
+    let text = "let j = r#\"{\"a\": \"\\\"}\"}\"#; // }\n\
+                let s = \"{\n  crate::x }\"; /* {\n */ let c = '\\''; f::<'a>('{');\n\
+                let b = br\"}\"; crate::y::z();\n";
+    assert_eq!(
+        code_lines(text),
+        vec![
+            "let j = \"\"; ",
+            "let s = \"",
+            "\"; ",
+            "  let c = ''; f::<'a>('');",
+            "let b = b\"\"; crate::y::z();",
+            ""
+        ]
+    );
+    assert_eq!(crate_paths(text), vec![("y".to_string(), 5)]);
 }
 
 /// Longest a production function may be, in lines: beyond it a function holds several jobs
-/// (issue 30). Unit tests, after a file's `#[cfg(test)]`, are not held to it.
+/// (issue 30). Test-only items (`#[cfg(test)]`) are not held to it.
 const MAX_FUNCTION_LINES: usize = 120;
 
-/// A line without its string and char literals and `//` comment, for counting braces.
-fn braces_of(line: &str) -> String {
-    let mut out = String::new();
-    let mut chars = line.chars().peekable();
-    while let Some(c) = chars.next() {
-        match c {
-            '"' => {
-                while let Some(d) = chars.next() {
-                    match d {
-                        '\\' => {
-                            chars.next();
-                        }
-                        '"' => break,
-                        _ => {}
-                    }
-                }
-            }
-            // a char literal ('{', '\''), not a lifetime ('a)
-            '\'' => {
-                let mut look = chars.clone();
-                let first = look.next();
-                let lit = match first {
-                    Some('\\') => true,
-                    Some(_) => look.next() == Some('\''),
-                    None => false,
-                };
-                if lit {
-                    for d in chars.by_ref() {
-                        if d == '\'' {
-                            break;
-                        }
-                    }
-                    if first == Some('\\') {
-                        // `'\''`: the escaped quote was taken as the end
-                        if chars.peek() == Some(&'\'') {
-                            chars.next();
-                        }
-                    }
-                }
-            }
-            '/' if chars.peek() == Some(&'/') => break,
-            '{' | '}' => out.push(c),
-            _ => {}
-        }
-    }
-    out
-}
-
-/// Each function of `text` (before its unit tests) with its first line and length in lines.
+/// Each production function of `text` with its first line and length in lines.
 fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
-    let lines: Vec<&str> = text.lines().collect();
+    let lines = code_lines(&without_test_items(text));
     let is_fn = |l: &str| -> Option<String> {
         let t = l.trim_start();
         let t = t.strip_prefix("pub ").unwrap_or(t);
@@ -251,17 +660,14 @@ fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < lines.len() {
-        if lines[i].trim_start().starts_with("#[cfg(test)]") {
-            break;
-        }
-        let Some(name) = is_fn(lines[i]) else {
+        let Some(name) = is_fn(&lines[i]) else {
             i += 1;
             continue;
         };
         let (mut depth, mut started, mut j) = (0i64, false, i);
         while j < lines.len() {
-            for c in braces_of(lines[j]).chars() {
-                depth += if c == '{' { 1 } else { -1 };
+            for b in braces(&lines[j]) {
+                depth += b;
                 started = true;
             }
             if started && depth <= 0 {
@@ -280,18 +686,13 @@ fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
 
 #[test]
 fn no_production_function_is_longer_than_the_limit() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
     let mut long = Vec::new();
-    for f in &files {
-        let text = std::fs::read_to_string(f).unwrap();
+    for (rel, text) in production_sources() {
         for (name, line, len) in function_lengths(&text) {
             if len > MAX_FUNCTION_LINES {
                 long.push(format!(
-                    "{}:{line}: `{name}` is {len} lines",
-                    f.strip_prefix(&src).unwrap().display()
+                    "src/{}:{line}: `{name}` is {len} lines",
+                    rel.display()
                 ));
             }
         }
@@ -315,6 +716,185 @@ fn the_length_counter_sees_strings_chars_and_nesting() {
             ("a".to_string(), 1, 5),
             ("b".to_string(), 6, 3),
             ("c".to_string(), 9, 1)
+        ]
+    );
+}
+
+/// The files of a module that use each other in a circle, each circle with one line per use.
+/// A unit is a module's child: a file, or a sub-folder with everything in it. A child using
+/// its parent's own items (`super::Item` from `mod.rs`), or a parent re-exporting its
+/// children, is no edge: that two-way traffic is how a module is built, so only siblings can
+/// form a circle. `files` are relative to `src/`.
+fn file_circles(files: &[(PathBuf, String)]) -> Vec<String> {
+    let modules: BTreeMap<Vec<String>, &Path> = files
+        .iter()
+        .map(|(rel, _)| (module_path(rel), rel.as_path()))
+        .collect();
+    // (parent module, from child, to child) → the first use's file and line
+    let mut edges: BTreeMap<(Vec<String>, String, String), (&Path, usize)> = BTreeMap::new();
+    for (rel, text) in files {
+        let here = module_path(rel);
+        if here.is_empty() || rel.starts_with("bin") {
+            // the crate roots, whose children are the top-level modules LAYERS holds, and the
+            // other binaries, whose paths start at a root of their own
+            continue;
+        }
+        for path in paths(&without_test_items(text)) {
+            // the absolute path: `crate::`, `self::` and `super::` (perhaps repeated) resolved
+            let (root, line) = (&path[0].0, path[0].1);
+            let mut abs: Segments = match root.as_str() {
+                "crate" => Vec::new(),
+                _ => here.iter().map(|m| (m.clone(), line)).collect(),
+            };
+            let ups = path.iter().take_while(|s| s.0 == "super").count();
+            if ups > abs.len() {
+                continue;
+            }
+            abs.truncate(abs.len() - ups);
+            abs.extend(path[ups.max(1)..].iter().cloned());
+            // the module whose file holds the item: the longest prefix that is a file's
+            let names: Vec<String> = abs.iter().map(|s| s.0.clone()).collect();
+            let Some(target) = (1..=names.len())
+                .rev()
+                .map(|n| &names[..n])
+                .find(|p| modules.contains_key(*p))
+            else {
+                continue;
+            };
+            let common = here.iter().zip(target).take_while(|(a, b)| a == b).count();
+            if common == 0 || common == here.len() || common == target.len() {
+                continue;
+            }
+            let key = (
+                here[..common].to_vec(),
+                here[common].clone(),
+                target[common].clone(),
+            );
+            edges.entry(key).or_insert((rel, abs[common].1));
+        }
+    }
+    // a child of `parent` shown as its file, or its folder when it has one of its own
+    let unit = |parent: &[String], child: &str| -> String {
+        let mut p = parent.to_vec();
+        p.push(child.to_string());
+        match modules.get(&p) {
+            Some(f) if f.ends_with("mod.rs") => format!("src/{}/", f.parent().unwrap().display()),
+            Some(f) => format!("src/{}", f.display()),
+            None => format!("src/{}/", p.join("/")),
+        }
+    };
+    let mut out = Vec::new();
+    let parents: BTreeSet<&Vec<String>> = edges.keys().map(|(p, _, _)| p).collect();
+    for parent in parents {
+        let mut next: BTreeMap<&str, BTreeSet<&str>> = BTreeMap::new();
+        for (p, from, to) in edges.keys() {
+            if p == parent {
+                next.entry(from).or_default().insert(to);
+            }
+        }
+        let reach = |from: &str| -> BTreeSet<&str> {
+            let mut seen = BTreeSet::new();
+            let mut todo = vec![from];
+            while let Some(n) = todo.pop() {
+                for &m in next.get(n).into_iter().flatten() {
+                    if seen.insert(m) {
+                        todo.push(m);
+                    }
+                }
+            }
+            seen
+        };
+        let reached: BTreeMap<&str, BTreeSet<&str>> = next.keys().map(|&n| (n, reach(n))).collect();
+        let mut circles = BTreeSet::new();
+        for (&n, r) in &reached {
+            if r.contains(n) {
+                let circle: BTreeSet<&str> = r
+                    .iter()
+                    .copied()
+                    .filter(|m| reached.get(m).is_some_and(|rm| rm.contains(n)))
+                    .collect();
+                circles.insert(circle);
+            }
+        }
+        for circle in circles {
+            let names: Vec<String> = circle.iter().map(|c| unit(parent, c)).collect();
+            let mut report = format!("a circle of {}:", names.join(", "));
+            for ((p, from, to), (file, line)) in &edges {
+                if p == parent && circle.contains(from.as_str()) && circle.contains(to.as_str()) {
+                    report.push_str(&format!(
+                        "\n    src/{}:{line}: uses {}",
+                        file.display(),
+                        unit(parent, to)
+                    ));
+                }
+            }
+            out.push(report);
+        }
+    }
+    out
+}
+
+#[test]
+fn no_file_circle_inside_a_module() {
+    let circles = file_circles(&production_sources());
+    assert!(
+        circles.is_empty(),
+        "{} file circles inside modules (break each: move what both sides need to a file of its \
+         own, or to the module's mod.rs):\n{}",
+        circles.len(),
+        circles.join("\n")
+    );
+}
+
+#[test]
+fn the_circle_finder_sees_two_files_using_each_other() {
+    let files = |list: &[(&str, &str)]| -> Vec<(PathBuf, String)> {
+        list.iter()
+            .map(|(p, t)| (PathBuf::from(p), t.to_string()))
+            .collect()
+    };
+    let circle = files(&[
+        ("m/mod.rs", "pub mod a;\npub mod b;\npub use a::Y;\n"),
+        ("m/a.rs", "use super::b::X;\npub struct Y;\n"),
+        (
+            "m/b.rs",
+            "pub struct X;\nfn f() -> super::a::Y {\n    todo!()\n}\n",
+        ),
+    ]);
+    assert_eq!(
+        file_circles(&circle),
+        vec![
+            "a circle of src/m/a.rs, src/m/b.rs:\n    src/m/a.rs:1: uses src/m/b.rs\n    \
+              src/m/b.rs:2: uses src/m/a.rs"
+                .to_string()
+        ]
+    );
+    // one way, with the child using its parent's item and a test using its sibling: no circle
+    let one_way = files(&[
+        ("m/mod.rs", "pub mod a;\npub mod b;\npub struct Z;\n"),
+        ("m/a.rs", "use super::b::X;\npub struct Y;\n"),
+        (
+            "m/b.rs",
+            "use super::Z;\npub struct X;\n#[cfg(test)]\nmod tests {\n    use crate::m::a::Y;\n}\n",
+        ),
+    ]);
+    assert_eq!(file_circles(&one_way), Vec::<String>::new());
+    // through `crate::` into a sub-folder, which is one unit, and `self::` in a mod.rs
+    let deep = files(&[
+        ("m/mod.rs", "mod a;\nmod c;\nuse self::a::Y;\n"),
+        (
+            "m/a.rs",
+            "pub fn y() -> crate::m::c::d::Z {\n    todo!()\n}\n",
+        ),
+        ("m/c/mod.rs", "mod d;\n"),
+        ("m/c/d.rs", "use crate::{m::a::y, geom::Plane};\n"),
+    ]);
+    assert_eq!(
+        file_circles(&deep),
+        vec![
+            "a circle of src/m/a.rs, src/m/c/:\n    src/m/a.rs:1: uses src/m/c/\n    \
+              src/m/c/d.rs:1: uses src/m/a.rs"
+                .to_string()
         ]
     );
 }

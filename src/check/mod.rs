@@ -33,10 +33,9 @@ use std::path::PathBuf;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::cells::CellSet;
 use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::geom::polyhedron::ConvexPolyhedron;
-use crate::level::Tagged;
+use crate::level::{Level, Tagged};
 use crate::portals::PortalSet;
 
 mod graph;
@@ -112,8 +111,9 @@ pub struct Findings {
 }
 
 impl<'a> Subject<'a> {
-    /// The subject for cells and portals just built from `tagged`.
-    pub fn built(tagged: &Tagged, cells: &CellSet, portals: &'a PortalSet) -> Subject<'a> {
+    /// The subject for a level just built.
+    pub fn built(level: &'a Level) -> Subject<'a> {
+        let (tagged, cells, portals) = (&level.tagged, &level.cells, &level.portals);
         let scene = &tagged.scene;
         let room = |c: usize| {
             cells

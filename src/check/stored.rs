@@ -7,7 +7,8 @@ use glam::{DMat4, DVec3};
 
 use super::{CellInfo, Subject};
 use crate::diag::{Code, Diagnostic, Location};
-use crate::format::{self as extension, NAME};
+use crate::export as extension;
+use crate::format::NAME;
 use crate::format::{read, Annotated};
 use crate::geom::aabb::Aabb;
 use crate::geom::plane::Plane;

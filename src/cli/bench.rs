@@ -10,7 +10,7 @@ use std::time::Instant;
 use clap::Args;
 use serde::{Deserialize, Serialize};
 
-use portcullis::export::gltf_out::{self, OutFormat};
+use portcullis::export::{gltf_out, output, OutFormat};
 use portcullis::gen::{self, GenOptions};
 
 #[derive(Debug, Args)]
@@ -232,21 +232,15 @@ fn one(
     row.portals_s = t;
     // As `convert` does, so the peak below is the convert's.
     portcullis::pipeline::release_free_memory();
-    let (_, t) = timed_cpu(&mut cpu, || {
-        portcullis::pipeline::check_level(&mut tagged, &cells, &portals, false)
-    });
+    let mut level = portcullis::pipeline::Level::new(tagged, cells, portals);
+    let (_, t) = timed_cpu(&mut cpu, || portcullis::pipeline::check(&mut level, false));
     row.check = t;
-    row.cells = cells.cells.len();
-    row.portals = portals.portals.len();
+    row.cells = level.cells.cells.len();
+    row.portals = level.portals.portals.len();
     let out = dir.join(format!("annotated_{rooms}.glb"));
     let (written, t) = timed_cpu(&mut cpu, || {
-        portcullis::pipeline::write(
-            &tagged,
-            &cells,
-            &portals,
-            &portcullis::pipeline::WriteOptions::file(&out, OutFormat::Glb),
-        )
-        .map_err(|d| d.to_string())
+        let to = output::Output::file(&out, portcullis::export::Target::Glb);
+        output::level(&level, None, &to).map_err(|d| d.to_string())
     });
     written?;
     row.export = t;
@@ -254,9 +248,9 @@ fn one(
     // The convert's peak (no PVS), then the PVS methods' on top of it.
     row.peak_rss_bytes = peak_rss();
     let graph = portcullis::vis::VisGraph::from_portal_set(
-        cells.cells.len(),
-        &portals,
-        cells.tolerance.distance,
+        level.cells.cells.len(),
+        &level.portals,
+        level.cells.tolerance.distance,
     );
     for &method in methods {
         let opts = portcullis::vis::VisOptions {

@@ -118,7 +118,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> (FileReport, L
     let reading = super::huge_pages::reading(input);
     let loaded = pipeline::load_tagged(input, &a.level.load_options());
     drop(reading);
-    let mut t = match loaded {
+    let t = match loaded {
         Ok(t) => t,
         Err(d) => {
             report.failed = true;
@@ -140,53 +140,21 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> (FileReport, L
             return (report, Leaks::default());
         }
     };
-    let rays = a.sightlines.unwrap_or(t.config.check.sightlines);
-    let mut leaks = Vec::new();
-    let stored = if a.recompute {
-        None
-    } else {
-        portcullis::check::stored::read(&t, true)
+    let opts = pipeline::GateOptions {
+        sealed: a.sealed,
+        rays: a.sightlines.unwrap_or(t.config.check.sightlines),
+        recompute: a.recompute,
     };
-    match stored {
-        Some(stored) => {
-            report.annotated = true;
-            t.diagnostics.extend(stored.diagnostics.iter().cloned());
-            if let (true, Some(ann)) = (stored.sound, &stored.annotated) {
-                report.cells = Some(ann.cells.len());
-                report.portals = Some(ann.portals.len());
-                let set = portcullis::check::stored::portal_set(ann);
-                let subject = portcullis::check::stored::subject(&t, ann, &set);
-                let opts = portcullis::check::Options {
-                    sealed: a.sealed || t.config.check.sealed,
-                };
-                let found = portcullis::check::run(&subject, &opts);
-                t.diagnostics.extend(found.diagnostics);
-                leaks = found.leaks;
-                if rays > 0 {
-                    let audit = pipeline::audit_stored(&t, ann, &subject, rays);
-                    t.diagnostics.extend(audit.diagnostics);
-                }
-            }
-        }
-        None => {
-            let cells = pipeline::build_cells(&mut t);
-            let portals = pipeline::build_portals(&mut t, &cells);
-            leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
-            if rays > 0 {
-                let pvs = pipeline::full_pvs(&t, &cells, &portals);
-                let audit = pipeline::audit_sightlines(&t, &cells, &portals, &pvs, rays);
-                t.diagnostics.extend(audit.diagnostics);
-            }
-            report.cells = Some(cells.cells.len());
-            report.portals = Some(portals.portals.len());
-        }
-    }
-    report.diagnostics = policy.apply(t.diagnostics);
     let to_file = t.scene.to_file;
+    let checked = pipeline::check_file(t, &opts);
+    report.annotated = checked.annotated;
+    report.cells = checked.counts.map(|c| c.0);
+    report.portals = checked.counts.map(|c| c.1);
+    report.diagnostics = policy.apply(checked.diagnostics);
     (
         report,
         Leaks {
-            paths: leaks,
+            paths: checked.leaks,
             to_file,
         },
     )
@@ -333,6 +301,6 @@ fn write_html(a: &CheckArgs, report: &FileReport, path: &Path) -> Result<(), Dia
         a.sightlines,
         Some(&report.diagnostics),
     )?;
-    portcullis::export::atomic::write(path, page.as_bytes())
-        .map_err(|e| portcullis::export::atomic::failed(path, e))
+    use portcullis::export::{output, Target};
+    output::bytes(&output::Output::file(path, Target::Html), page.as_bytes()).map(drop)
 }

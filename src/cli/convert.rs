@@ -8,10 +8,11 @@ use rayon::prelude::*;
 
 use portcullis::diag::policy::Policy;
 use portcullis::diag::{Code, Diagnostic, Location, Severity};
-use portcullis::export::gltf_out::OutFormat;
+use portcullis::export::output::{self, Output};
 use portcullis::export::Target;
 use portcullis::pipeline;
 use portcullis::report::{human, style::Style, Totals};
+use portcullis::vis::{Method, Pvs};
 
 use super::LevelArgs;
 
@@ -116,34 +117,39 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     if target == Target::Prt {
         return convert_to_prt(a, input, &out);
     }
-    let (mut t, policy) = load(a, input)?;
-    let cells = pipeline::build_cells(&mut t);
-    if let Some(c) = a.pvs_of.filter(|&c| c >= cells.cells.len()) {
+    let (t, policy) = load(a, input)?;
+    let mut level = pipeline::build(t);
+    if let Some(c) = a.pvs_of.filter(|&c| c >= level.cells.cells.len()) {
         return Err(Diagnostic::new(
             Code::OUTPUT_FAILED,
-            format!("--pvs-of {c}: the level has {} cells", cells.cells.len()),
+            format!(
+                "--pvs-of {c}: the level has {} cells",
+                level.cells.cells.len()
+            ),
             Location::file(input),
         )
         .hint("give a cell index from `portcullis inspect`"));
     }
-    let portals = pipeline::build_portals(&mut t, &cells);
     pipeline::release_free_memory();
-    let method = portcullis::vis::Method::parse(&a.vis_method);
-    let pvs_method = method.unwrap_or(portcullis::vis::Method::Full);
-    let pvs = (method.is_some() || a.pvs_of.is_some())
-        .then(|| visibility(&mut t, &cells, &portals, pvs_method, input));
+    let method = Method::parse(&a.vis_method);
+    let pvs_method = method.unwrap_or(Method::Full);
+    let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
+        let note = pipeline::transform_depth_note(&level, input);
+        level.diagnostics.extend(note);
+        pipeline::pvs(&level, pvs_method)
+    });
     if pvs.is_some() {
         pipeline::release_free_memory();
     }
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
-    let leaks = pipeline::check_level(&mut t, &cells, &portals, a.sealed);
-    let sightlines = audit_sightlines(&mut t, &cells, &portals, pvs.as_ref());
+    let leaks = pipeline::check(&mut level, a.sealed);
+    let sightlines = audit_sightlines(&mut level, pvs.as_ref());
     let prt = a.prt.as_ref().map(|path| {
-        let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, path);
-        t.diagnostics.extend(d);
+        let (text, d) = portcullis::prt::write(level.cells.cells.len(), &level.portals, path);
+        level.diagnostics.extend(d);
         (path, text)
     });
-    let diagnostics = policy.apply(t.diagnostics.0.clone());
+    let diagnostics = policy.apply(level.diagnostics.0.clone());
     // The outputs that show the problem are written whatever the verdict; the products only
     // when the run will exit 0, so a failed run never leaves one for the next step to take.
     let shown = Shown {
@@ -151,31 +157,39 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         sightlines,
         pvs: pvs.as_ref(),
     };
-    write_shows(a, &t, &cells, &portals, shown)?;
+    write_shows(a, &level, shown)?;
     let fails = diagnostics.iter().any(|d| {
         d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
     });
+    let (cells, portals) = (level.cells.cells.len(), level.portals.portals.len());
     let summary = if fails {
         format!(
-            "{}: {} cells, {} portals; nothing written to `{}` (the run fails)",
+            "{}: {cells} cells, {portals} portals; nothing written to `{}` (the run fails)",
             input.display(),
-            cells.cells.len(),
-            portals.portals.len(),
             out.display()
         )
     } else {
-        write_main(&t, &cells, &portals, stored, &out, target)?;
+        output::level(&level, stored, &output_of(&out, target))?;
         if let Some((path, text)) = &prt {
-            write_extra(path, text.as_bytes())?;
+            output::bytes(&Output::file(path, Target::Prt), text.as_bytes())?;
         }
-        summary(input, &out, cells.cells.len(), portals.portals.len())
+        summary(input, &out, cells, portals)
     };
     let outcome = Outcome {
         diagnostics,
         summary,
     };
-    pipeline::drop_elsewhere((t, cells, portals, pvs));
+    pipeline::drop_elsewhere((level, pvs));
     Ok(outcome)
+}
+
+/// Where the main output goes: `-` is standard output.
+fn output_of(out: &Path, target: Target) -> Output<'_> {
+    if out == Path::new("-") {
+        Output::stdout(target)
+    } else {
+        Output::file(out, target)
+    }
 }
 
 /// What `out` is written as (standard output in `--out-format`), refused before any work when
@@ -188,7 +202,7 @@ fn target_of(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Target, Diagno
             Target::Glb
         })
     } else {
-        Target::from_path(out)
+        Target::from_path(out).filter(|t| t.is_level())
     };
     let target = target.ok_or_else(|| {
         Diagnostic::new(
@@ -239,47 +253,10 @@ fn load(a: &ConvertArgs, input: &Path) -> Result<(pipeline::Tagged, Policy), Dia
     Ok((t, policy))
 }
 
-/// The PVS by `method`, through mirrors and teleporters as deep as the level allows; as `vis`
-/// does, a note says how deep when the level has any.
-fn visibility(
-    t: &mut pipeline::Tagged,
-    cells: &portcullis::cells::CellSet,
-    portals: &portcullis::portals::PortalSet,
-    method: portcullis::vis::Method,
-    input: &Path,
-) -> portcullis::vis::Pvs {
-    let depth =
-        portcullis::vis::level_transform_depth(cells, portals, t.config.vis.transform_depth);
-    if portals
-        .portals
-        .iter()
-        .any(|p| p.transform.is_some() && !p.closed && p.to.is_some())
-    {
-        t.diagnostics
-            .push(portcullis::vis::transform_depth_note(input, depth));
-    }
-    let opts = portcullis::vis::VisOptions {
-        method,
-        transform_depth: depth,
-        samples: t
-            .config
-            .vis
-            .samples
-            .unwrap_or(portcullis::vis::DEFAULT_SAMPLES),
-        ..Default::default()
-    };
-    portcullis::vis::of_level(cells.cells.len(), portals, cells.tolerance.distance, &opts)
-}
-
 /// `[check] sightlines`: the PVS (the full one when none was computed) audited by rays; the
 /// findings join the level's, the missed sightlines are returned for `--debug`.
-fn audit_sightlines(
-    t: &mut pipeline::Tagged,
-    cells: &portcullis::cells::CellSet,
-    portals: &portcullis::portals::PortalSet,
-    pvs: Option<&portcullis::vis::Pvs>,
-) -> Vec<Vec<glam::DVec3>> {
-    let rays = t.config.check.sightlines;
+fn audit_sightlines(level: &mut pipeline::Level, pvs: Option<&Pvs>) -> Vec<Vec<glam::DVec3>> {
+    let rays = level.config().check.sightlines;
     if rays == 0 {
         return Vec::new();
     }
@@ -287,12 +264,12 @@ fn audit_sightlines(
     let audited = match pvs {
         Some(p) => p,
         None => {
-            fresh = pipeline::full_pvs(t, cells, portals);
+            fresh = pipeline::pvs(level, Method::Full);
             &fresh
         }
     };
-    let audit = pipeline::audit_sightlines(t, cells, portals, audited, rays);
-    t.diagnostics.extend(audit.diagnostics);
+    let audit = pipeline::audit(level, audited, rays);
+    level.diagnostics.extend(audit.diagnostics);
     audit.lines
 }
 
@@ -300,25 +277,24 @@ fn audit_sightlines(
 struct Shown<'a> {
     leaks: Vec<Vec<glam::DVec3>>,
     sightlines: Vec<Vec<glam::DVec3>>,
-    pvs: Option<&'a portcullis::vis::Pvs>,
+    pvs: Option<&'a Pvs>,
 }
 
 /// `--debug` and `--svg`, written whatever the verdict: they show the problem.
-fn write_shows(
-    a: &ConvertArgs,
-    t: &pipeline::Tagged,
-    cells: &portcullis::cells::CellSet,
-    portals: &portcullis::portals::PortalSet,
-    shown: Shown,
-) -> Result<(), Diagnostic> {
+fn write_shows(a: &ConvertArgs, level: &pipeline::Level, shown: Shown) -> Result<(), Diagnostic> {
     if let Some(path) = &a.debug {
         let extras = portcullis::export::debug::DebugExtras {
-            overlaps: cells.overlaps.iter().map(|o| o.region.clone()).collect(),
+            overlaps: level
+                .cells
+                .overlaps
+                .iter()
+                .map(|o| o.region.clone())
+                .collect(),
             leaks: shown.leaks,
             sightlines: shown.sightlines,
         };
-        let bytes = portcullis::export::debug::debug_glb(&t.tagging, cells, portals, &extras);
-        write_extra(path, &bytes)?;
+        let bytes = portcullis::export::debug::debug_glb(level, &extras);
+        output::bytes(&Output::file(path, Target::Debug), &bytes)?;
     }
     if let Some(path) = &a.svg {
         let visible = a.pvs_of.map(|c| {
@@ -329,73 +305,23 @@ fn write_shows(
             (c, seen)
         });
         let svg = portcullis::export::svg::svg_map(
-            &t.tagging,
-            cells,
-            portals,
+            level,
             visible.as_ref().map(|(c, v)| (*c, v.as_slice())),
         );
-        write_extra(path, svg.as_bytes())?;
+        output::bytes(&Output::file(path, Target::Svg), svg.as_bytes())?;
     }
     Ok(())
-}
-
-/// A file besides the main output, written atomically.
-fn write_extra(path: &Path, bytes: &[u8]) -> Result<(), Diagnostic> {
-    portcullis::export::atomic::write(path, bytes)
-        .map_err(|e| portcullis::export::atomic::failed(path, e))
-}
-
-/// The annotated level, to its file or standard output.
-fn write_main(
-    t: &pipeline::Tagged,
-    cells: &portcullis::cells::CellSet,
-    portals: &portcullis::portals::PortalSet,
-    stored: Option<(&portcullis::vis::Pvs, portcullis::vis::Method)>,
-    out: &Path,
-    target: Target,
-) -> Result<(), Diagnostic> {
-    let to_stdout = out == Path::new("-");
-    let format = target.gltf().unwrap_or(OutFormat::Glb);
-    let written = if target == Target::Usda || to_stdout {
-        let bytes = if target == Target::Usda {
-            portcullis::export::usd_out::write_usda(&t.scene, &t.tagging, cells, portals, stored)
-                .into_bytes()
-        } else {
-            let opts = pipeline::WriteOptions {
-                pvs: stored,
-                ..pipeline::WriteOptions::memory(out, format)
-            };
-            pipeline::write(t, cells, portals, &opts)?
-        };
-        if to_stdout {
-            use std::io::Write;
-            let mut so = std::io::stdout().lock();
-            so.write_all(&bytes).and_then(|_| so.flush())
-        } else {
-            portcullis::export::atomic::write(out, &bytes)
-        }
-    } else {
-        // Straight into the file: a big level's output is not held in memory first.
-        let opts = pipeline::WriteOptions {
-            pvs: stored,
-            ..pipeline::WriteOptions::file(out, format)
-        };
-        pipeline::write(t, cells, portals, &opts)?;
-        Ok(())
-    };
-    written.map_err(|e| portcullis::export::atomic::failed(out, e))
 }
 
 /// `-o OUT.prt`: only the portal file.
 fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, Diagnostic> {
     let reading = super::huge_pages::reading(input);
-    let mut t = pipeline::load_tagged(input, &a.level.load_options())?;
+    let tagged = pipeline::load_tagged(input, &a.level.load_options())?;
     drop(reading);
-    let cells = pipeline::build_cells(&mut t);
-    let portals = pipeline::build_portals(&mut t, &cells);
-    let (text, d) = portcullis::prt::write(cells.cells.len(), &portals, out);
-    t.diagnostics.extend(d);
-    let fails = t.diagnostics.0.iter().any(|d| {
+    let mut level = pipeline::build(tagged);
+    let (text, d) = portcullis::prt::write(level.cells.cells.len(), &level.portals, out);
+    level.diagnostics.extend(d);
+    let fails = level.diagnostics.0.iter().any(|d| {
         d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
     });
     let summary = if fails {
@@ -405,12 +331,16 @@ fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, 
             out.display()
         )
     } else {
-        portcullis::export::atomic::write(out, text.as_bytes())
-            .map_err(|e| portcullis::export::atomic::failed(out, e))?;
-        summary(input, out, cells.cells.len(), portals.portals.len())
+        output::bytes(&Output::file(out, Target::Prt), text.as_bytes())?;
+        summary(
+            input,
+            out,
+            level.cells.cells.len(),
+            level.portals.portals.len(),
+        )
     };
     Ok(Outcome {
-        diagnostics: t.diagnostics.0.clone(),
+        diagnostics: level.diagnostics.0.clone(),
         summary,
     })
 }

@@ -6,10 +6,9 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
-use portcullis::cells::{CellSet, CellSource};
+use portcullis::cells::CellSource;
 use portcullis::diag::Diagnostic;
-use portcullis::pipeline::{self, Tagged};
-use portcullis::portals::PortalSet;
+use portcullis::pipeline::{self, Level, Tagged};
 use portcullis::report::{human, style::Style, Totals};
 use portcullis::scene::summary::{summarize, Bounds, SceneSummary};
 use portcullis::tags::rules::{PortalKind, TagKind, VolumeHint};
@@ -237,7 +236,8 @@ struct DerivedPortalView {
     partner: Option<usize>,
 }
 
-fn portals_view(t: &Tagged, cells: &CellSet, set: &PortalSet) -> Vec<DerivedPortalView> {
+fn portals_view(level: &Level) -> Vec<DerivedPortalView> {
+    let (t, cells, set) = (&level.tagged, &level.cells, &level.portals);
     let room = |c: usize| t.tagging.rooms[cells.cells[c].room].name.clone();
     set.portals
         .iter()
@@ -268,7 +268,8 @@ struct PropView {
     reason: portcullis::cells::PropReason,
 }
 
-fn props_view(t: &Tagged, set: &CellSet) -> Vec<PropView> {
+fn props_view(level: &Level) -> Vec<PropView> {
+    let (t, set) = (&level.tagged, &level.cells);
     set.props
         .iter()
         .zip(&set.prop_reasons)
@@ -300,7 +301,8 @@ struct CellView {
     split_triangles: Option<usize>,
 }
 
-fn cells_view(t: &Tagged, set: &CellSet, split: bool) -> Vec<CellView> {
+fn cells_view(level: &Level, split: bool) -> Vec<CellView> {
+    let (t, set) = (&level.tagged, &level.cells);
     let pieces = if split {
         portcullis::cells::split_geometry(&t.scene, set)
     } else {
@@ -496,24 +498,23 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
         let report = match loaded {
             Ok(mut t) => {
                 let annotation = annotation_view(&mut t, a.validate);
-                let cells = pipeline::build_cells(&mut t);
-                let portals = pipeline::build_portals(&mut t, &cells);
-                totals.add(t.diagnostics.iter());
+                let level = pipeline::build(t);
+                totals.add(level.diagnostics.iter());
                 FileReport {
                     path: path.clone(),
                     path_bytes: portcullis::diag::raw_path_bytes(path),
                     ok: true,
-                    config: t.config.path.clone(),
-                    scene: Some(summarize(&t.scene)),
-                    tags: Some(tags_view(&t)),
-                    cells: Some(cells_view(&t, &cells, a.split_geometry)),
-                    props: Some(props_view(&t, &cells)),
-                    portals: Some(portals_view(&t, &cells, &portals)),
-                    tolerance: Some(cells.tolerance.distance),
+                    config: level.config().path.clone(),
+                    scene: Some(summarize(level.scene())),
+                    tags: Some(tags_view(&level.tagged)),
+                    cells: Some(cells_view(&level, a.split_geometry)),
+                    props: Some(props_view(&level)),
+                    portals: Some(portals_view(&level)),
+                    tolerance: Some(level.cells.tolerance.distance),
                     annotation,
                     prt: None,
                     checks: Some(FEWER_CHECKS),
-                    diagnostics: t.diagnostics.0.clone(),
+                    diagnostics: level.diagnostics.0.clone(),
                 }
             }
             Err(d) => {

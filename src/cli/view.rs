@@ -40,19 +40,17 @@ pub fn build_page(
     sightlines: Option<usize>,
     listed: Option<&[Diagnostic]>,
 ) -> Result<(String, Vec<Diagnostic>), Diagnostic> {
-    let mut t = pipeline::load_tagged(input, &level.load_options())?;
-    let cells = pipeline::build_cells(&mut t);
-    let portals = pipeline::build_portals(&mut t, &cells);
-    let leaks = pipeline::check_level(&mut t, &cells, &portals, sealed);
-    let pvs = pipeline::full_pvs(&t, &cells, &portals);
-    let rays = sightlines.unwrap_or(t.config.check.sightlines);
+    let mut built = pipeline::load(input, &level.load_options())?;
+    let leaks = pipeline::check(&mut built, sealed);
+    let pvs = pipeline::pvs(&built, portcullis::vis::Method::Full);
+    let rays = sightlines.unwrap_or(built.config().check.sightlines);
     let mut sightlines = Vec::new();
     if rays > 0 {
-        let audit = pipeline::audit_sightlines(&t, &cells, &portals, &pvs, rays);
-        t.diagnostics.extend(audit.diagnostics);
+        let audit = pipeline::audit(&built, &pvs, rays);
+        built.diagnostics.extend(audit.diagnostics);
         sightlines = audit.lines;
     }
-    let diagnostics = t.diagnostics.0.clone();
+    let diagnostics = built.diagnostics.0.clone();
     let title = input.file_name().map_or_else(
         || input.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
@@ -62,9 +60,7 @@ pub fn build_page(
         sightlines: &sightlines,
         diagnostics: listed.unwrap_or(&[]),
     };
-    let data = portcullis::export::view::payload(
-        &title, &t.scene, &t.tagging, &cells, &portals, &pvs, &extras,
-    );
+    let data = portcullis::export::view::payload(&title, &built, &pvs, &extras);
     Ok((portcullis::export::view::page(&data), diagnostics))
 }
 
@@ -78,8 +74,8 @@ pub fn run(a: &ViewArgs, style: &Style) -> i32 {
         ..Default::default()
     };
     let written = build_page(&a.file, &a.level, a.sealed, None, None).and_then(|(page, diags)| {
-        portcullis::export::atomic::write(&out, page.as_bytes())
-            .map_err(|e| portcullis::export::atomic::failed(&out, e))?;
+        use portcullis::export::{output, Target};
+        output::bytes(&output::Output::file(&out, Target::Html), page.as_bytes())?;
         Ok(diags)
     });
     match written {

@@ -136,9 +136,11 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
     let (lower, lower_time) = vis::timed(g, &lower_opts);
     let lower_cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     // The bound from the level's own triangles, beside the one from its portals.
-    let traced = loaded.level.as_ref().filter(|_| a.rays > 0).map(|l| {
-        portcullis::pipeline::audit_sightlines(&l.tagged, &l.cells, &l.portals, &lower, a.rays).seen
-    });
+    let traced = loaded
+        .level
+        .as_ref()
+        .filter(|_| a.rays > 0)
+        .map(|l| portcullis::pipeline::audit(l, &lower, a.rays).seen);
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));

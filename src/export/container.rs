@@ -10,33 +10,10 @@ use serde_json::{json, Map, Value};
 
 use crate::format::NAME;
 
-fn pad4(v: &mut Vec<u8>, byte: u8) {
-    while v.len() % 4 != 0 {
-        v.push(byte);
-    }
-}
-
 /// A GLB container from a JSON document and a BIN chunk.
 pub(crate) fn glb(json: &Value, bin: Option<&[u8]>) -> Vec<u8> {
-    let mut j = serde_json::to_vec(json).unwrap_or_default();
-    pad4(&mut j, b' ');
-    let mut out = Vec::with_capacity(28 + j.len() + bin.map_or(0, |b| b.len() + 8));
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&0u32.to_le_bytes());
-    out.extend_from_slice(&(j.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&j);
-    if let Some(b) = bin {
-        let mut b = b.to_vec();
-        pad4(&mut b, 0);
-        out.extend_from_slice(&(b.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&b);
-    }
-    let len = out.len() as u32;
-    out[8..12].copy_from_slice(&len.to_le_bytes());
-    out
+    let j = serde_json::to_vec(json).unwrap_or_default();
+    crate::format::glb::frame(&j, bin)
 }
 
 /// `target` relative to `from_dir`, with `/` separators (both absolute or both relative to

@@ -8,14 +8,13 @@
 //! actually written, views are 4-byte aligned, empty arrays are left out), and the same input
 //! gives the same bytes (no maps with random order, no timestamps), so outputs can be diffed.
 
+use crate::level::Level;
 use glam::DVec3;
 use serde_json::{json, Map, Value};
 
-use crate::cells::CellSet;
 use crate::geom::polyhedron::ConvexPolyhedron;
-use crate::portals::{Portal, PortalSet};
+use crate::portals::Portal;
 use crate::tags::rules::PortalKind;
-use crate::tags::Tagging;
 
 /// Findings from later checks to draw over the cells: they are only useful in context.
 #[derive(Debug, Clone, Default)]
@@ -303,31 +302,12 @@ impl Doc {
                 doc.insert(key.into(), Value::Array(v));
             }
         }
-        let mut bin = self.bin;
+        let bin = self.bin;
         if !bin.is_empty() {
             doc.insert("buffers".into(), json!([{ "byteLength": bin.len() }]));
         }
-        let mut json = serde_json::to_vec(&Value::Object(doc)).expect("JSON values serialise");
-        while json.len() % 4 != 0 {
-            json.push(b' ');
-        }
-        while bin.len() % 4 != 0 {
-            bin.push(0);
-        }
-        let chunks = 8 + json.len() + if bin.is_empty() { 0 } else { 8 + bin.len() };
-        let mut out = Vec::with_capacity(12 + chunks);
-        out.extend_from_slice(b"glTF");
-        out.extend_from_slice(&2u32.to_le_bytes());
-        out.extend_from_slice(&((12 + chunks) as u32).to_le_bytes());
-        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"JSON");
-        out.extend_from_slice(&json);
-        if !bin.is_empty() {
-            out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-            out.extend_from_slice(b"BIN\0");
-            out.extend_from_slice(&bin);
-        }
-        out
+        let json = serde_json::to_vec(&Value::Object(doc)).expect("JSON values serialise");
+        crate::format::glb::frame(&json, (!bin.is_empty()).then_some(&bin[..]))
     }
 }
 
@@ -336,12 +316,8 @@ impl Doc {
 /// moved 1 cm along its direction of travel), then `leak K` line strips (red) and `overlap K`
 /// meshes (translucent magenta). Nodes come in that order, so node `N` is cell `N` and node
 /// `cells + I` is portal `I`; each node's extras repeat the indices for scripts.
-pub fn debug_glb(
-    tagging: &Tagging,
-    cells: &CellSet,
-    portals: &PortalSet,
-    extra: &DebugExtras,
-) -> Vec<u8> {
+pub fn debug_glb(level: &Level, extra: &DebugExtras) -> Vec<u8> {
+    let (tagging, cells, portals) = (level.tagging(), &level.cells, &level.portals);
     let mut doc = Doc::default();
     let room_name = |r: usize| tagging.rooms.get(r).map_or("?", |room| room.name.as_str());
     for (i, cell) in cells.cells.iter().enumerate() {

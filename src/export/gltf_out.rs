@@ -14,18 +14,10 @@ use serde_json::{json, Map, Value};
 use super::container::{data_uri, glb};
 use super::rewrite::Failed;
 use super::sink::Sink;
+use super::target::OutFormat;
+use super::Annotation;
 use crate::diag::{Code, Diagnostic, Location};
-use crate::format::Annotation;
 use crate::scene::{GltfSource, NodeId, Scene};
-
-/// The glTF container written (a path's is decided by [`super::Target::from_path`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutFormat {
-    /// JSON text; the input's BIN chunk and the PVS blob become data: URIs.
-    Gltf,
-    /// Binary: the JSON and every buffer joined into one BIN chunk.
-    Glb,
-}
 
 /// The glTF node index a scene node is written as.
 pub fn node_index(scene: &Scene, n: NodeId) -> Option<usize> {
@@ -62,40 +54,55 @@ pub fn write_to(
     format: OutFormat,
     sink: &mut dyn Sink,
 ) -> Result<(), Diagnostic> {
-    write_to_with(scene, None, ann, out, format, sink)
+    let made;
+    let src = match &scene.gltf {
+        Some(src) => src,
+        None => {
+            made = new_document(scene, out)?;
+            &made
+        }
+    };
+    write_to_with(src, None, ann, out, format, sink)
 }
 
-/// [`write_to`] with the input's root members (from [`crate::scene::GltfSource::members`]) found already:
-/// on a big level that is a pass over tens of megabytes, which a caller can run while it
-/// builds the annotation.
+/// The folder an output's relative URIs start from.
+fn out_dir(out: &Path) -> &Path {
+    out.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// The glTF document a level read from OBJ or USD is written as: meshes in world space
+/// (`bake`), one BIN buffer. It is made once, then hashed (what a reader of the written file
+/// imports) and written from.
+pub fn new_document(scene: &Scene, out: &Path) -> Result<GltfSource, Diagnostic> {
+    let (doc, bin) = from_scene(&super::bake::world_space(scene), OutFormat::Glb);
+    let text = serde_json::to_string(&doc)
+        .map_err(|e| super::atomic::failed(out, std::io::Error::from(e)))?;
+    Ok(GltfSource::in_memory(
+        text,
+        bin.into_iter().collect(),
+        out_dir(out),
+    ))
+}
+
+/// [`write_to`] from the document `src` (the input's, or a [`new_document`]), with its root
+/// members (from [`crate::scene::GltfSource::members`]) found already: on a big level that is
+/// a pass over tens of megabytes, which a caller can run while it builds the annotation.
 ///
-/// One writer writes every output, the streamed rewrite of a glTF document: a level read from
-/// OBJ or USD gets a new document first (`from_scene`), and a document the rewrite declines
-/// (a key repeated where it must read the member) is rewritten from its parsed form, where
-/// the last of a repeated key wins, as any JSON reader sees it.
+/// One writer writes every output, the streamed rewrite of a glTF document; a document the
+/// rewrite declines (a key repeated where it must read the member) is rewritten from its
+/// parsed form, where the last of a repeated key wins, as any JSON reader sees it.
 pub fn write_to_with<'s>(
-    scene: &'s Scene,
+    src: &'s GltfSource,
     members: Option<super::rewrite::Members<'s>>,
     mut ann: Annotation,
     out: &Path,
     format: OutFormat,
     sink: &mut dyn Sink,
 ) -> Result<(), Diagnostic> {
-    let out_dir = out
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
+    let out_dir = out_dir(out);
     let failed = |e: std::io::Error| super::atomic::failed(out, e);
-    let made;
-    let (src, members) = match &scene.gltf {
-        Some(src) => (src, members),
-        None => {
-            let (doc, bin) = from_scene(&super::bake::world_space(scene), OutFormat::Glb);
-            let text = serde_json::to_string(&doc).map_err(|e| failed(e.into()))?;
-            made = GltfSource::in_memory(text, bin.into_iter().collect(), out_dir);
-            (&made, None)
-        }
-    };
     match super::rewrite::write(src, members, &mut ann, format, out_dir, sink) {
         Ok(()) => return Ok(()),
         Err(Failed::Io(e)) => return Err(failed(e)),

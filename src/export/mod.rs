@@ -41,13 +41,16 @@
 //! annotation; everything not ours is kept; the `.usda` layer reads back through usd-core to the
 //! same rooms, cells and portals, and output bytes repeat for the same input.
 
+pub mod annotation;
 pub mod atomic;
 pub(crate) mod bake;
 pub(crate) mod container;
 pub mod debug;
 pub mod gltf_out;
+pub(crate) mod hash;
 #[cfg(test)]
 mod oracle;
+pub mod output;
 pub(crate) mod parallel;
 pub(crate) mod rewrite;
 pub(crate) mod sink;
@@ -57,4 +60,7 @@ pub(crate) mod transcode;
 pub mod usd_out;
 pub mod view;
 
-pub use target::Target;
+pub use annotation::{build, Annotation};
+pub(crate) use annotation::{build_deferred, InputHash};
+pub use hash::{input_hash, input_hash_like};
+pub use target::{OutFormat, Target};

@@ -7,9 +7,11 @@ use std::path::Path;
 use serde_json::{json, Value};
 
 use super::container::*;
-use super::gltf_out::{from_scene, OutFormat};
+use super::gltf_out::from_scene;
+use super::target::OutFormat;
+use super::Annotation;
 use crate::diag::{Code, Diagnostic, Location};
-use crate::format::{Annotation, NAME};
+use crate::format::NAME;
 use crate::scene::Scene;
 
 /// [`write`] by building the whole output document.

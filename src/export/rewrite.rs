@@ -18,13 +18,14 @@ use serde::ser::{self, Serialize, SerializeMap, SerializeSeq, Serializer};
 use serde_json::value::RawValue;
 use serde_json::{json, Value};
 
+use super::annotation::{Json, Member};
 use super::container as out;
-use super::gltf_out::OutFormat;
 use super::parallel::{self, Failure, Render, RenderText, Source};
 use super::sink::{Counted, Sink};
+use super::target::OutFormat;
 use super::transcode::{self, Element, Transcode};
-use crate::format::write::{Json, Member};
-use crate::format::{Annotation, NAME};
+use super::Annotation;
+use crate::format::{glb, NAME};
 use crate::scene::json_text::{self, Elements};
 use crate::scene::GltfSource;
 
@@ -241,10 +242,10 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
         bytes: 0,
     };
     let io = Failed::Io;
-    w.write_all(b"glTF").map_err(io)?;
-    w.write_all(&2u32.to_le_bytes()).map_err(io)?;
-    w.write_all(&[0; 8]).map_err(io)?;
-    w.write_all(b"JSON").map_err(io)?;
+    // The lengths are patched in once known.
+    w.write_all(&glb::header(0)).map_err(io)?;
+    w.write_all(&glb::chunk_header(0, glb::JSON_CHUNK))
+        .map_err(io)?;
     match parallel::write(doc.sources()?, &mut w) {
         Ok(()) => {}
         Err(Failure::Io(e)) => return Err(Failed::Io(e)),
@@ -253,7 +254,7 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
     while w.bytes % 4 != 0 {
         w.write_all(b" ").map_err(io)?;
     }
-    let json_len = w.bytes - 20;
+    let json_len = w.bytes - glb::JSON_START as u64;
     if let Some(Bin {
         src,
         lens,
@@ -263,8 +264,8 @@ fn glb(doc: &Document, bin: Option<Bin>, sink: &mut dyn Sink) -> Result<(), Fail
     }) = bin
     {
         let padded = len.next_multiple_of(4);
-        w.write_all(&(padded as u32).to_le_bytes()).map_err(io)?;
-        w.write_all(b"BIN\0").map_err(io)?;
+        w.write_all(&glb::chunk_header(padded as u32, glb::BIN_CHUNK))
+            .map_err(io)?;
         let chunk = w.bytes;
         let mut at = 0usize;
         let zeros = |w: &mut Counted<_>, to: usize, at: &mut usize| {
@@ -690,8 +691,9 @@ mod tests {
 
     use serde_json::{json, Value};
 
-    use crate::export::gltf_out::{self, OutFormat};
-    use crate::format::{self as extension, Annotation};
+    use crate::export::gltf_out;
+    use crate::export::target::{OutFormat, Target};
+    use crate::export::{self as extension, Annotation};
     use crate::scene::{Format, GltfSource, Scene};
 
     const FORMATS: [OutFormat; 2] = [OutFormat::Glb, OutFormat::Gltf];
@@ -861,11 +863,9 @@ mod tests {
                 if !matches!(f.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
                     continue;
                 }
-                let mut t = crate::pipeline::load_tagged(&f, &Default::default()).unwrap();
-                let cells = crate::pipeline::build_cells(&mut t);
-                let portals = crate::pipeline::build_portals(&mut t, &cells);
-                let scene = &t.scene;
-                let ann = extension::build(scene, &t.tagging, &cells, &portals, &|n| {
+                let level = crate::pipeline::load(&f, &Default::default()).unwrap();
+                let (scene, cells, portals) = (level.scene(), &level.cells, &level.portals);
+                let ann = extension::build(scene, level.tagging(), cells, portals, &|n| {
                     gltf_out::node_index(scene, n)
                 });
                 assert!(ann.root["inputHash"].is_string());
@@ -879,13 +879,12 @@ mod tests {
                         format,
                     )
                     .unwrap();
-                    let mine = crate::pipeline::write(
-                        &t,
-                        &cells,
-                        &portals,
-                        &crate::pipeline::WriteOptions::memory(out, format),
-                    )
-                    .unwrap();
+                    let target = match format {
+                        OutFormat::Glb => Target::Glb,
+                        OutFormat::Gltf => Target::Gltf,
+                    };
+                    let to = crate::export::output::Output::memory(out, target);
+                    let mine = crate::export::output::level(&level, None, &to).unwrap();
                     assert!(mine == whole, "{} ({format:?})", f.display());
                     n += 1;
                 }

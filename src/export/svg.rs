@@ -9,6 +9,7 @@
 //! Every number is written with at most three decimals (millimetres), so the text does not
 //! change with the last bits of a computation and can be diffed.
 
+use crate::level::Level;
 use std::fmt::Write;
 
 use glam::DVec2;
@@ -133,12 +134,8 @@ fn centroid(poly: &[DVec2]) -> DVec2 {
 /// With `pvs_of = Some((cell, visible))` the fills show that cell's visible set instead of
 /// rooms: the cell [`PVS_SOURCE_FILL`], the visible cells [`PVS_VISIBLE_FILL`], the rest
 /// [`PVS_HIDDEN_FILL`]. A legend below the plan explains the colours in use.
-pub fn svg_map(
-    tagging: &Tagging,
-    cells: &CellSet,
-    portals: &PortalSet,
-    pvs_of: Option<(usize, &[usize])>,
-) -> String {
+pub fn svg_map(level: &Level, pvs_of: Option<(usize, &[usize])>) -> String {
+    let (tagging, cells, portals) = (level.tagging(), &level.cells, &level.portals);
     let page = Page::of(cells, pvs_of);
     let u = page.u;
     let mut s = String::new();

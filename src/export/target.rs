@@ -1,10 +1,8 @@
 //! The one place that decides what a path is written as (and, for `.prt`, read as): by its
 //! extension, in any case. Every command and the library ask here, so `-o level.GLB`,
-//! `--prt` and `vis level.prt` agree.
+//! `--prt` and `vis level.prt` agree; [`super::output`] writes each.
 
 use std::path::Path;
-
-use super::gltf_out::OutFormat;
 
 /// What a file is written as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -17,6 +15,13 @@ pub enum Target {
     Usda,
     /// A Quake portal file (PRT1): the cell graph only.
     Prt,
+    /// A plain glTF (.glb) of the cells and portals, for looking at them (`--debug`; never
+    /// decided by a path, which would read as an annotated .glb).
+    Debug,
+    /// A top-down SVG map of the cells and portals.
+    Svg,
+    /// The self-contained HTML viewer page.
+    Html,
 }
 
 impl Target {
@@ -28,7 +33,31 @@ impl Target {
             "gltf" => Some(Target::Gltf),
             "usda" => Some(Target::Usda),
             "prt" => Some(Target::Prt),
+            "svg" => Some(Target::Svg),
+            "html" | "htm" => Some(Target::Html),
             _ => None,
+        }
+    }
+
+    /// What the level itself can be written as (`convert -o`): the annotated glTF, a USD
+    /// layer, or its portal file; the rest show it.
+    pub fn is_level(self) -> bool {
+        matches!(
+            self,
+            Target::Glb | Target::Gltf | Target::Usda | Target::Prt
+        )
+    }
+
+    /// How a message names it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Glb => ".glb",
+            Target::Gltf => ".gltf",
+            Target::Usda => ".usda",
+            Target::Prt => "a portal file (.prt)",
+            Target::Debug => "a debug glTF",
+            Target::Svg => "an SVG map",
+            Target::Html => "an HTML page",
         }
     }
 
@@ -37,7 +66,7 @@ impl Target {
         match self {
             Target::Glb => Some(OutFormat::Glb),
             Target::Gltf => Some(OutFormat::Gltf),
-            Target::Usda | Target::Prt => None,
+            _ => None,
         }
     }
 
@@ -45,4 +74,13 @@ impl Target {
     pub fn is_prt(path: &Path) -> bool {
         Target::from_path(path) == Some(Target::Prt)
     }
+}
+
+/// The glTF container written (a path's is decided by [`Target::from_path`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutFormat {
+    /// JSON text; the input's BIN chunk and the PVS blob become data: URIs.
+    Gltf,
+    /// Binary: the JSON and every buffer joined into one BIN chunk.
+    Glb,
 }

@@ -10,6 +10,7 @@
 //! importer ignores that prim, so converting an annotated file again replaces the annotation
 //! instead of reading it as level.
 
+use crate::level::Level;
 use std::collections::HashSet;
 use std::fmt::Write;
 
@@ -321,13 +322,9 @@ fn dictionary(out: &mut String, o: &serde_json::Map<String, Value>, depth: usize
 }
 
 /// The level, its cells and portals as one `.usda` layer (Y-up, metres).
-pub fn write_usda(
-    scene: &Scene,
-    tagging: &Tagging,
-    cells: &CellSet,
-    portals: &PortalSet,
-    pvs: Option<(&Pvs, Method)>,
-) -> String {
+pub fn write_usda(level: &Level, pvs: Option<(&Pvs, Method)>) -> String {
+    let (scene, tagging, cells, portals) =
+        (level.scene(), level.tagging(), &level.cells, &level.portals);
     let mut w = Writer {
         scene,
         out: String::new(),
@@ -398,7 +395,7 @@ fn annotation(
     portals: &PortalSet,
     pvs: Option<(&Pvs, Method)>,
 ) {
-    let hash = crate::format::input_hash(w.scene, tagging);
+    let hash = super::input_hash(w.scene, tagging);
     w.out.push('\n');
     w.line(0, &format!("def Scope \"{ANNOTATION_PRIM}\""));
     w.line(0, "{");

@@ -3,23 +3,23 @@
 //! cell, no empty arrays). Documented in schemas/PORTCULLIS_portals.md and checked against
 //! schemas/PORTCULLIS_portals.schema.json.
 //!
-//! This module owns the format: its records (`records`, one struct per schema object that
-//! both reads and writes), how an annotation is built and serialized from a level
-//! ([`mod@write`]), read back and validated ([`read`]), how the PVS is encoded ([`visibility`])
-//! and the input hash that tells a stale annotation (`hash`). The exporters, the checks of
-//! stored annotations and the runtime all go through it.
+//! This module is the floor an engine's runtime stands on, below everything else but the leaf
+//! helpers: the records (`records`, one struct per schema object that both reads and writes),
+//! reading an annotation back and validating what the schema cannot ([`read`]), the PVS
+//! ([`Pvs`], [`Method`]) and its encodings ([`visibility`]), and the GLB container ([`glb`]).
+//! How an annotation is built from a level and written, and the input hash that tells a
+//! stale one, are the exporter's (`crate::export`); the runtime depends on this module alone.
 
-pub(crate) mod hash;
+pub(crate) mod bits;
+pub mod glb;
+pub mod pvs;
 pub mod read;
 pub(crate) mod records;
 pub mod visibility;
-pub mod write;
 
-pub use hash::{input_hash, input_hash_like};
+pub use pvs::{Method, Pvs, DEFAULT_TRANSFORM_DEPTH};
 pub use read::{annotation, consistency};
 pub use records::{Annotated, Bounds, CellRecord, PortalRecord, RoomRecord};
-pub use write::{build, Annotation};
-pub(crate) use write::{build_deferred, InputHash};
 
 /// The extension's name, in `extensionsUsed` and as the key of its objects.
 pub const NAME: &str = "PORTCULLIS_portals";

@@ -18,7 +18,7 @@ pub fn visibility(
     a: &Annotated,
     doc: &Value,
     buffers: &[Vec<u8>],
-) -> Option<Result<crate::vis::Pvs, String>> {
+) -> Option<Result<super::Pvs, String>> {
     let v = a.visibility.as_ref()?;
     let blob = match v.get("bufferView").and_then(Value::as_u64) {
         None => None,

@@ -15,7 +15,7 @@
 
 use serde_json::{json, Value};
 
-use crate::vis::{Method, Pvs};
+use super::{Method, Pvs};
 
 /// Cells up to which the lists are always used.
 const LISTS_UP_TO: usize = 16;
@@ -121,7 +121,7 @@ pub fn encode(pvs: &Pvs, method: Method) -> Option<Encoded> {
 pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, String> {
     let enc = json.get("encoding").and_then(Value::as_str).unwrap_or("");
     let mut pvs = Pvs::identity(cells);
-    pvs.bits = crate::vis::bits::BitMatrix::new(cells);
+    pvs.bits = super::bits::BitMatrix::new(cells);
     match enc {
         "lists" => {
             let lists = json

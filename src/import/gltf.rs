@@ -90,7 +90,7 @@ pub fn import(
             .file_diag(Code::INPUT_EMPTY, "the file is empty (0 bytes)")
             .hint("the export may have failed; export the level again"));
     }
-    let (format, json_bytes, bin) = if bytes.starts_with(b"glTF") {
+    let (format, json_bytes, bin) = if crate::format::glb::is_glb(&bytes) {
         let (json, bin) = split_glb(&ctx, &bytes)?;
         (Format::Glb, json, bin)
     } else {
@@ -173,89 +173,19 @@ pub fn import(
     Ok(Imported { scene, diagnostics })
 }
 
-/// Splits a GLB into its JSON and BIN chunks.
-///
-/// The header is checked here first because `Glb::from_slice` subtracts the header size from the
-/// claimed length without checking, which would overflow on a hostile header.
+/// Splits a GLB into its JSON and BIN chunks, a malformed container as a diagnostic.
 fn split_glb<'a>(ctx: &Ctx, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [u8]>), Diagnostic> {
-    const HINT: &str = "the .glb is damaged or was cut off while copying; export it again";
-    let word = |at: usize| -> Option<u32> {
-        let b: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
-        Some(u32::from_le_bytes(b))
-    };
-    let (Some(version), Some(length)) = (word(4), word(8)) else {
-        return Err(ctx
-            .file_diag(
-                Code::GLB_INVALID,
-                format!(
-                    "truncated GLB: {} bytes, shorter than the 12-byte header",
-                    bytes.len()
-                ),
-            )
-            .hint(HINT));
-    };
-    if version != 2 {
-        return Err(ctx
-            .file_diag(
-                Code::GLTF_UNSUPPORTED_VERSION,
-                format!("GLB container version {version}; only version 2 (glTF 2.0) is read"),
-            )
-            .hint("convert the file to glTF 2.0 (e.g. open and re-export it in Blender)"));
-    }
-    let length = length as usize;
-    if length < 20 {
-        return Err(ctx
-            .file_diag(
-                Code::GLB_INVALID,
-                format!("the GLB header claims a total length of {length} bytes, too short to hold a JSON chunk"),
-            )
-            .hint(HINT));
-    }
-    let Some(data) = bytes.get(..length) else {
-        return Err(ctx
-            .file_diag(
-                Code::GLB_INVALID,
-                format!(
-                    "truncated GLB: the header says {length} bytes but the file has {}",
-                    bytes.len()
-                ),
-            )
-            .hint(HINT));
-    };
-    let glb = gltf::binary::Glb::from_slice(data).map_err(|e| {
-        use gltf::binary::Error as B;
-        let what = match e {
-            gltf::Error::Binary(B::ChunkLength {
-                ty,
-                length,
-                length_read,
-            }) => format!(
-                "truncated GLB: the {ty:?} chunk claims {length} bytes but only {length_read} follow"
-            ),
-            gltf::Error::Binary(B::Io(_)) => {
-                "truncated GLB: a chunk header is cut off".to_string()
-            }
-            gltf::Error::Binary(B::ChunkType(ty)) => {
-                format!("unexpected {ty:?} chunk (the first chunk must be JSON, the second BIN)")
-            }
-            gltf::Error::Binary(B::UnknownChunkType(t)) => {
-                format!("unknown GLB chunk type {:?}", String::from_utf8_lossy(&t))
-            }
-            other => format!("malformed GLB container: {other}"),
-        };
-        ctx.file_diag(Code::GLB_INVALID, what).hint(HINT)
-    })?;
-    // `from_slice` borrows from `data`, so the chunks can be re-sliced without copying.
-    let json_len = glb.json.len();
-    let json = data.get(20..20 + json_len).unwrap_or_default();
-    let bin = match &glb.bin {
-        Some(b) => {
-            let start = (20 + json_len + 8).min(data.len());
-            data.get(start..start + b.len())
-        }
-        None => None,
-    };
-    Ok((json, bin))
+    use crate::format::glb::{self, GlbError};
+    glb::split(bytes)
+        .map(|g| (g.json, g.bin))
+        .map_err(|e| match e {
+            GlbError::Version(_) => ctx
+                .file_diag(Code::GLTF_UNSUPPORTED_VERSION, e.to_string())
+                .hint("convert the file to glTF 2.0 (e.g. open and re-export it in Blender)"),
+            _ => ctx
+                .file_diag(Code::GLB_INVALID, e.to_string())
+                .hint("the .glb is damaged or was cut off while copying; export it again"),
+        })
 }
 
 /// The JSON chunk without what real exporters emit although the spec forbids it: a UTF-8 BOM,

@@ -66,7 +66,7 @@ pub fn format_from_path(path: &Path) -> Option<Format> {
 
 /// The format implied by the first bytes, for inputs without a telling extension (stdin).
 pub fn sniff_format(bytes: &[u8]) -> Option<Format> {
-    if bytes.starts_with(b"glTF") {
+    if crate::format::glb::is_glb(bytes) {
         return Some(Format::Glb);
     }
     if bytes.starts_with(b"#usda") || bytes.starts_with(b"PXR-USDC") {

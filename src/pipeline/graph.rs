@@ -20,17 +20,7 @@ pub struct Loaded {
     pub transform_depth: usize,
     /// The level the graph was built from (none for a .prt file): what `vis --report` traces
     /// rays through.
-    pub level: Option<Built>,
-}
-
-/// A level as built for its graph.
-pub struct Built {
-    /// The level read and tagged.
-    pub tagged: crate::level::Tagged,
-    /// Its cells.
-    pub cells: crate::cells::CellSet,
-    /// Its portals, which the graph was made from.
-    pub portals: crate::portals::PortalSet,
+    pub level: Option<crate::level::Level>,
 }
 
 /// The portal graph of `path`, as `vis` reads it.
@@ -49,22 +39,16 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
             level: None,
         });
     }
-    let mut t = super::load_tagged(path, opts)?;
-    let cells = super::build_cells(&mut t);
-    let portals = super::build_portals(&mut t, &cells);
+    let mut level = super::load(path, opts)?;
     Ok(Loaded {
-        graph: VisGraph::from_portal_set(cells.cells.len(), &portals, cells.tolerance.distance),
-        transform_depth: crate::vis::level_transform_depth(
-            &cells,
-            &portals,
-            t.config.vis.transform_depth,
+        graph: VisGraph::from_portal_set(
+            level.cells.cells.len(),
+            &level.portals,
+            level.cells.tolerance.distance,
         ),
-        diagnostics: std::mem::take(&mut t.diagnostics),
-        config: t.config.clone(),
-        level: Some(Built {
-            tagged: t,
-            cells,
-            portals,
-        }),
+        transform_depth: super::transform_depth(&level),
+        diagnostics: std::mem::take(&mut level.diagnostics),
+        config: level.config().clone(),
+        level: Some(level),
     })
 }

@@ -10,7 +10,7 @@ use serde::Deserialize;
 use serde_json::Value;
 
 use crate::format::Annotated;
-use crate::vis::Pvs;
+use crate::format::Pvs;
 
 /// Why a level cannot be loaded: what, where, and what to do.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,23 +97,13 @@ pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
 
 /// The JSON text and the BIN chunk of a .glb, or the whole text of a .gltf.
 fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
-    if !bytes.starts_with(b"glTF") {
+    use crate::format::glb;
+    if !glb::is_glb(bytes) {
         return Ok((bytes, None));
     }
-    let word = |at: usize| -> Option<usize> {
-        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?) as usize)
-    };
-    let bad = || "is a truncated or malformed .glb".to_string();
-    let json_len = word(12).ok_or_else(bad)?;
-    let json = bytes.get(20..20 + json_len).ok_or_else(bad)?;
-    let at = 20 + json_len;
-    let bin = match word(at) {
-        Some(len) if word(at + 4) == Some(0x004E_4942) => {
-            Some(bytes.get(at + 8..at + 8 + len).ok_or_else(bad)?)
-        }
-        _ => None,
-    };
-    Ok((json, bin))
+    glb::split(bytes)
+        .map(|g| (g.json, g.bin))
+        .map_err(|e| format!("is not a readable .glb: {e}"))
 }
 
 /// The bytes of buffer view `i`, reading only its range of an external buffer file.

@@ -60,7 +60,7 @@ pub use locate::Location;
 pub use trace::{Stats, Trace, TraceOptions, View, ViewError, Visible};
 
 use crate::format::Annotated;
-use crate::vis::Pvs;
+use crate::format::Pvs;
 use clip::Half;
 
 /// What kind of opening a portal is.

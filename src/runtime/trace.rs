@@ -135,7 +135,7 @@ impl Default for TraceOptions {
     fn default() -> TraceOptions {
         TraceOptions {
             max_depth: 32,
-            max_transform_depth: crate::vis::DEFAULT_TRANSFORM_DEPTH,
+            max_transform_depth: crate::format::DEFAULT_TRANSFORM_DEPTH,
             use_pvs: true,
         }
     }

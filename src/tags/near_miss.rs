@@ -7,7 +7,7 @@
 //! corrected name, which we can show. A misspelt tag word (`lounge-rooom`, `Kitchen_rom`) is
 //! found by its edit distance to the literal prefixes and suffixes of the name rules.
 
-use super::rules::{numbered_duplicate_stem, MatchOn, Rule, RuleSet};
+use super::rules::{numbered_duplicate_stem, MatchOn, RuleSet, SEPARATORS};
 
 /// A rule the name almost matched, and the name that would match it.
 #[derive(Debug, Clone)]
@@ -18,8 +18,6 @@ pub struct Miss {
     /// The material name that missed, for a material rule's near miss (else the node's name).
     pub material: Option<String>,
 }
-
-const SEPARATORS: [char; 4] = ['-', '_', '.', ' '];
 
 /// Corrected spellings of `name`, each with the slip it corrects, most specific first.
 fn variants(name: &str) -> Vec<(String, &'static str)> {
@@ -72,65 +70,6 @@ fn variants(name: &str) -> Vec<(String, &'static str)> {
 /// `Room.001` -> `Room`; `Room.12` stays (only Blender's three-digit form).
 fn strip_duplicate_suffix(s: &str) -> String {
     numbered_duplicate_stem(s).unwrap_or(s).to_string()
-}
-
-/// A literal word a name rule requires at one end of a name, next to a separator: `room` of
-/// `NAME-room` (a suffix after `-`), `portal` of `portal_TARGET` (a prefix before `_`).
-#[derive(Debug, Clone)]
-pub struct Affix {
-    pub rule: usize,
-    /// Lower case, without the separator.
-    pub word: String,
-    pub separator: char,
-    pub prefix: bool,
-}
-
-/// The affixes of every name rule, read from its pattern's literal prefix and suffix.
-pub fn affixes(rules: &[Rule]) -> Vec<Affix> {
-    use regex_syntax::hir::literal::{ExtractKind, Extractor};
-    let mut out = Vec::new();
-    for (i, r) in rules.iter().enumerate() {
-        let (MatchOn::Name, Some(pattern)) = (r.spec.on, r.spec.pattern.as_deref()) else {
-            continue;
-        };
-        let Ok(hir) = regex_syntax::parse(pattern) else {
-            continue;
-        };
-        for prefix in [true, false] {
-            let kind = if prefix {
-                ExtractKind::Prefix
-            } else {
-                ExtractKind::Suffix
-            };
-            let seq = Extractor::new().kind(kind).extract(&hir);
-            // One literal, longer than a separator: what a name must start or end with.
-            let Some([lit]) = seq.literals() else {
-                continue;
-            };
-            let Ok(text) = std::str::from_utf8(lit.as_bytes()) else {
-                continue;
-            };
-            let text = text.to_lowercase();
-            let split = if prefix {
-                text.strip_suffix(SEPARATORS)
-                    .map(|w| (w, text.chars().last()))
-            } else {
-                text.strip_prefix(SEPARATORS)
-                    .map(|w| (w, text.chars().next()))
-            };
-            if let Some((word, Some(separator))) = split {
-                if word.chars().count() >= 3 && !word.contains(SEPARATORS) {
-                    out.push(Affix {
-                        rule: i,
-                        word: word.to_string(),
-                        separator,
-                        prefix,
-                    });
-                }
-            }
-        }
-    }
-    out
 }
 
 /// A name whose first or last word is a rule's affix misspelt (within one edit, two for
@@ -242,48 +181,6 @@ pub fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
         }
     }
     None
-}
-
-/// For each material rule (its index), the words it accepts at the end of a name; computed
-/// once per rule set, as the affixes are.
-pub fn material_words(rules: &[Rule]) -> Vec<(usize, Vec<String>)> {
-    rules
-        .iter()
-        .enumerate()
-        .filter(|(_, r)| r.spec.on == MatchOn::Material)
-        .map(|(i, r)| (i, rule_material_words(r)))
-        .collect()
-}
-
-/// The words a material rule accepts at the end of a name: its example's last part, and the
-/// literal endings its pattern allows (`nodraw`, `skip`, `caulk`), lower case.
-fn rule_material_words(r: &Rule) -> Vec<String> {
-    use regex_syntax::hir::literal::{ExtractKind, Extractor};
-    let mut out: Vec<String> = r
-        .spec
-        .example
-        .iter()
-        .map(|e| e.rsplit('/').next().unwrap_or(e).to_lowercase())
-        .collect();
-    if let Some(hir) = r
-        .spec
-        .pattern
-        .as_deref()
-        .and_then(|p| regex_syntax::parse(p).ok())
-    {
-        let seq = Extractor::new().kind(ExtractKind::Suffix).extract(&hir);
-        for lit in seq.literals().unwrap_or(&[]) {
-            if let Ok(text) = std::str::from_utf8(lit.as_bytes()) {
-                let w = text.rsplit('/').next().unwrap_or(text).to_lowercase();
-                if w.chars().count() >= 3 && w.chars().all(char::is_alphanumeric) {
-                    out.push(w);
-                }
-            }
-        }
-    }
-    out.sort();
-    out.dedup();
-    out
 }
 
 #[cfg(test)]

@@ -202,7 +202,7 @@ pub struct RuleSet {
     pub wildcard: Option<char>,
     pub(crate) rules: Vec<Rule>,
     /// The literal prefixes and suffixes of the name rules, for near misses.
-    pub(crate) affixes: Vec<super::near_miss::Affix>,
+    pub(crate) affixes: Vec<Affix>,
     /// Per material rule (its index), the words it accepts at a name's end, for near misses.
     pub(crate) material_words: Vec<(usize, Vec<String>)>,
 }
@@ -268,8 +268,8 @@ impl RuleSet {
                 regex,
             });
         }
-        let affixes = super::near_miss::affixes(&rules);
-        let material_words = super::near_miss::material_words(&rules);
+        let affixes = affixes(&rules);
+        let material_words = material_words(&rules);
         Ok(RuleSet {
             name: spec.name.clone(),
             case_sensitive: spec.case_sensitive,
@@ -359,4 +359,108 @@ impl RuleSet {
             a.to_lowercase() == b.to_lowercase()
         }
     }
+}
+
+/// What separates the words of a tag name (`Kitchen-room`, `portal_hall`, `Room.001`).
+pub(crate) const SEPARATORS: [char; 4] = ['-', '_', '.', ' '];
+
+/// A literal word a name rule requires at one end of a name, next to a separator: `room` of
+/// `NAME-room` (a suffix after `-`), `portal` of `portal_TARGET` (a prefix before `_`).
+#[derive(Debug, Clone)]
+pub(crate) struct Affix {
+    pub rule: usize,
+    /// Lower case, without the separator.
+    pub word: String,
+    pub separator: char,
+    pub prefix: bool,
+}
+
+/// The affixes of every name rule, read from its pattern's literal prefix and suffix.
+pub(crate) fn affixes(rules: &[Rule]) -> Vec<Affix> {
+    use regex_syntax::hir::literal::{ExtractKind, Extractor};
+    let mut out = Vec::new();
+    for (i, r) in rules.iter().enumerate() {
+        let (MatchOn::Name, Some(pattern)) = (r.spec.on, r.spec.pattern.as_deref()) else {
+            continue;
+        };
+        let Ok(hir) = regex_syntax::parse(pattern) else {
+            continue;
+        };
+        for prefix in [true, false] {
+            let kind = if prefix {
+                ExtractKind::Prefix
+            } else {
+                ExtractKind::Suffix
+            };
+            let seq = Extractor::new().kind(kind).extract(&hir);
+            // One literal, longer than a separator: what a name must start or end with.
+            let Some([lit]) = seq.literals() else {
+                continue;
+            };
+            let Ok(text) = std::str::from_utf8(lit.as_bytes()) else {
+                continue;
+            };
+            let text = text.to_lowercase();
+            let split = if prefix {
+                text.strip_suffix(SEPARATORS)
+                    .map(|w| (w, text.chars().last()))
+            } else {
+                text.strip_prefix(SEPARATORS)
+                    .map(|w| (w, text.chars().next()))
+            };
+            if let Some((word, Some(separator))) = split {
+                if word.chars().count() >= 3 && !word.contains(SEPARATORS) {
+                    out.push(Affix {
+                        rule: i,
+                        word: word.to_string(),
+                        separator,
+                        prefix,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+/// For each material rule (its index), the words it accepts at the end of a name; computed
+/// once per rule set, as the affixes are.
+pub(crate) fn material_words(rules: &[Rule]) -> Vec<(usize, Vec<String>)> {
+    rules
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.spec.on == MatchOn::Material)
+        .map(|(i, r)| (i, rule_material_words(r)))
+        .collect()
+}
+
+/// The words a material rule accepts at the end of a name: its example's last part, and the
+/// literal endings its pattern allows (`nodraw`, `skip`, `caulk`), lower case.
+fn rule_material_words(r: &Rule) -> Vec<String> {
+    use regex_syntax::hir::literal::{ExtractKind, Extractor};
+    let mut out: Vec<String> = r
+        .spec
+        .example
+        .iter()
+        .map(|e| e.rsplit('/').next().unwrap_or(e).to_lowercase())
+        .collect();
+    if let Some(hir) = r
+        .spec
+        .pattern
+        .as_deref()
+        .and_then(|p| regex_syntax::parse(p).ok())
+    {
+        let seq = Extractor::new().kind(ExtractKind::Suffix).extract(&hir);
+        for lit in seq.literals().unwrap_or(&[]) {
+            if let Ok(text) = std::str::from_utf8(lit.as_bytes()) {
+                let w = text.rsplit('/').next().unwrap_or(text).to_lowercase();
+                if w.chars().count() >= 3 && w.chars().all(char::is_alphanumeric) {
+                    out.push(w);
+                }
+            }
+        }
+    }
+    out.sort();
+    out.dedup();
+    out
 }

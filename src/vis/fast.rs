@@ -12,8 +12,8 @@ use glam::DVec3;
 
 use super::bits;
 use super::graph::VisGraph;
-use super::pvs::Pvs;
 use super::winding::sphere;
+use super::Pvs;
 use crate::geom::plane::Plane;
 
 /// Per directed portal, the portals it might see (a bit row over portals).

@@ -7,7 +7,7 @@
 
 use super::bits;
 use super::graph::VisGraph;
-use super::pvs::Pvs;
+use super::Pvs;
 
 pub fn pvs(g: &VisGraph) -> Pvs {
     let adj: Vec<Vec<usize>> = g

@@ -31,8 +31,8 @@ use rayon::prelude::*;
 
 use super::bits;
 use super::graph::{transform_plane, VisGraph};
-use super::pvs::Pvs;
 use super::winding::{chop, chop_in_sphere, clip_by, separators, sphere, Chop};
+use super::Pvs;
 use crate::geom::plane::Plane;
 
 /// ericw-tools' tests 2 and 3: also narrow the source by the separators of the target.

@@ -14,7 +14,7 @@ use glam::{DMat4, DVec3};
 use rayon::prelude::*;
 
 use super::graph::VisGraph;
-use super::pvs::Pvs;
+use super::Pvs;
 use super::{bits, bits::BitMatrix};
 
 /// Longest walk, in portals; a bound against a ray bouncing forever between two mirrors.

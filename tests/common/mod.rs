@@ -249,6 +249,26 @@ pub fn load_level(
     (t, c, p)
 }
 
+/// [`load_level`] as one built level.
+pub fn built(path: &Path, preset: Option<&str>) -> portcullis::pipeline::Level {
+    let (t, c, p) = load_level(path, preset);
+    portcullis::pipeline::Level::new(t, c, p)
+}
+
+/// The checks of `check` on a tagged level and its cells and portals; the findings are
+/// appended to `t.diagnostics`, the leak paths returned.
+pub fn check_parts(
+    t: &mut portcullis::pipeline::Tagged,
+    c: &portcullis::cells::CellSet,
+    p: &portcullis::portals::PortalSet,
+    sealed: bool,
+) -> Vec<Vec<glam::DVec3>> {
+    let mut level = portcullis::pipeline::Level::new(t.clone(), c.clone(), p.clone());
+    let leaks = portcullis::pipeline::check(&mut level, sealed);
+    t.diagnostics = level.diagnostics;
+    leaks
+}
+
 /// (name, parent index, mesh triangles, extras) of one node of a scene built in code.
 pub type Part<'a> = (&'a str, Option<usize>, Vec<[glam::DVec3; 3]>, Option<Value>);
 

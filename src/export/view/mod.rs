@@ -18,13 +18,12 @@ mod page;
 
 pub use page::page;
 
+use crate::level::Level;
 use glam::DVec3;
 use serde_json::{json, Value};
 
-use crate::cells::CellSet;
 use crate::diag::{Diagnostic, Severity};
 use crate::export::debug::{room_rgb, PortalStyle};
-use crate::portals::PortalSet;
 use crate::scene::Scene;
 use crate::tags::Tagging;
 use crate::vis::Pvs;
@@ -98,15 +97,9 @@ fn geometry(scene: &Scene, tagging: &Tagging) -> Value {
 
 /// The page's data: counts, rooms, geometry, cells (faces and planes), portals (outline,
 /// cells, style), each cell's PVS row, leaks, sightline rays and diagnostics.
-pub fn payload(
-    title: &str,
-    scene: &Scene,
-    tagging: &Tagging,
-    cells: &CellSet,
-    portals: &PortalSet,
-    pvs: &Pvs,
-    extras: &Extras,
-) -> Value {
+pub fn payload(title: &str, level: &Level, pvs: &Pvs, extras: &Extras) -> Value {
+    let (scene, tagging, cells, portals) =
+        (level.scene(), level.tagging(), &level.cells, &level.portals);
     let rooms: Vec<Value> = tagging
         .rooms
         .iter()

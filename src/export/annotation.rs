@@ -7,9 +7,9 @@ use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::{json, Map, Value};
 
 use super::hash::input_hash;
-use super::records::{Bounds, CellRecord, PortalRecord};
-use super::VERSION;
 use crate::cells::CellSet;
+use crate::format::records::{Bounds, CellRecord, PortalRecord};
+use crate::format::VERSION;
 use crate::portals::PortalSet;
 use crate::scene::NodeId;
 use crate::scene::Scene;
@@ -101,7 +101,7 @@ impl<'a> Annotation<'a> {
 
     /// Stores the PVS (left out for a level of one cell).
     pub fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
-        if let Some(e) = super::visibility::encode(pvs, method) {
+        if let Some(e) = crate::format::visibility::encode(pvs, method) {
             if let Some(o) = self.root.as_object_mut() {
                 o.insert("visibility".into(), e.json);
             }

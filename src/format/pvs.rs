@@ -4,6 +4,50 @@
 
 use super::bits::{self, BitMatrix};
 
+/// How many transformed portals (mirrors, teleporters) one sightline may pass through when
+/// there is no level to ask: graphs built by hand or read from .prt files (which have no
+/// transforms). Levels use `vis::level_transform_depth`, the loop check's run-time bound; two
+/// covers a mirror seen in a mirror.
+pub const DEFAULT_TRANSFORM_DEPTH: usize = 2;
+
+/// How the PVS is computed: `flood` ⊇ `fast` ⊇ `full` are conservative, `sampled` a lower bound.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Method {
+    /// Reachability through portals: the loosest.
+    Flood,
+    /// Quake's per-portal might-see: front tests, then a flood.
+    Fast,
+    /// Portal flow with separating-plane clipping, as Quake's vis: the tightest.
+    Full,
+    /// Random sightlines walked through the portals: a lower bound, to check the others by.
+    Sampled,
+}
+
+impl Method {
+    /// Every method, loosest first.
+    pub const ALL: [Method; 4] = [Method::Flood, Method::Fast, Method::Full, Method::Sampled];
+
+    /// The method named `s` as on the command line (`flood`, `fast`, `full`, `sampled`).
+    pub fn parse(s: &str) -> Option<Method> {
+        Some(match s {
+            "flood" => Method::Flood,
+            "fast" => Method::Fast,
+            "full" => Method::Full,
+            "sampled" => Method::Sampled,
+            _ => return None,
+        })
+    }
+    /// The name `parse` reads.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Flood => "flood",
+            Method::Fast => "fast",
+            Method::Full => "full",
+            Method::Sampled => "sampled",
+        }
+    }
+}
+
 /// Potentially visible sets: for each cell, the cells that can be seen from anywhere in it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Pvs {
