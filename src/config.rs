@@ -186,7 +186,7 @@ impl CheckConfig {
 }
 
 /// The configuration next to `input`, if there is one.
-pub fn discover(input: &Path) -> Option<PathBuf> {
+pub(crate) fn discover(input: &Path) -> Option<PathBuf> {
     let dir = input
         .parent()
         .filter(|d| !d.as_os_str().is_empty())

@@ -139,7 +139,7 @@ impl<'a> Context<'a> {
 
     /// The cells of one footprint node; `fixed` is its height from extras
     /// (`footprint_height`), before the configuration's and the geometry above.
-    pub fn extrude(
+    pub(crate) fn extrude(
         &self,
         node: NodeId,
         fixed: Option<f64>,

@@ -70,7 +70,7 @@ mod overlap;
 pub use overlap::Overlap;
 mod prism;
 mod solids;
-pub mod split;
+pub(crate) mod split;
 
 pub use split::{split_geometry, SplitPiece};
 
@@ -981,7 +981,7 @@ impl Frame {
         DVec2::new(p.dot(self.u), p.dot(self.v))
     }
     /// A ground-plane vector back in 3D.
-    pub fn lift(&self, q: DVec2) -> DVec3 {
+    pub(crate) fn lift(&self, q: DVec2) -> DVec3 {
         self.u * q.x + self.v * q.y
     }
 }

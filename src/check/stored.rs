@@ -125,7 +125,7 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
 
 /// The stored portals as a [`PortalSet`]. Directions come from the polygons' winding
 /// (counter-clockwise seen from the source cell).
-pub fn portal_set(a: &Annotated) -> PortalSet {
+pub(crate) fn portal_set(a: &Annotated) -> PortalSet {
     let portals = a
         .portals
         .iter()

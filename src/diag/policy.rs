@@ -68,7 +68,7 @@ impl Policy {
     /// The policy of `ignore` codes and `severity` overrides, named as a user writes them
     /// (a configuration's `[check]` section). Unknown names are errors the schema cannot
     /// catch (codes are not in it), reported as strings.
-    pub fn from_names<'a>(
+    pub(crate) fn from_names<'a>(
         ignore: impl IntoIterator<Item = &'a String>,
         severity: impl IntoIterator<Item = (&'a String, &'a String)>,
     ) -> Result<Policy, String> {

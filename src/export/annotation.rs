@@ -68,7 +68,7 @@ pub(crate) struct InputHash<'a> {
 pub(crate) type PendingHash<'a> = Box<dyn FnOnce() -> String + Send + 'a>;
 
 impl<'a> InputHash<'a> {
-    pub fn pending(f: PendingHash<'a>) -> InputHash<'a> {
+    pub(crate) fn pending(f: PendingHash<'a>) -> InputHash<'a> {
         InputHash {
             value: std::sync::OnceLock::new(),
             pending: std::sync::Mutex::new(Some(f)),
@@ -100,7 +100,7 @@ impl<'a> Annotation<'a> {
     }
 
     /// Stores the PVS (left out for a level of one cell).
-    pub fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
+    pub(crate) fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
         if let Some(e) = crate::format::visibility::encode(pvs, method) {
             if let Some(o) = self.root.as_object_mut() {
                 o.insert("visibility".into(), e.json);

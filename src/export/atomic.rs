@@ -24,7 +24,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// Writes `path` atomically with `fill`, which gets the temporary file to write (and seek in):
 /// a big output goes to disk as it is made instead of being held whole in memory first. Any
 /// error of `fill`, or of the file (`io` turns those into `E`), leaves no file behind.
-pub fn write_with<E>(
+pub(crate) fn write_with<E>(
     path: &Path,
     fill: impl FnOnce(&mut std::fs::File) -> Result<(), E>,
     io: impl Fn(std::io::Error) -> E,

@@ -15,7 +15,7 @@ use crate::scene::Scene;
 
 /// `scene` itself when every node transform is the identity, else a copy with each mesh node's
 /// mesh in world space (winding kept facing the same way under a mirroring transform).
-pub fn world_space(scene: &Scene) -> Cow<'_, Scene> {
+pub(crate) fn world_space(scene: &Scene) -> Cow<'_, Scene> {
     if scene.nodes.iter().all(|n| n.world == DMat4::IDENTITY) {
         return Cow::Borrowed(scene);
     }

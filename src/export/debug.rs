@@ -75,7 +75,7 @@ impl PortalStyle {
     }
 
     /// sRGB, 0..1.
-    pub fn rgb(self) -> [f64; 3] {
+    pub(crate) fn rgb(self) -> [f64; 3] {
         match self {
             PortalStyle::Plain => [0.18, 0.8, 0.25],
             PortalStyle::OneWay => [1.0, 0.55, 0.0],
@@ -101,7 +101,7 @@ impl PortalStyle {
 
 /// A distinct sRGB colour per room: hues a golden angle apart, so neighbouring room indices
 /// (often neighbouring rooms) never look alike, however many rooms there are.
-pub fn room_rgb(room: usize) -> [f64; 3] {
+pub(crate) fn room_rgb(room: usize) -> [f64; 3] {
     let h = (room as f64 * 0.618_033_988_749_895).fract();
     hsv(h, 0.55, 0.95)
 }

@@ -20,7 +20,7 @@ use crate::diag::{Code, Diagnostic, Location};
 use crate::scene::{GltfSource, NodeId, Scene};
 
 /// The glTF node index a scene node is written as.
-pub fn node_index(scene: &Scene, n: NodeId) -> Option<usize> {
+pub(crate) fn node_index(scene: &Scene, n: NodeId) -> Option<usize> {
     if scene.gltf.is_some() {
         scene.nodes[n]
             .source
@@ -47,7 +47,7 @@ pub fn write(
 }
 
 /// [`write()`] into `sink` (the file of an atomic write, so a big output is not held in memory).
-pub fn write_to(
+pub(crate) fn write_to(
     scene: &Scene,
     ann: Annotation,
     out: &Path,
@@ -75,7 +75,7 @@ fn out_dir(out: &Path) -> &Path {
 /// The glTF document a level read from OBJ or USD is written as: meshes in world space
 /// (`bake`), one BIN buffer. It is made once, then hashed (what a reader of the written file
 /// imports) and written from.
-pub fn new_document(scene: &Scene, out: &Path) -> Result<GltfSource, Diagnostic> {
+pub(crate) fn new_document(scene: &Scene, out: &Path) -> Result<GltfSource, Diagnostic> {
     let (doc, bin) = from_scene(&super::bake::world_space(scene), OutFormat::Glb);
     let text = serde_json::to_string(&doc)
         .map_err(|e| super::atomic::failed(out, std::io::Error::from(e)))?;
@@ -93,7 +93,7 @@ pub fn new_document(scene: &Scene, out: &Path) -> Result<GltfSource, Diagnostic>
 /// One writer writes every output, the streamed rewrite of a glTF document; a document the
 /// rewrite declines (a key repeated where it must read the member) is rewritten from its
 /// parsed form, where the last of a repeated key wins, as any JSON reader sees it.
-pub fn write_to_with<'s>(
+pub(crate) fn write_to_with<'s>(
     src: &'s GltfSource,
     members: Option<super::rewrite::Members<'s>>,
     mut ann: Annotation,

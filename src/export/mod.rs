@@ -41,7 +41,7 @@
 //! annotation; everything not ours is kept; the `.usda` layer reads back through usd-core to the
 //! same rooms, cells and portals, and output bytes repeat for the same input.
 
-pub mod annotation;
+pub(crate) mod annotation;
 pub mod atomic;
 pub(crate) mod bake;
 pub(crate) mod container;
@@ -57,7 +57,7 @@ pub(crate) mod sink;
 pub mod svg;
 pub mod target;
 pub(crate) mod transcode;
-pub mod usd_out;
+pub(crate) mod usd_out;
 pub mod view;
 
 pub use annotation::{build, Annotation};

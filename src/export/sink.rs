@@ -7,7 +7,7 @@
 use std::io::{Cursor, Seek, SeekFrom, Write};
 
 /// A writable, seekable output that can start over.
-pub trait Sink: Write + Seek {
+pub(crate) trait Sink: Write + Seek {
     /// Empties the output (a writer that declined half-way starts over with another path).
     fn reset(&mut self) -> std::io::Result<()>;
 

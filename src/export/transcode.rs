@@ -21,13 +21,13 @@ use crate::scene::json_text;
 const REPEATED: &str = "portcullis: repeated JSON key";
 
 /// JSON text that serializes as the `Value` it parses to (see the module's note on keys).
-pub struct Transcode<'a>(pub &'a str);
+pub(crate) struct Transcode<'a>(pub &'a str);
 
 /// Appends what [`Transcode`] writes of `text` in compact form: `text` itself when it is
 /// already that ([`is_compact_form`]), which is a byte scan instead of a parse and a write
 /// of every value. A level written by a tool that writes compact JSON (ours, most
 /// exporters' .glb) is copied nearly whole.
-pub fn write_compact(text: &str, out: &mut Vec<u8>) -> serde_json::Result<()> {
+pub(crate) fn write_compact(text: &str, out: &mut Vec<u8>) -> serde_json::Result<()> {
     if is_compact_form(text) {
         out.extend_from_slice(text.as_bytes());
         Ok(())
@@ -41,7 +41,7 @@ pub fn write_compact(text: &str, out: &mut Vec<u8>) -> serde_json::Result<()> {
 /// i64, not `-0`), numbers with a fraction or exponent as the serializer writes the `f64`
 /// the parser reads, no repeated key (nor the marker key) in an object. `false` when unsure:
 /// the caller then transcodes, which decides.
-pub fn is_compact_form(text: &str) -> bool {
+pub(crate) fn is_compact_form(text: &str) -> bool {
     let b = text.as_bytes();
     matches!(Compact { b }.value(0, 0), Some(end) if end == b.len())
 }

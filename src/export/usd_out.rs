@@ -25,7 +25,7 @@ use crate::tags::Tagging;
 use crate::vis::{Method, Pvs};
 
 /// The root prim holding the annotation; skipped by the USD importer.
-pub const ANNOTATION_PRIM: &str = "PortcullisAnnotation";
+pub(crate) const ANNOTATION_PRIM: &str = "PortcullisAnnotation";
 /// The root scope holding the materials.
 const LOOKS_PRIM: &str = "PortcullisLooks";
 
@@ -322,7 +322,7 @@ fn dictionary(out: &mut String, o: &serde_json::Map<String, Value>, depth: usize
 }
 
 /// The level, its cells and portals as one `.usda` layer (Y-up, metres).
-pub fn write_usda(level: &Level, pvs: Option<(&Pvs, Method)>) -> String {
+pub(crate) fn write_usda(level: &Level, pvs: Option<(&Pvs, Method)>) -> String {
     let (scene, tagging, cells, portals) =
         (level.scene(), level.tagging(), &level.cells, &level.portals);
     let mut w = Writer {

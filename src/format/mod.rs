@@ -12,7 +12,7 @@
 
 pub(crate) mod bits;
 pub mod glb;
-pub mod pvs;
+pub(crate) mod pvs;
 pub mod read;
 pub(crate) mod records;
 pub mod visibility;

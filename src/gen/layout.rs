@@ -156,7 +156,7 @@ impl Layout {
     }
 
     /// The room at a cell of a storey.
-    pub fn room_at(&self, storey: usize, (c, r): (usize, usize)) -> Option<usize> {
+    pub(crate) fn room_at(&self, storey: usize, (c, r): (usize, usize)) -> Option<usize> {
         self.cell_room
             .get(storey)?
             .get(r * self.cols + c)
@@ -175,7 +175,7 @@ impl Layout {
     }
 
     /// The centre of a cell's floor.
-    pub fn cell_centre(&self, (c, r): (usize, usize), storey: usize) -> DVec3 {
+    pub(crate) fn cell_centre(&self, (c, r): (usize, usize), storey: usize) -> DVec3 {
         DVec3::new(
             (self.xs[c] + self.xs[c + 1]) * 0.5,
             storey as f64 * STOREY,

@@ -48,11 +48,11 @@ impl Default for GenOptions {
 }
 
 /// Storey height (m): floor to the floor above.
-pub const STOREY: f64 = 3.0;
+pub(crate) const STOREY: f64 = 3.0;
 /// Door size (m).
-pub const DOOR_WIDTH: f64 = 1.0;
+pub(crate) const DOOR_WIDTH: f64 = 1.0;
 /// Door height (m).
-pub const DOOR_HEIGHT: f64 = 2.1;
+pub(crate) const DOOR_HEIGHT: f64 = 2.1;
 
 pub(crate) use crate::rng::SplitMix64 as Rng;
 

@@ -8,9 +8,9 @@ use glam::DVec3;
 use super::layout::{Layout, Side};
 use super::{Rng, DOOR_HEIGHT, DOOR_WIDTH, STOREY};
 
-pub type Tri = [DVec3; 3];
+pub(crate) type Tri = [DVec3; 3];
 
-pub struct RoomSurfaces {
+pub(crate) struct RoomSurfaces {
     pub floor: Vec<Tri>,
     pub ceiling: Vec<Tri>,
     pub walls: Vec<Tri>,

@@ -76,7 +76,7 @@ impl Pieces {
 }
 
 /// What is left of a region as covers are cut from it.
-pub struct Remainder {
+pub(crate) struct Remainder {
     pieces: Pieces,
     next: Pieces,
     cover: Vec<DVec2>,
@@ -182,14 +182,14 @@ impl Remainder {
     }
 
     /// True when what is left is known to be at most `limit`.
-    pub fn at_most(&self, limit: f64) -> bool {
+    pub(crate) fn at_most(&self, limit: f64) -> bool {
         self.area().is_some_and(|a| a <= limit)
     }
 }
 
 /// An upper bound on the area a cover grown by `grow` removes: the grown cover lies within
 /// grow·√2 of the ring, and that neighbourhood has area A + √2·grow·P + 2π·grow².
-pub fn grown_area_bound(cover: &[DVec2], grow: f64) -> f64 {
+pub(crate) fn grown_area_bound(cover: &[DVec2], grow: f64) -> f64 {
     let perimeter: f64 = (0..cover.len())
         .map(|i| cover[i].distance(cover[(i + 1) % cover.len()]))
         .sum();
@@ -201,7 +201,7 @@ pub fn grown_area_bound(cover: &[DVec2], grow: f64) -> f64 {
 /// True when `covers` (grown by `grow`) leave at most `closed` of `region` uncovered. Gives up
 /// (false) as soon as the covers not yet cut could not remove what is left, so a region with
 /// a real opening costs little more than the sum of its covers' areas.
-pub fn is_covered<R: AsRef<[DVec2]>>(
+pub(crate) fn is_covered<R: AsRef<[DVec2]>>(
     region: &[DVec2],
     covers: &[R],
     grow: f64,
@@ -309,7 +309,7 @@ fn open_somewhere<R: AsRef<[DVec2]>>(
 /// The area of `region` not covered by `covers` (see [`Remainder`]), or `None` when it would
 /// take too many pieces to tell. Pieces below `sliver` are dropped and counted.
 #[cfg(test)]
-pub fn uncovered_area<'a>(
+pub(crate) fn uncovered_area<'a>(
     region: &[DVec2],
     covers: impl IntoIterator<Item = &'a [DVec2]>,
     grow: f64,

@@ -19,7 +19,7 @@ use robust::{orient2d, Coord};
 use super::partition::{ring_mean_width, Polygon2};
 
 /// `p` without its cracks narrower than `width`: `None` when nothing else is left.
-pub fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
+pub(crate) fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
     if width <= 0.0 {
         return Some(p.clone());
     }

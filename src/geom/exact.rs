@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use glam::DVec2;
 
 /// The input vertices (and, if given, edges) the pieces of a boolean are made of.
-pub struct ExactVertices {
+pub(crate) struct ExactVertices {
     grid: f64,
     map: HashMap<(i64, i64), (usize, DVec2), foldhash::fast::FixedState>,
     /// Input edges, in input order, for vertices that are crossings.
@@ -35,7 +35,7 @@ impl ExactVertices {
 
     /// Also the edges of these closed rings: a vertex that is no input vertex but lies where
     /// two of them cross is put back on their crossing.
-    pub fn with_rings<'r>(mut self, rings: impl IntoIterator<Item = &'r [DVec2]>) -> Self {
+    pub(crate) fn with_rings<'r>(mut self, rings: impl IntoIterator<Item = &'r [DVec2]>) -> Self {
         for r in rings {
             for (i, &a) in r.iter().enumerate() {
                 let b = r[(i + 1) % r.len()];
@@ -52,7 +52,7 @@ impl ExactVertices {
     /// of a turned level differ in their last bits and may round to neighbouring grid keys;
     /// the nearest of them is then a coin toss, and so was the order of a room's cells
     /// (tests/cells_props.rs, an L turned by (1.47, -0.52, -0.04) rad).
-    pub fn index_of(&self, p: DVec2) -> Option<usize> {
+    pub(crate) fn index_of(&self, p: DVec2) -> Option<usize> {
         let (kx, ky) = Self::key(p, self.grid);
         let mut earliest: Option<usize> = None;
         for dx in -2..=2 {
@@ -117,7 +117,7 @@ impl ExactVertices {
 
     /// Each vertex put back: the input vertex nearest to it within two grid steps, else the
     /// crossing of two input edges there, else as it is.
-    pub fn restore(&self, piece: Vec<DVec2>) -> Vec<DVec2> {
+    pub(crate) fn restore(&self, piece: Vec<DVec2>) -> Vec<DVec2> {
         piece
             .into_iter()
             .map(|p| {

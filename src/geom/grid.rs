@@ -7,7 +7,7 @@ use glam::DVec3;
 
 use super::aabb::Aabb;
 
-pub struct BoxGrid {
+pub(crate) struct BoxGrid {
     boxes: Vec<Aabb>,
     origin: DVec3,
     cell: f64,
@@ -33,7 +33,7 @@ impl BoxGrid {
 
     /// [`BoxGrid::index`] of some of the boxes only, `ids`: queries offer these ids, so several
     /// grids over parts of one list answer in the list's numbering.
-    pub fn index_ids(
+    pub(crate) fn index_ids(
         ids: impl Iterator<Item = u32> + Clone,
         box_of: impl Fn(u32) -> Aabb,
     ) -> BoxGrid {
@@ -119,7 +119,12 @@ impl BoxGrid {
     }
 
     /// [`BoxGrid::query`] of a grid made by [`BoxGrid::index`], with the same `box_of`.
-    pub fn query_by(&self, b: &Aabb, pad: f64, box_of: impl Fn(usize) -> Aabb) -> Vec<usize> {
+    pub(crate) fn query_by(
+        &self,
+        b: &Aabb,
+        pad: f64,
+        box_of: impl Fn(usize) -> Aabb,
+    ) -> Vec<usize> {
         let mut out = Vec::new();
         self.query_into(b, pad, box_of, &mut out, &mut Marks::default());
         out.into_iter().map(|i| i as usize).collect()
@@ -127,7 +132,7 @@ impl BoxGrid {
 
     /// [`BoxGrid::query_by`] into buffers the caller reuses (`out` is cleared first): an inner
     /// loop that queries per face pair allocates nothing.
-    pub fn query_into(
+    pub(crate) fn query_into(
         &self,
         b: &Aabb,
         pad: f64,
@@ -152,7 +157,7 @@ impl BoxGrid {
     /// particular order: a superset of the boxes meeting it, for callers that test each one
     /// themselves and sort only what they keep. A box in several buckets is offered once;
     /// `marks` (left empty afterwards) remembers which were.
-    pub fn visit(&self, b: &Aabb, pad: f64, marks: &mut Marks, mut f: impl FnMut(u32)) {
+    pub(crate) fn visit(&self, b: &Aabb, pad: f64, marks: &mut Marks, mut f: impl FnMut(u32)) {
         if b.is_empty() {
             return;
         }
@@ -189,7 +194,7 @@ impl BoxGrid {
 /// A set of box indices as bits, grown as needed and left empty after each query (the indices
 /// set are listed, so clearing costs what setting did).
 #[derive(Default)]
-pub struct Marks {
+pub(crate) struct Marks {
     bits: Vec<u64>,
     seen: Vec<u32>,
 }

@@ -15,7 +15,7 @@ use super::plane::Plane;
 use super::polyhedron::ConvexPolyhedron;
 
 #[derive(Debug, Clone, PartialEq)]
-pub enum HullError {
+pub(crate) enum HullError {
     /// Fewer than four points, or all of them on one line or point.
     TooFewPoints,
     /// All points lie within tolerance of one plane: the shape has no volume.

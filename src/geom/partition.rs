@@ -47,7 +47,7 @@ impl Polygon2 {
 
     /// Mean width: twice the area over the perimeter (holes' edges count). Thinner than the
     /// tolerance is float noise along edges that should meet, not a region.
-    pub fn mean_width(&self) -> f64 {
+    pub(crate) fn mean_width(&self) -> f64 {
         let total = perimeter(&self.outer) + self.holes.iter().map(|h| perimeter(h)).sum::<f64>();
         if total > 0.0 {
             2.0 * self.area() / total
@@ -58,7 +58,7 @@ impl Polygon2 {
 }
 
 /// The mean width of one ring (either winding): twice its area over its perimeter.
-pub fn ring_mean_width(r: &[DVec2]) -> f64 {
+pub(crate) fn ring_mean_width(r: &[DVec2]) -> f64 {
     let total = perimeter(r);
     if total > 0.0 {
         2.0 * ring_area(r).abs() / total

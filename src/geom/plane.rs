@@ -24,7 +24,7 @@ impl Plane {
 
     /// The plane of a polygon by Newell's method (robust for non-planar or nearly collinear
     /// input), facing the side from which the polygon is counter-clockwise.
-    pub fn from_polygon(pts: &[DVec3]) -> Option<Plane> {
+    pub(crate) fn from_polygon(pts: &[DVec3]) -> Option<Plane> {
         if pts.len() < 3 {
             return None;
         }
@@ -62,7 +62,7 @@ impl Plane {
     /// Same plane and orientation: normals within `angle` radians, offsets within `dist`.
     /// (The chord between unit normals is compared, not the dot product, whose rounding near
     /// 1 would make tiny angles meaningless.)
-    pub fn same_as(&self, o: &Plane, dist: f64, angle: f64) -> bool {
+    pub(crate) fn same_as(&self, o: &Plane, dist: f64, angle: f64) -> bool {
         let chord = angle.max(1e-12);
         (self.normal - o.normal).length_squared() <= chord * chord && (self.d - o.d).abs() <= dist
     }
@@ -77,7 +77,7 @@ impl Plane {
     }
 
     /// Two unit vectors spanning the plane, with `u × v = normal`.
-    pub fn basis(&self) -> (DVec3, DVec3) {
+    pub(crate) fn basis(&self) -> (DVec3, DVec3) {
         let n = self.normal;
         let helper = if n.x.abs() < 0.6 {
             DVec3::X

@@ -105,7 +105,11 @@ impl ConvexPolyhedron {
 
     /// The intersection of half-spaces `plane.distance(p) <= 0` inside `bounds` (which must
     /// contain the result; it only makes the start finite).
-    pub fn from_planes(planes: &[Plane], bounds: &Aabb, eps: f64) -> Option<ConvexPolyhedron> {
+    pub(crate) fn from_planes(
+        planes: &[Plane],
+        bounds: &Aabb,
+        eps: f64,
+    ) -> Option<ConvexPolyhedron> {
         let b = bounds.grown(bounds.size().max_element().max(1.0));
         let mut p = ConvexPolyhedron::from_aabb(&b);
         for pl in planes {
@@ -143,7 +147,7 @@ impl ConvexPolyhedron {
     }
 
     /// Mean of the face vertices: strictly inside for a non-degenerate polyhedron.
-    pub fn interior_point(&self) -> DVec3 {
+    pub(crate) fn interior_point(&self) -> DVec3 {
         let (sum, n) = self
             .faces
             .iter()
@@ -249,7 +253,7 @@ impl ConvexPolyhedron {
     /// Removes sliver faces: faces so thin that dropping their plane moves no vertex more than
     /// `eps` out of it. Float noise in the input (f32 positions through rotation matrices) makes
     /// hulls with such facets; a cell should not carry planes its shape does not need.
-    pub fn simplified(&self, eps: f64) -> ConvexPolyhedron {
+    pub(crate) fn simplified(&self, eps: f64) -> ConvexPolyhedron {
         let mut current = self.clone();
         loop {
             let bounds = current.bounds();
@@ -336,7 +340,7 @@ fn dedupe_ring(pts: &mut Vec<DVec3>, eps: f64) {
 
 /// The part of a convex polygon behind the plane `normal · p = d` (Sutherland–Hodgman, no
 /// tolerance: callers shift `d` by theirs). Fewer than three points means nothing is left.
-pub fn clip_polygon(poly: &[DVec3], normal: DVec3, d: f64) -> Vec<DVec3> {
+pub(crate) fn clip_polygon(poly: &[DVec3], normal: DVec3, d: f64) -> Vec<DVec3> {
     let mut out = Vec::with_capacity(poly.len() + 2);
     for i in 0..poly.len() {
         let a = poly[i];
@@ -370,7 +374,7 @@ pub fn polygon_area(pts: &[DVec3], normal: DVec3) -> f64 {
 /// A polygon as portals need it: vertices closer than `eps` to the previous one merged, and
 /// `None` unless at least three remain and it is wider than `eps` on average (twice its area
 /// over its perimeter) — the one test for "has an area" that building and checking share.
-pub fn usable_polygon(pts: &[DVec3], normal: DVec3, eps: f64) -> Option<Vec<DVec3>> {
+pub(crate) fn usable_polygon(pts: &[DVec3], normal: DVec3, eps: f64) -> Option<Vec<DVec3>> {
     let mut out: Vec<DVec3> = Vec::with_capacity(pts.len());
     for p in pts {
         if out.last().is_none_or(|q| q.distance(*p) > eps) {
@@ -391,7 +395,7 @@ pub fn usable_polygon(pts: &[DVec3], normal: DVec3, eps: f64) -> Option<Vec<DVec
 
 /// The convex hull of points lying on `plane`, counter-clockwise about its normal. Exact
 /// orientation predicates decide the hull; near-duplicates (within `eps`) are merged first.
-pub fn convex_ring_on_plane(pts: &[DVec3], plane: &Plane, eps: f64) -> Vec<DVec3> {
+pub(crate) fn convex_ring_on_plane(pts: &[DVec3], plane: &Plane, eps: f64) -> Vec<DVec3> {
     let mut uniq: Vec<DVec3> = Vec::new();
     for p in pts {
         if !uniq.iter().any(|q| q.distance_squared(*p) <= eps * eps) {

@@ -6,7 +6,7 @@ use glam::DVec3;
 use parry3d_f64::shape::TriMesh;
 
 /// The mesh of `tris`, or `None` when there is nothing to hit.
-pub fn ray_mesh(tris: &[[DVec3; 3]]) -> Option<TriMesh> {
+pub(crate) fn ray_mesh(tris: &[[DVec3; 3]]) -> Option<TriMesh> {
     let verts: Vec<DVec3> = tris
         .iter()
         .filter(|t| t.iter().all(|p| p.is_finite()))

@@ -13,9 +13,9 @@
 use serde::Serialize;
 
 /// Default cap on the distance tolerance, metres.
-pub const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
+pub(crate) const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
 /// Default angle tolerance, radians.
-pub const DEFAULT_ANGLE: f64 = 1e-5;
+pub(crate) const DEFAULT_ANGLE: f64 = 1e-5;
 
 /// How close is "the same" for one level, from the precision its file stored.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -16,11 +16,11 @@ use robust::{orient2d, Coord};
 
 /// Above this many vertices the quadratic simplicity check and ear search are not attempted:
 /// no real level face comes near it, and a hostile file must not stall the importer.
-pub const MAX_EXACT_VERTICES: usize = 10_000;
+pub(crate) const MAX_EXACT_VERTICES: usize = 10_000;
 
 /// Why a polygon could not be triangulated as a simple polygon.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum NotSimple {
+pub(crate) enum NotSimple {
     /// Fewer than three distinct points, or no area: any triangulation covers nothing, so a fan
     /// is as good as any.
     Degenerate,
@@ -54,7 +54,7 @@ type P2 = Coord<f64>;
 /// A simple polygon with `n` distinct, non-collinear-in-a-row vertices gives `n - 2` triangles;
 /// repeated consecutive points give none of their own, and a vertex lying exactly on the line
 /// between its neighbours may be skipped if no ear can otherwise be found.
-pub fn triangulate_polygon(points: &[DVec3]) -> Result<Vec<[usize; 3]>, NotSimple> {
+pub(crate) fn triangulate_polygon(points: &[DVec3]) -> Result<Vec<[usize; 3]>, NotSimple> {
     let n = points.len();
     if n < 3 {
         return Err(NotSimple::Degenerate);
@@ -143,7 +143,7 @@ pub fn triangulate_polygon(points: &[DVec3]) -> Result<Vec<[usize; 3]>, NotSimpl
 
 /// Newell's normal: robust to concave corners and collinear vertices, unlike a cross product
 /// of two edges. Computed relative to the first point to keep large coordinates accurate.
-pub fn newell_normal(points: &[DVec3]) -> DVec3 {
+pub(crate) fn newell_normal(points: &[DVec3]) -> DVec3 {
     let Some(&origin) = points.first() else {
         return DVec3::ZERO;
     };

@@ -16,7 +16,7 @@ use crate::scene::{Format, Scene};
 
 pub mod gltf;
 pub mod map;
-pub mod obj;
+pub(crate) mod obj;
 pub mod usd;
 
 /// Options shared by the importers.
@@ -52,7 +52,7 @@ pub struct Imported {
 }
 
 /// The format implied by a path's extension.
-pub fn format_from_path(path: &Path) -> Option<Format> {
+pub(crate) fn format_from_path(path: &Path) -> Option<Format> {
     let ext = path.extension()?.to_str()?.to_ascii_lowercase();
     match ext.as_str() {
         "gltf" => Some(Format::Gltf),

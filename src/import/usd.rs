@@ -40,7 +40,7 @@ pub(crate) mod stage;
 pub const USD_CORE_VERSION: &str = "26.11";
 
 /// The command that makes the project's own venv, quoted in hints.
-pub fn install_command() -> String {
+pub(crate) fn install_command() -> String {
     format!("python3 -m venv .venv && .venv/bin/pip install usd-core=={USD_CORE_VERSION}")
 }
 

@@ -142,7 +142,7 @@ pub fn audit(level: &Level, pvs: &Pvs, rays: usize) -> crate::check::sightlines:
 /// `check --sightlines` on a stored annotation: its stored PVS (or, when it stores none, the
 /// full PVS of its stored portals) against the level's triangles. Props are not known from an
 /// annotation, so they block here (which only ever confirms fewer pairs).
-pub fn audit_stored(
+pub(crate) fn audit_stored(
     tagged: &Tagged,
     annotated: &crate::format::Annotated,
     subject: &crate::check::Subject,

@@ -26,7 +26,7 @@ use super::{Portal, PortalSet};
 /// get farther than the level is wide (a loop that turns instead of drifting).
 const MAX_ROUNDS: usize = 8;
 /// No run-time recursion deeper than this is ever recommended.
-pub const MAX_DEPTH: usize = 64;
+pub(crate) const MAX_DEPTH: usize = 64;
 
 /// A cycle of portals that recurses through at least one transform.
 #[derive(Debug, Clone, PartialEq)]
@@ -173,7 +173,7 @@ pub fn find_loops(set: &PortalSet, extent: f64) -> Vec<TransformLoop> {
 /// The recursion depth through transformed portals a renderer should allow: the deepest loop
 /// bound, or — without loops — the number of transformed portals, since a chain without a
 /// cycle passes each at most once. At least 1.
-pub fn recursion_depth(set: &PortalSet, extent: f64) -> usize {
+pub(crate) fn recursion_depth(set: &PortalSet, extent: f64) -> usize {
     let loops = find_loops(set, extent);
     let depth = match loops.iter().map(|l| l.depth).max() {
         Some(d) => d,

@@ -75,7 +75,7 @@ impl Frame2 {
     /// the face: origin at the face's area centroid, `u` along its longest edge (the first
     /// of equally long ones in ring order), `v` completing a frame CCW about the normal. An
     /// axis-aligned room turned off the axes keeps its walls on the grid's axes.
-    pub fn of_face(face: &crate::geom::polyhedron::Face) -> Frame2 {
+    pub(crate) fn of_face(face: &crate::geom::polyhedron::Face) -> Frame2 {
         let n = face.plane.normal;
         let pts = &face.points;
         let Some(&o) = pts.first() else {
@@ -118,11 +118,11 @@ impl Frame2 {
             v: n.cross(u),
         }
     }
-    pub fn to2(&self, p: DVec3) -> DVec2 {
+    pub(crate) fn to2(&self, p: DVec3) -> DVec2 {
         let d = p - self.origin;
         DVec2::new(d.dot(self.u), d.dot(self.v))
     }
-    pub fn to3(&self, q: DVec2, offset: DVec3) -> DVec3 {
+    pub(crate) fn to3(&self, q: DVec2, offset: DVec3) -> DVec3 {
         self.origin + offset + self.u * q.x + self.v * q.y
     }
 }
@@ -181,7 +181,7 @@ impl Shadows {
 
     /// Every ring (duplicates kept) with the span of its triangle along the slab's normal:
     /// which of a wall's two faces a shadow lies on.
-    pub fn rings_with_spans(&self) -> impl Iterator<Item = (&[DVec2], (f64, f64))> {
+    pub(crate) fn rings_with_spans(&self) -> impl Iterator<Item = (&[DVec2], (f64, f64))> {
         let starts = std::iter::once(0).chain(self.ends.iter().copied());
         starts
             .zip(self.ends.iter().copied())
@@ -327,7 +327,7 @@ impl Opaque {
     /// The shortest edge of any blocking triangle longer than `eps` (an edge within the
     /// tolerance is a point), or 0 when there is none: the level's smallest modelled feature,
     /// from which the width of a crack is taken (`geom/crack.rs`).
-    pub fn shortest_edge(&self, eps: f64) -> f64 {
+    pub(crate) fn shortest_edge(&self, eps: f64) -> f64 {
         let shortest = self
             .tris
             .par_iter()
@@ -354,7 +354,7 @@ impl Opaque {
     /// order (the order the booleans and exact vertices depend on). Each triangle near `b` is
     /// boxed and clipped in one pass, and only the shadows kept are sorted: most candidates
     /// stand across the slab and cast none.
-    pub fn shadows(&self, b: &Aabb, slab: &Slab, out: &mut Shadows) {
+    pub(crate) fn shadows(&self, b: &Aabb, slab: &Slab, out: &mut Shadows) {
         out.pts.clear();
         out.ends.clear();
         out.spans.clear();

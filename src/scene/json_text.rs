@@ -40,7 +40,7 @@ pub fn members(text: &str) -> Option<Vec<(String, &RawValue)>> {
 
 /// A key serde_json's `Value` parser does not keep as a key (it marks a raw value): a text
 /// holding it is left to that parser.
-pub const RAW_VALUE_KEY: &str = "$serde_json::private::RawValue";
+pub(crate) const RAW_VALUE_KEY: &str = "$serde_json::private::RawValue";
 
 /// Checks that `bytes` hold one JSON value as parsing them into a `Value` would, with the same
 /// error at the same place (same parser, same order), without building it. An `Err` whose
@@ -122,12 +122,12 @@ impl<'de> Visitor<'de> for IsRawValueKey {
 }
 
 /// Whether `text` is a JSON array (a member's text has no surrounding whitespace).
-pub fn is_array(text: &str) -> bool {
+pub(crate) fn is_array(text: &str) -> bool {
     text.trim_start().starts_with('[')
 }
 
 /// The number of elements of the array `text`; `None` if it is not an array.
-pub fn array_len(text: &str) -> Option<usize> {
+pub(crate) fn array_len(text: &str) -> Option<usize> {
     struct Count;
     impl<'de> Visitor<'de> for Count {
         type Value = usize;
@@ -151,7 +151,7 @@ pub fn array_len(text: &str) -> Option<usize> {
 /// parallel writer hands out as work without parsing the array first. The text must be valid
 /// JSON (every text here was checked on import); on anything else the elements found are
 /// meaningless but the scan still ends.
-pub struct Elements<'a> {
+pub(crate) struct Elements<'a> {
     text: &'a str,
     /// Where the next element (or the closing bracket) starts looking from.
     pos: usize,
@@ -205,7 +205,7 @@ impl<'a> Elements<'a> {
 }
 
 /// Each element's text in a run of elements from [`Elements::run`].
-pub fn split_run(run: &str) -> impl Iterator<Item = &str> {
+pub(crate) fn split_run(run: &str) -> impl Iterator<Item = &str> {
     let b = run.as_bytes();
     let mut pos = 0;
     std::iter::from_fn(move || {
@@ -279,7 +279,7 @@ fn skip_value(b: &[u8], i: usize) -> usize {
 }
 
 /// Each glTF node's name (`None` where a node has no string name, or is not an object).
-pub fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
+pub(crate) fn node_names(src: &super::GltfSource) -> Vec<Option<String>> {
     let Ok(Some(members)) = src.members() else {
         return Vec::new();
     };

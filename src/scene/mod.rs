@@ -90,7 +90,7 @@ pub enum Precision {
 
 impl Precision {
     /// What a format stores, before its reader has seen the digits.
-    pub fn of_format(f: Format) -> Precision {
+    pub(crate) fn of_format(f: Format) -> Precision {
         match f {
             Format::Gltf | Format::Glb | Format::Usd => Precision::Binary32,
             // Brush corners are plane intersections computed in f64.
@@ -327,7 +327,7 @@ pub struct BinInFile {
 impl GltfSource {
     /// A document held in memory: its JSON text (which must parse) and each buffer's data,
     /// external URIs resolving from `base_dir`.
-    pub fn in_memory(json: String, buffers: Vec<Vec<u8>>, base_dir: &Path) -> GltfSource {
+    pub(crate) fn in_memory(json: String, buffers: Vec<Vec<u8>>, base_dir: &Path) -> GltfSource {
         GltfSource {
             json,
             json_file: None,
@@ -426,7 +426,7 @@ impl GltfSource {
     }
 
     /// Each buffer's length (a released BIN chunk's too).
-    pub fn buffer_lens(&self) -> Vec<usize> {
+    pub(crate) fn buffer_lens(&self) -> Vec<usize> {
         let mut lens: Vec<usize> = self.buffers.iter().map(Vec::len).collect();
         if let (Some(b), Some(first)) = (self.bin_file.as_ref(), lens.first_mut()) {
             if b.released {
@@ -438,7 +438,7 @@ impl GltfSource {
 
     /// Buffer `i` as a reader of the input file and its length, if it is a released BIN
     /// chunk (an error if the file changed since it was read).
-    pub fn released_buffer(
+    pub(crate) fn released_buffer(
         &self,
         i: usize,
     ) -> Option<std::io::Result<(std::io::Take<std::fs::File>, u64)>> {
@@ -450,7 +450,7 @@ impl GltfSource {
     }
 
     /// Writes buffer `i`, a released BIN chunk straight from the input file.
-    pub fn write_buffer(&self, i: usize, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    pub(crate) fn write_buffer(&self, i: usize, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         if i == 0 {
             if let Some(r) = self.released_bin() {
                 let want = self.bin_file.as_ref().map_or(0, |b| b.len as u64);
@@ -628,7 +628,10 @@ impl Scene {
     /// [`Scene::world_positions_used`] one at a time: most callers only fold them into a box
     /// or a maximum, and on a big level the lists were a few hundred megabytes allocated and
     /// freed again.
-    pub fn world_positions_used_iter(&self, node: NodeId) -> impl Iterator<Item = DVec3> + '_ {
+    pub(crate) fn world_positions_used_iter(
+        &self,
+        node: NodeId,
+    ) -> impl Iterator<Item = DVec3> + '_ {
         let n = &self.nodes[node];
         let world = n.world;
         let positions: &[DVec3] = n.mesh.map_or(&[], |m| &self.meshes[m].positions);

@@ -6,7 +6,7 @@ use serde_json::Value;
 
 /// What an extras key said.
 #[derive(Debug, Clone, PartialEq)]
-pub enum ExtrasValue {
+pub(crate) enum ExtrasValue {
     /// The key is absent or switched off (`false`, `0`, `"no"`, null).
     Off,
     /// The key is switched on without naming anything (`true`, `1`, `"1"`, `"yes"`).
@@ -19,7 +19,7 @@ pub enum ExtrasValue {
 
 /// Looks up a dotted key (`egg_scalars.portal`), also inside a `portcullis` object so that
 /// tools which namespace their properties work too.
-pub fn lookup<'a>(extras: &'a Value, key: &str) -> Option<&'a Value> {
+pub(crate) fn lookup<'a>(extras: &'a Value, key: &str) -> Option<&'a Value> {
     let direct = descend(extras, key);
     direct.or_else(|| extras.get("portcullis").and_then(|ns| descend(ns, key)))
 }
@@ -68,7 +68,7 @@ fn classify(v: &Value) -> ExtrasValue {
 
 /// An identifier written into a rule's room template (`sector_${value}` of Doom's
 /// `"doom_sector": 12`): a whole number or a non-empty string.
-pub fn read_id(extras: Option<&Value>, key: &str) -> Result<Option<String>, String> {
+pub(crate) fn read_id(extras: Option<&Value>, key: &str) -> Result<Option<String>, String> {
     match extras.and_then(|e| lookup(e, key)) {
         None | Some(Value::Null) => Ok(None),
         Some(Value::Number(n)) if n.is_i64() || n.is_u64() => Ok(Some(n.to_string())),
@@ -88,7 +88,7 @@ fn flag(b: bool) -> ExtrasValue {
 }
 
 /// A boolean attribute (`one_way`, `closed`): `None` when absent.
-pub fn read_bool(extras: Option<&Value>, key: &str) -> Option<bool> {
+pub(crate) fn read_bool(extras: Option<&Value>, key: &str) -> Option<bool> {
     match read(extras, key) {
         ExtrasValue::On => Some(true),
         ExtrasValue::Off => extras.and_then(|e| lookup(e, key)).map(|_| false),
@@ -97,7 +97,7 @@ pub fn read_bool(extras: Option<&Value>, key: &str) -> Option<bool> {
 }
 
 /// A string attribute (`portal_kind`, `teleport_exit`, `source_room`).
-pub fn read_string(extras: Option<&Value>, key: &str) -> Option<String> {
+pub(crate) fn read_string(extras: Option<&Value>, key: &str) -> Option<String> {
     match extras.and_then(|e| lookup(e, key)) {
         Some(Value::String(s)) if !s.trim().is_empty() => Some(s.trim().to_string()),
         _ => None,
@@ -105,7 +105,7 @@ pub fn read_string(extras: Option<&Value>, key: &str) -> Option<String> {
 }
 
 /// A number attribute (`priority`, `footprint_height`).
-pub fn read_number(extras: Option<&Value>, key: &str) -> Option<f64> {
+pub(crate) fn read_number(extras: Option<&Value>, key: &str) -> Option<f64> {
     match extras.and_then(|e| lookup(e, key))? {
         Value::Number(n) => n.as_f64(),
         Value::String(s) => s.trim().parse().ok(),
@@ -117,7 +117,7 @@ pub fn read_number(extras: Option<&Value>, key: &str) -> Option<f64> {
 /// The attribute keys whose values have a type of their own, with what each value must be:
 /// a value of another type is reported (`TAG_EXTRAS_INVALID`) rather than quietly read as
 /// something else.
-pub fn attribute_problems(extras: Option<&Value>) -> Vec<(&'static str, String)> {
+pub(crate) fn attribute_problems(extras: Option<&Value>) -> Vec<(&'static str, String)> {
     let mut out = Vec::new();
     let Some(e) = extras else { return out };
     for key in ["priority", "footprint_height"] {

@@ -189,7 +189,7 @@ pub struct Tagging {
 impl Tagging {
     /// A room for an area of room `of` that its area portals cut off, called `name`: declared
     /// by the same node, owning no nodes (`of`'s geometry renders in its cells).
-    pub fn add_area(&mut self, of: RoomId, name: String) -> RoomId {
+    pub(crate) fn add_area(&mut self, of: RoomId, name: String) -> RoomId {
         let r = &self.rooms[of];
         let area = Room {
             name,

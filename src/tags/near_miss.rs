@@ -11,7 +11,7 @@ use super::rules::{numbered_duplicate_stem, MatchOn, RuleSet, SEPARATORS};
 
 /// A rule the name almost matched, and the name that would match it.
 #[derive(Debug, Clone)]
-pub struct Miss {
+pub(crate) struct Miss {
     pub rule: usize,
     pub suggestion: String,
     pub slip: &'static str,
@@ -139,7 +139,7 @@ pub fn check(rules: &RuleSet, name: &str) -> Option<Miss> {
 /// last part of a material rule's example (`visportl` for `textures/editor/visportal`), the
 /// first letter right. A misspelt portal material is a door silently closed, so it is said.
 /// Call only for materials no rule accepts.
-pub fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
+pub(crate) fn check_material(rules: &RuleSet, material: &str) -> Option<Miss> {
     if let Some(m) = variants(material).into_iter().find_map(|(v, slip)| {
         rules.match_text(MatchOn::Material, &v).map(|m| Miss {
             rule: m.rule,

@@ -17,7 +17,7 @@ use super::Pvs;
 use crate::geom::plane::Plane;
 
 /// Per directed portal, the portals it might see (a bit row over portals).
-pub fn might_see(g: &VisGraph, depth: usize) -> Vec<Vec<u64>> {
+pub(crate) fn might_see(g: &VisGraph, depth: usize) -> Vec<Vec<u64>> {
     let spheres = spheres(g);
     (0..g.portals.len())
         .into_par_iter()
@@ -107,7 +107,7 @@ fn flood_all(g: &VisGraph, cell: usize, out: &mut [u64]) {
 /// The cell PVS from per-portal sets: a cell sees itself, the cells its portals lead into
 /// (through a transformed one only when `depth` allows one), and the targets of everything
 /// its portals see.
-pub fn cell_pvs(g: &VisGraph, portal_vis: &[Vec<u64>], depth: usize) -> Pvs {
+pub(crate) fn cell_pvs(g: &VisGraph, portal_vis: &[Vec<u64>], depth: usize) -> Pvs {
     let mut out = Pvs::identity(g.cells);
     let mut row = vec![0u64; bits::words(g.portals.len())];
     for c in 0..g.cells {

@@ -108,7 +108,7 @@ pub fn pvs(g: &VisGraph, might: Vec<Vec<u64>>, depth: usize) -> Pvs {
 /// Per directed portal, the portals it sees. `rows` starts as the might-see sets; each is
 /// replaced by the flow's result when its wave is over, so one matrix serves as the filter,
 /// the finished results and the output.
-pub fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Vec<u64>> {
+pub(crate) fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Vec<u64>> {
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&p| (bits::count(&rows[p]), g.order[p], p));

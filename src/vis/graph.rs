@@ -181,7 +181,7 @@ fn reverses(portals: &[VisPortal], leaving: &[Vec<usize>], eps: f64) -> Vec<Opti
 
 /// A rigid motion or reflection applied to a plane (normals by the linear part, which is
 /// orthogonal for every transform a portal carries).
-pub fn transform_plane(m: &DMat4, p: &Plane) -> Plane {
+pub(crate) fn transform_plane(m: &DMat4, p: &Plane) -> Plane {
     let n = m.transform_vector3(p.normal).normalize_or_zero();
     let on = m.transform_point3(p.normal * p.d);
     Plane {

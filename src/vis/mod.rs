@@ -30,7 +30,7 @@ pub(crate) use crate::format::bits;
 mod fast;
 mod flood;
 mod full;
-pub mod graph;
+pub(crate) mod graph;
 mod sampled;
 pub(crate) mod winding;
 
@@ -110,7 +110,7 @@ pub fn timed(g: &VisGraph, opts: &VisOptions) -> (Pvs, Duration) {
 /// The depth bound for a level: `configured` (`[vis] transform_depth`), else the bound the loop
 /// check gives renderers (`portals::loops::recursion_depth`), so the PVS covers every view an
 /// engine will draw through mirrors and teleporters.
-pub fn level_transform_depth(
+pub(crate) fn level_transform_depth(
     cells: &crate::cells::CellSet,
     portals: &PortalSet,
     configured: Option<usize>,

@@ -11,7 +11,7 @@ use crate::geom::plane::Plane;
 
 /// What a chop left.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Chop {
+pub(crate) enum Chop {
     /// Nothing was left on the kept side.
     Gone,
     /// All of it was on the kept side.
@@ -21,12 +21,12 @@ pub enum Chop {
 }
 
 /// Keeps the part of `input` in front of `plane`, written to `out`. False: nothing is left.
-pub fn chop(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> bool {
+pub(crate) fn chop(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> bool {
     chop_how(input, plane, eps, out) != Chop::Gone
 }
 
 /// [`chop`], saying whether anything was cut.
-pub fn chop_how(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
+pub(crate) fn chop_how(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
     let how = cut(input, plane, eps, out);
     if how == Chop::Whole {
         out.clear();
@@ -85,7 +85,7 @@ fn cut(input: &[DVec3], plane: &Plane, eps: f64, out: &mut Vec<DVec3>) -> Chop {
 
 /// [`chop_how`] with a sphere around `input` (see [`sphere`]) deciding first: wholly in front
 /// or wholly behind costs one distance instead of one per corner. Same answer.
-pub fn chop_in_sphere(
+pub(crate) fn chop_in_sphere(
     input: &[DVec3],
     (c, r): (DVec3, f64),
     plane: &Plane,
@@ -116,7 +116,12 @@ fn side(d: f64, eps: f64) -> i8 {
 }
 
 /// Clips `target` by every plane in turn. False: nothing is left.
-pub fn clip_by(planes: &[Plane], target: &mut Vec<DVec3>, tmp: &mut Vec<DVec3>, eps: f64) -> bool {
+pub(crate) fn clip_by(
+    planes: &[Plane],
+    target: &mut Vec<DVec3>,
+    tmp: &mut Vec<DVec3>,
+    eps: f64,
+) -> bool {
     // A bounding sphere decides most planes with one distance instead of one per corner; the
     // outcome is the same as the corner test's.
     let (mut c, mut r) = sphere(target);
@@ -165,7 +170,13 @@ pub fn sphere(poly: &[DVec3]) -> (DVec3, f64) {
 /// all of `pass` on one side, so only those two are built and tested, on the unnormalised
 /// normal against `eps` times its length. The side the source is on is read from its centre:
 /// the source is planar and convex, so every corner off the edge is on the centre's side.
-pub fn separators(source: &[DVec3], pass: &[DVec3], flip: bool, eps: f64, out: &mut Vec<Plane>) {
+pub(crate) fn separators(
+    source: &[DVec3],
+    pass: &[DVec3],
+    flip: bool,
+    eps: f64,
+    out: &mut Vec<Plane>,
+) {
     let ns = source.len();
     if ns < 3 {
         return;

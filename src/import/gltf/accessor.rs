@@ -24,7 +24,7 @@ const MAX_UNBACKED_ELEMENTS: u64 = 1 << 22;
 const READ_BUDGET_PER_BYTE: u64 = 8;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Component {
+pub(crate) enum Component {
     I8,
     U8,
     I16,
@@ -121,7 +121,7 @@ struct View<'b> {
     index: usize,
 }
 
-pub struct Reader<'a> {
+pub(crate) struct Reader<'a> {
     ctx: &'a Ctx,
     doc: &'a Doc,
     buffers: &'a [Vec<u8>],
@@ -151,12 +151,12 @@ impl<'a> Reader<'a> {
     }
 
     /// Whether a read was refused for want of budget since the last [`Reader::reset`].
-    pub fn exhausted(&self) -> bool {
+    pub(crate) fn exhausted(&self) -> bool {
         self.exhausted.load(Ordering::Relaxed)
     }
 
     /// The whole budget back, for reading everything again in one order.
-    pub fn reset(&self) {
+    pub(crate) fn reset(&self) {
         self.budget.store(self.initial, Ordering::Relaxed);
         self.exhausted.store(false, Ordering::Relaxed);
     }

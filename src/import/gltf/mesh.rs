@@ -97,7 +97,7 @@ impl<'a> Builder<'a> {
     /// every thread, with what they dropped added to `tally` in that order; or the error the
     /// first of them to fail gives, and its place in `order`, as building them one by one in
     /// that order would.
-    pub fn build_all(
+    pub(crate) fn build_all(
         &self,
         order: &[usize],
         tally: &mut Tally,
@@ -444,7 +444,7 @@ fn add_triangles(
 
 /// Triangles of an index list in `mode` 4 (list), 5 (strip) or 6 (fan), following the vertex
 /// order the glTF 2.0 specification gives (§3.7.2.1), so every triangle keeps its facing.
-pub fn assemble(mode: u64, idx: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
+pub(crate) fn assemble(mode: u64, idx: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
     let (list, strip, fan) = match mode {
         5 => (None, Some(idx), None),
         6 => (None, None, idx.split_first()),

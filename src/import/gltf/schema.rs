@@ -17,13 +17,13 @@ use crate::scene::json_text;
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct Asset {
+pub(crate) struct Asset {
     pub version: Option<String>,
 }
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct SceneDef {
+pub(crate) struct SceneDef {
     pub nodes: Vec<u64>,
 }
 
@@ -60,7 +60,7 @@ pub struct Primitive {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct Accessor {
+pub(crate) struct Accessor {
     pub buffer_view: Option<u64>,
     pub byte_offset: u64,
     pub component_type: Option<u64>,
@@ -74,7 +74,7 @@ pub struct Accessor {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct Sparse {
+pub(crate) struct Sparse {
     pub count: Option<u64>,
     pub indices: Option<SparseIndices>,
     pub values: Option<SparseValues>,
@@ -82,7 +82,7 @@ pub struct Sparse {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct SparseIndices {
+pub(crate) struct SparseIndices {
     pub buffer_view: Option<u64>,
     pub byte_offset: u64,
     pub component_type: Option<u64>,
@@ -90,14 +90,14 @@ pub struct SparseIndices {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct SparseValues {
+pub(crate) struct SparseValues {
     pub buffer_view: Option<u64>,
     pub byte_offset: u64,
 }
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct BufferView {
+pub(crate) struct BufferView {
     pub buffer: Option<u64>,
     pub byte_offset: u64,
     pub byte_length: Option<u64>,
@@ -106,7 +106,7 @@ pub struct BufferView {
 
 #[derive(Debug, Default, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
-pub struct Buffer {
+pub(crate) struct Buffer {
     pub uri: Option<String>,
     pub byte_length: Option<u64>,
 }
@@ -146,7 +146,7 @@ impl<'a> Root<'a> {
     }
 
     /// The members as byte ranges of `text`, the text they were read from.
-    pub fn ranges(&self, text: &str) -> Vec<(String, std::ops::Range<usize>)> {
+    pub(crate) fn ranges(&self, text: &str) -> Vec<(String, std::ops::Range<usize>)> {
         self.members
             .iter()
             .map(|(k, v)| {
@@ -167,7 +167,7 @@ impl<'a> Root<'a> {
 }
 
 impl Doc {
-    pub fn from_root(ctx: &Ctx, root: &Root) -> Result<Doc, Diagnostic> {
+    pub(crate) fn from_root(ctx: &Ctx, root: &Root) -> Result<Doc, Diagnostic> {
         let scene = match root.value("scene") {
             None => None,
             Some(v) => Some(v.as_u64().ok_or_else(|| {
@@ -363,7 +363,7 @@ pub fn index(i: u64, len: usize) -> Option<usize> {
 /// A primitive's attributes: each must be an accessor index, as the schema says, but only
 /// POSITION is kept (a map per primitive was a tenth of a big level's import peak).
 #[derive(Debug, Default)]
-pub struct Attributes {
+pub(crate) struct Attributes {
     pub position: Option<u64>,
 }
 

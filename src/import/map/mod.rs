@@ -41,7 +41,7 @@ mod brush;
 mod parse;
 
 /// Metres per map unit (Quake's inch).
-pub const METRES_PER_UNIT: f64 = 0.0254;
+pub(crate) const METRES_PER_UNIT: f64 = 0.0254;
 
 /// qbsp drops a portal with fewer than three edges longer than this many units
 /// (`WindingIsTiny`): narrower gaps between brushes are no leak to it, nor to us.

@@ -120,7 +120,7 @@ fn add_venv(py: Python<'_>, venv: &Option<Venv>) -> Result<(), String> {
 }
 
 /// Reads the composed stage at `path`.
-pub fn read_stage(path: &Path, venv: Option<&Path>) -> Result<RawStage, Diagnostic> {
+pub(crate) fn read_stage(path: &Path, venv: Option<&Path>) -> Result<RawStage, Diagnostic> {
     let venv = choose_venv(venv);
     Python::attach(|py| {
         add_venv(py, &venv).map_err(|why| missing(path, why))?;

@@ -19,7 +19,7 @@ use crate::scene::{Format, Material, Mesh, MeshId, Node, Primitive, Scene, Sourc
 
 /// The composed stage, as `helper.py` returns it.
 #[derive(Debug, Clone, Default)]
-pub struct RawStage {
+pub(crate) struct RawStage {
     /// `upAxis` as composed ("Y" or "Z").
     pub up: String,
     /// `metersPerUnit` as composed (USD's fallback is 0.01).
@@ -33,7 +33,7 @@ pub struct RawStage {
 }
 
 #[derive(Debug, Clone, Default)]
-pub struct RawPrim {
+pub(crate) struct RawPrim {
     pub path: String,
     /// The prim name, or its `displayName` when authored (USD names cannot hold `-` or spaces,
     /// so converters keep the original name there).
@@ -52,7 +52,7 @@ pub struct RawPrim {
 }
 
 #[derive(Debug, Clone, Default)]
-pub struct RawMesh {
+pub(crate) struct RawMesh {
     /// x, y, z per point, mesh-local, stage units.
     pub points: Vec<f32>,
     pub counts: Vec<i32>,
@@ -216,7 +216,7 @@ fn with_source(mut prims: Vec<Primitive>, path: &str) -> Vec<Primitive> {
 
 /// A mesh's triangles and what had to be left out of it.
 #[derive(Debug, Default)]
-pub struct BuiltMesh {
+pub(crate) struct BuiltMesh {
     pub positions: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
     pub primitives: Vec<Primitive>,
@@ -229,7 +229,11 @@ pub struct BuiltMesh {
 }
 
 /// Checks and triangulates one mesh; `Err` says why its arrays do not fit together.
-pub fn build_mesh(m: &RawMesh, mpu: f64, material_count: usize) -> Result<BuiltMesh, String> {
+pub(crate) fn build_mesh(
+    m: &RawMesh,
+    mpu: f64,
+    material_count: usize,
+) -> Result<BuiltMesh, String> {
     if m.points.len() % 3 != 0 {
         return Err(format!(
             "points holds {} numbers, not a whole number of points",
