@@ -898,3 +898,109 @@ fn the_circle_finder_sees_two_files_using_each_other() {
         ]
     );
 }
+
+/// ARCHITECTURE.md's text between a heading and the next.
+fn architecture_section(heading: &str) -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("ARCHITECTURE.md");
+    let text = std::fs::read_to_string(path).unwrap();
+    let start = text
+        .find(heading)
+        .unwrap_or_else(|| panic!("ARCHITECTURE.md has no `{heading}`"));
+    let rest = &text[start + heading.len()..];
+    rest[..rest.find("\n## ").unwrap_or(rest.len())].to_string()
+}
+
+/// The names in backticks on each numbered line of a text, in order.
+fn numbered_lists(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .filter(|l| {
+            let t = l.trim_start();
+            t.split_once(". ")
+                .is_some_and(|(n, _)| !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()))
+        })
+        .map(|l| {
+            l.split('`')
+                .skip(1)
+                .step_by(2)
+                .map(str::to_string)
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_architecture_map_lists_the_layers_of_the_code() {
+    let listed: Vec<Vec<String>> = numbered_lists(&architecture_section("## Layering"))
+        .into_iter()
+        .filter(|names| !names.iter().any(|n| n.ends_with(".rs") || n.ends_with('/')))
+        .collect();
+    let code: Vec<Vec<String>> = LAYERS
+        .iter()
+        .map(|l| l.iter().map(|m| m.to_string()).collect())
+        .collect();
+    assert_eq!(
+        listed, code,
+        "ARCHITECTURE.md's Layering list and tests/tidy.rs LAYERS differ"
+    );
+}
+
+/// The capitalised words of a text: the type names a diagram draws.
+fn type_names(text: &str) -> BTreeSet<String> {
+    text.split(|c: char| !c.is_ascii_alphanumeric() && c != '_')
+        .filter(|w| {
+            let mut c = w.chars();
+            c.next().is_some_and(|f| f.is_ascii_uppercase())
+                && c.next().is_some_and(|s| s.is_ascii_lowercase())
+        })
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn the_architecture_diagram_names_only_types_that_exist() {
+    let section = architecture_section("## Bird's eye view");
+    let diagram = section
+        .split("```")
+        .nth(1)
+        .expect("ARCHITECTURE.md's bird's eye view has a diagram");
+    let names = type_names(diagram);
+    assert!(names.len() >= 10, "{names:?}");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let text: String = files
+        .iter()
+        .map(|f| std::fs::read_to_string(f).unwrap())
+        .collect();
+    let missing: Vec<&String> = names
+        .iter()
+        .filter(|n| {
+            !["struct", "enum", "type", "trait"].iter().any(|k| {
+                text.contains(&format!("pub {k} {n} ")) || text.contains(&format!("pub {k} {n}<"))
+            })
+        })
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md's diagram names types that do not exist in src/: {missing:?}"
+    );
+}
+
+#[test]
+fn the_map_readers_see_lists_and_type_names() {
+    let text =
+        "1. leaf helpers: `rng`, `scc`\n2. `geom`\n10. the binaries: `main.rs`\nnot 3. `x`\n";
+    assert_eq!(
+        numbered_lists(text),
+        vec![
+            vec!["rng".to_string(), "scc".to_string()],
+            vec!["geom".to_string()],
+            vec!["main.rs".to_string()]
+        ]
+    );
+    let names = type_names("import ──► Scene ──► CellSet { tagged } .glb HTML Pvs");
+    assert_eq!(
+        names.into_iter().collect::<Vec<_>>(),
+        vec!["CellSet", "Pvs", "Scene"]
+    );
+}
