@@ -10,9 +10,9 @@ use super::hash::input_hash;
 use crate::cells::CellSet;
 use crate::format::records::{Bounds, CellRecord, PortalRecord};
 use crate::format::VERSION;
+use crate::level::Level;
 use crate::portals::PortalSet;
 use crate::scene::NodeId;
-use crate::scene::Scene;
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
 
@@ -327,17 +327,15 @@ impl<I: Iterator<Item = T>, T: Serialize> Serialize for Seq<I> {
 
 /// Builds the extension. `node_index` maps a scene node to its index in the written glTF.
 pub fn build<'a>(
-    scene: &Scene,
-    tagging: &'a Tagging,
-    cells: &'a CellSet,
-    portals: &'a PortalSet,
+    level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
+    let (scene, tagging) = (level.scene(), level.tagging());
     // The hash reads every position of the level byte by byte, as long as building the rest
     // takes on a big level: it runs alongside (or here, if no thread can be had).
     std::thread::scope(|s| {
         let hashing = std::thread::Builder::new().spawn_scoped(s, || input_hash(scene, tagging));
-        let mut ann = build_with_hash(cells, tagging, portals, node_index);
+        let mut ann = build_with_hash(level, node_index);
         let hash = match hashing.map(|h| h.join()) {
             Ok(Ok(h)) => h,
             _ => input_hash(scene, tagging),
@@ -353,23 +351,20 @@ pub fn build<'a>(
 /// output is written): the root's `inputHash` holds `null` and is serialized from `hash`.
 pub(crate) fn build_deferred<'a>(
     hash: &'a (dyn HashOf + Sync + 'a),
-    tagging: &'a Tagging,
-    cells: &'a CellSet,
-    portals: &'a PortalSet,
+    level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
-    let mut ann = build_with_hash(cells, tagging, portals, node_index);
+    let mut ann = build_with_hash(level, node_index);
     ann.lazy.hash = Some(hash);
     ann
 }
 
 /// [`build`] but the input hash, whose place it holds.
 fn build_with_hash<'a>(
-    cells: &'a CellSet,
-    tagging: &'a Tagging,
-    portals: &'a PortalSet,
+    level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
+    let (tagging, cells, portals) = (level.tagging(), &level.cells, &level.portals);
     let mut root = Map::new();
     root.insert("version".into(), json!(VERSION));
     root.insert(

@@ -175,9 +175,7 @@ fn gltf_to(
                 .and_then(|h| h.join().ok())
                 .unwrap_or_else(|| super::input_hash(scene, tagging))
         }));
-        let mut ann = super::build_deferred(&hash, tagging, &level.cells, &level.portals, &|n| {
-            gltf_out::node_index(scene, n)
-        });
+        let mut ann = super::build_deferred(&hash, level, &|n| gltf_out::node_index(scene, n));
         if let Some((p, m)) = pvs {
             ann.set_visibility(p, m);
         }

@@ -762,15 +762,11 @@ mod tests {
         files.sort();
         assert!(files.len() > 20);
         for f in &files {
-            let Ok(mut t) = crate::pipeline::load_tagged(f, &Default::default()) else {
+            let Ok(level) = crate::pipeline::load(f, &Default::default()) else {
                 continue;
             };
-            let cells = crate::pipeline::build_cells(&mut t);
-            let portals = crate::pipeline::build_portals(&mut t, &cells);
-            let scene = &t.scene;
-            let ann = extension::build(scene, &t.tagging, &cells, &portals, &|n| {
-                gltf_out::node_index(scene, n)
-            });
+            let scene = level.scene();
+            let ann = extension::build(&level, &|n| gltf_out::node_index(scene, n));
             let what = f.display().to_string();
             assert_same(scene, &with_pvs(ann_clone(&ann)), &what);
             assert_same(scene, &ann, &what);
@@ -864,10 +860,8 @@ mod tests {
                     continue;
                 }
                 let level = crate::pipeline::load(&f, &Default::default()).unwrap();
-                let (scene, cells, portals) = (level.scene(), &level.cells, &level.portals);
-                let ann = extension::build(scene, level.tagging(), cells, portals, &|n| {
-                    gltf_out::node_index(scene, n)
-                });
+                let scene = level.scene();
+                let ann = extension::build(&level, &|n| gltf_out::node_index(scene, n));
                 assert!(ann.root["inputHash"].is_string());
                 let out = Path::new("/nonexistent/out/level.glb");
                 for format in FORMATS {
