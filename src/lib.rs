@@ -25,6 +25,7 @@
 //! An engine needs none of this: [`runtime`] loads what `convert` wrote and answers the
 //! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
+pub mod buildings;
 pub mod cells;
 pub mod check;
 pub mod config;
@@ -33,7 +34,6 @@ pub(crate) mod disjoint;
 pub mod export;
 pub mod format;
 pub(crate) mod free;
-pub mod gen;
 pub mod geom;
 pub mod import;
 pub mod level;
