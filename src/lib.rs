@@ -1,4 +1,5 @@
 #![warn(missing_docs)]
+#![deny(unsafe_code)]
 //! portcullis: cells and portals for game levels.
 //!
 //! The pipeline runs one way, each stage a module with one input and one output type plus

@@ -231,7 +231,7 @@ fn one(
     });
     row.portals_s = t;
     // As `convert` does, so the peak below is the convert's.
-    portcullis::pipeline::release_free_memory();
+    super::alloc::release_free_memory();
     let mut level = portcullis::pipeline::Level::new(tagged, cells, portals);
     let (_, t) = timed_cpu(&mut cpu, || portcullis::pipeline::check(&mut level, false));
     row.check = t;
