@@ -17,10 +17,10 @@ use divan::Bencher;
 mod rng;
 #[path = "../src/bin/portcullis-floor/round_trip.rs"]
 mod round_trip;
+use portcullis::buildings::{self, GenOptions};
 use portcullis::cells::CellSet;
 use portcullis::export::output::{self, Output};
 use portcullis::export::{gltf_out, OutFormat, Target};
-use portcullis::gen::{self, GenOptions};
 use portcullis::pipeline::{self, Tagged};
 use portcullis::vis::{Method, VisGraph, VisOptions};
 
@@ -43,7 +43,7 @@ fn level(rooms: usize) -> PathBuf {
     let path = dir.join(format!("building_{rooms}_1.glb"));
     if !path.is_file() {
         std::fs::create_dir_all(&dir).unwrap();
-        let scene = gen::generate(&GenOptions {
+        let scene = buildings::generate(&GenOptions {
             rooms,
             seed: 1,
             props: true,

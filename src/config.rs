@@ -180,7 +180,7 @@ pub struct CheckConfig {
 impl CheckConfig {
     /// What this section asks to hear: its `ignore` and `severity` as a policy. Unknown code
     /// or severity names are errors the schema cannot catch (codes are not in it).
-    pub fn policy(&self) -> Result<crate::diag::policy::Policy, String> {
+    pub fn policy(&self) -> Result<crate::diag::policy::Policy, crate::diag::policy::PolicyError> {
         crate::diag::policy::Policy::from_names(&self.ignore, &self.severity)
     }
 }
@@ -282,7 +282,7 @@ pub fn rule_set(cfg: &Config, cli_preset: Option<&str>) -> Result<RuleSet, Diagn
         );
     }
     RuleSet::compile(&spec).map_err(|e| {
-        Diagnostic::new(Code::TAGS_RULE_INVALID, e, at())
+        Diagnostic::new(Code::TAGS_RULE_INVALID, e.to_string(), at())
             .hint("fix the rule's pattern (Rust regex syntax) in the configuration")
     })
 }

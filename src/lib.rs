@@ -1,4 +1,5 @@
 #![warn(missing_docs)]
+#![deny(unsafe_code)]
 //! portcullis: cells and portals for game levels.
 //!
 //! The pipeline runs one way, each stage a module with one input and one output type plus
@@ -25,6 +26,7 @@
 //! An engine needs none of this: [`runtime`] loads what `convert` wrote and answers the
 //! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
+pub mod buildings;
 pub mod cells;
 pub mod check;
 pub mod config;
@@ -33,7 +35,6 @@ pub(crate) mod disjoint;
 pub mod export;
 pub mod format;
 pub(crate) mod free;
-pub mod gen;
 pub mod geom;
 pub mod import;
 pub mod level;

@@ -382,7 +382,7 @@ fn ray_oracle_on_doom_maps() {
 fn the_benchmark_stair_hall_is_one_cell_per_step() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("stairs.glb");
-    let scene = portcullis::gen::stair_hall(90);
+    let scene = portcullis::buildings::stair_hall(90);
     let fmt = portcullis::export::target::OutFormat::Glb;
     std::fs::write(
         &path,

@@ -5,7 +5,7 @@ mod common;
 
 use std::collections::BTreeSet;
 
-use portcullis::gen::{self, GenOptions, Layout};
+use portcullis::buildings::{self, GenOptions, Layout};
 
 #[test]
 fn generated_buildings_give_the_rooms_and_doors_they_were_built_with() {
@@ -55,12 +55,12 @@ fn generated_buildings_give_the_rooms_and_doors_they_were_built_with() {
 
 #[test]
 fn the_same_seed_gives_the_same_bytes() {
-    let a = gen::generate(&GenOptions {
+    let a = buildings::generate(&GenOptions {
         rooms: 25,
         seed: 4,
         props: true,
     });
-    let b = gen::generate(&GenOptions {
+    let b = buildings::generate(&GenOptions {
         rooms: 25,
         seed: 4,
         props: true,
@@ -70,7 +70,7 @@ fn the_same_seed_gives_the_same_bytes() {
         portcullis::export::gltf_out::write_plain(&a, fmt),
         portcullis::export::gltf_out::write_plain(&b, fmt)
     );
-    let c = gen::generate(&GenOptions {
+    let c = buildings::generate(&GenOptions {
         rooms: 25,
         seed: 5,
         props: true,
@@ -85,7 +85,7 @@ fn the_same_seed_gives_the_same_bytes() {
 fn generated_levels_pass_the_khronos_validator() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.glb");
-    let scene = gen::generate(&GenOptions {
+    let scene = buildings::generate(&GenOptions {
         rooms: 8,
         seed: 2,
         props: true,

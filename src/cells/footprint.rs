@@ -14,10 +14,25 @@ use parry3d_f64::shape::TriMesh;
 
 use super::{canonical_triangles, node_triangles, plan_pieces, Frame};
 use crate::config::CellsConfig;
-use crate::geom::hull::hull;
+use crate::geom::hull::{hull, HullError};
+use crate::geom::partition::PartitionError;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::{NodeId, Scene};
+
+/// Why a footprint node gives no cells; the text follows the node's and room's names.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum FootprintError {
+    /// Every triangle is vertical (or has no area).
+    #[error("it has no non-vertical triangles")]
+    NoFloor,
+    /// A planar part's outline cannot be cut into convex pieces.
+    #[error("cannot partition it: {0}")]
+    Partition(PartitionError),
+    /// A piece and its raised copy have no hull.
+    #[error("{0}")]
+    Hull(HullError),
+}
 
 pub(crate) struct Context<'a> {
     scene: &'a Scene,
@@ -143,7 +158,7 @@ impl<'a> Context<'a> {
         &self,
         node: NodeId,
         fixed: Option<f64>,
-    ) -> Result<Vec<ConvexPolyhedron>, String> {
+    ) -> Result<Vec<ConvexPolyhedron>, FootprintError> {
         let tris = canonical_triangles(self.scene, &[node], self.origin);
         // Group the triangles by plane (normals made to face up).
         let mut groups: Vec<(Plane, Vec<[DVec2; 3]>)> = Vec::new();
@@ -168,7 +183,7 @@ impl<'a> Context<'a> {
             }
         }
         if groups.is_empty() {
-            return Err("it has no non-vertical triangles".into());
+            return Err(FootprintError::NoFloor);
         }
         let mut out = Vec::new();
         for (pl, flat) in &groups {
@@ -179,7 +194,7 @@ impl<'a> Context<'a> {
                 let h = (pl.d - pl.normal.dot(g)) / pl.normal.dot(f.up);
                 g + f.up * h
             };
-            for piece in plan_pieces(flat, self.eps)? {
+            for piece in plan_pieces(flat, self.eps).map_err(FootprintError::Partition)? {
                 let centre = piece.iter().copied().sum::<DVec2>() / piece.len() as f64;
                 let centre_h = self.height_at(lift(centre), fixed).unwrap_or(self.storey);
                 let mut pts = Vec::with_capacity(piece.len() * 2);
@@ -197,10 +212,7 @@ impl<'a> Context<'a> {
                 let size = crate::geom::aabb::Aabb::from_points(pts.iter())
                     .size()
                     .length();
-                match hull(&pts, (1e-9 * size).min(self.eps)) {
-                    Ok(h) => out.push(h),
-                    Err(e) => return Err(e.to_string()),
-                }
+                out.push(hull(&pts, (1e-9 * size).min(self.eps)).map_err(FootprintError::Hull)?);
             }
         }
         Ok(out)

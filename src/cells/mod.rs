@@ -51,7 +51,9 @@ use crate::geom::aabb::Aabb;
 use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::hull::{hull, HullError};
-use crate::geom::partition::{convex_partition, ring_mean_width, union_triangles, Polygon2};
+use crate::geom::partition::{
+    convex_partition, ring_mean_width, union_triangles, PartitionError, Polygon2,
+};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::geom::tolerance::Tolerance;
@@ -1005,7 +1007,10 @@ impl Frame {
 /// pieces at half or twice the tolerance). What the tolerance decides is decided with it:
 /// which vertices are on a straight edge, which T-junctions split an edge, which slivers and
 /// cracks are noise.
-pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2>>, String> {
+pub(crate) fn plan_pieces(
+    flat: &[[DVec2; 3]],
+    eps: f64,
+) -> Result<Vec<Vec<DVec2>>, PartitionError> {
     let Some(&first) = flat.first().map(|t| &t[0]) else {
         return Ok(Vec::new());
     };
@@ -1090,7 +1095,7 @@ pub(crate) fn plan_pieces(flat: &[[DVec2; 3]], eps: f64) -> Result<Vec<Vec<DVec2
             let c = symmetry_back(c, turn) * grid;
             o + dir * c.x + perp * c.y
         };
-        let ps = convex_partition(&local).map_err(|e| format!("cannot partition it: {e}"))?;
+        let ps = convex_partition(&local)?;
         let mut keyed: Vec<(Vec<usize>, Vec<DVec2>)> = ps
             .into_iter()
             .map(|p| {

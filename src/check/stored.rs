@@ -77,13 +77,13 @@ pub fn read(t: &Tagged, validate: bool) -> Option<Stored> {
                     .and_then(|m| m.into_iter().find(|(k, _)| k == "nodes"))
                     .and_then(|(_, v)| crate::scene::json_text::array_len(v))
                     .unwrap_or(0);
-                problems.extend(read::consistency(&a, nodes));
+                problems.extend(read::consistency(&a, nodes).iter().map(ToString::to_string));
             }
             Some(a)
         }
         Some(Err(e)) => {
             if validate && problems.is_empty() {
-                problems.push(e);
+                problems.push(e.to_string());
             }
             None
         }

@@ -10,8 +10,8 @@ use std::time::Instant;
 use clap::Args;
 use serde::{Deserialize, Serialize};
 
+use portcullis::buildings::{self, GenOptions};
 use portcullis::export::{gltf_out, output, OutFormat};
-use portcullis::gen::{self, GenOptions};
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -168,7 +168,7 @@ fn generate(dir: &Path, rooms: usize, seed: u64) -> Result<(), String> {
     if path.is_file() {
         return Ok(());
     }
-    let scene = gen::generate(&GenOptions {
+    let scene = buildings::generate(&GenOptions {
         rooms,
         seed,
         props: true,
@@ -231,7 +231,7 @@ fn one(
     });
     row.portals_s = t;
     // As `convert` does, so the peak below is the convert's.
-    portcullis::pipeline::release_free_memory();
+    super::alloc::release_free_memory();
     let mut level = portcullis::pipeline::Level::new(tagged, cells, portals);
     let (_, t) = timed_cpu(&mut cpu, || portcullis::pipeline::check(&mut level, false));
     row.check = t;
@@ -496,7 +496,7 @@ fn print_vis_table(rows: &[Row]) {
     }
 }
 
-/// The cells of one room of at least `planes` distinct planes ([`gen::stair_hall`]): the 3D
+/// The cells of one room of at least `planes` distinct planes ([`buildings::stair_hall`]): the 3D
 /// decomposition's cost where a room is large, not where a building is. `None` for 0 planes.
 fn one_room(dir: &Path, planes: usize, runs: u32) -> Result<Option<String>, String> {
     if planes == 0 {
@@ -505,7 +505,7 @@ fn one_room(dir: &Path, planes: usize, runs: u32) -> Result<Option<String>, Stri
     let path = dir.join(format!("stair_hall_{planes}.glb"));
     std::fs::write(
         &path,
-        gltf_out::write_plain(&gen::stair_hall(planes), OutFormat::Glb),
+        gltf_out::write_plain(&buildings::stair_hall(planes), OutFormat::Glb),
     )
     .map_err(|e| e.to_string())?;
     let tagged =

@@ -130,7 +130,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         )
         .hint("give a cell index from `portcullis inspect`"));
     }
-    pipeline::release_free_memory();
+    super::alloc::release_free_memory();
     let method = Method::parse(&a.vis_method);
     let pvs_method = method.unwrap_or(Method::Full);
     let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
@@ -139,7 +139,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         pipeline::pvs(&level, pvs_method)
     });
     if pvs.is_some() {
-        pipeline::release_free_memory();
+        super::alloc::release_free_memory();
     }
     let stored = method.and(pvs.as_ref()).map(|p| (p, pvs_method));
     let leaks = pipeline::check(&mut level, a.sealed);

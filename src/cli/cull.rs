@@ -171,13 +171,13 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
             let d = if e.unreadable {
                 Diagnostic::new(
                     Code::IO_READ_FAILED,
-                    format!("the level {}", e.message),
+                    format!("the level {}", e.kind),
                     At::file(&e.path),
                 )
             } else {
                 Diagnostic::new(
                     Code::CULL_NOT_CONVERTED,
-                    format!("the level {}", e.message),
+                    format!("the level {}", e.kind),
                     At::file(&e.path).with_pointer("/extensions/PORTCULLIS_portals"),
                 )
             };

@@ -1,12 +1,12 @@
 //! `portcullis gen --rooms N -o OUT.glb`: a generated building for benchmarks, scale tests and
-//! trying the tool without a level of one's own (see `portcullis::gen`).
+//! trying the tool without a level of one's own (see `portcullis::buildings`).
 
 use std::path::PathBuf;
 
 use clap::Args;
 
+use portcullis::buildings::{self, GenOptions};
 use portcullis::export::gltf_out;
-use portcullis::gen::{self, GenOptions};
 
 #[derive(Debug, Args)]
 pub struct GenArgs {
@@ -36,7 +36,7 @@ pub fn run(a: &GenArgs) -> i32 {
         );
         return 2;
     };
-    let scene = gen::generate(&GenOptions {
+    let scene = buildings::generate(&GenOptions {
         rooms: a.rooms.max(1),
         seed: a.seed,
         props: !a.no_props,

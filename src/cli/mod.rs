@@ -5,7 +5,6 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
-#[cfg(unix)]
 mod alloc;
 pub mod bench;
 pub mod check;

@@ -13,30 +13,40 @@ pub struct Policy {
     severity: BTreeMap<Code, Severity>,
 }
 
+/// Why a code, a severity or an override the user wrote cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PolicyError {
+    /// A code the registry does not have, as written.
+    #[error("unknown diagnostic code `{0}` (the codes are listed in docs/diagnostics.md)")]
+    UnknownCode(String),
+    /// A severity other than error, warning or info (trimmed, lower case).
+    #[error("unknown severity `{0}`: use error, warning or info")]
+    UnknownSeverity(String),
+    /// An override without its `=`, as written.
+    #[error("`{0}` is not CODE=LEVEL (e.g. CELL_OVERLAP=error)")]
+    NotAnOverride(String),
+}
+
 /// `CODE`, checked against the registry, with the list of codes in the error.
-pub fn parse_code(s: &str) -> Result<Code, String> {
-    Code::parse(s.trim()).ok_or_else(|| {
-        format!("unknown diagnostic code `{s}` (the codes are listed in docs/diagnostics.md)")
-    })
+pub fn parse_code(s: &str) -> Result<Code, PolicyError> {
+    Code::parse(s.trim()).ok_or_else(|| PolicyError::UnknownCode(s.to_string()))
 }
 
 /// `error`, `warning` or `info` (any case).
-pub(crate) fn parse_severity(s: &str) -> Result<Severity, String> {
+pub(crate) fn parse_severity(s: &str) -> Result<Severity, PolicyError> {
     match s.trim().to_ascii_lowercase().as_str() {
         "error" => Ok(Severity::Error),
         "warning" | "warn" => Ok(Severity::Warning),
         "info" | "information" | "note" => Ok(Severity::Info),
-        other => Err(format!(
-            "unknown severity `{other}`: use error, warning or info"
-        )),
+        other => Err(PolicyError::UnknownSeverity(other.to_string())),
     }
 }
 
 /// `CODE=LEVEL`.
-pub fn parse_override(s: &str) -> Result<(Code, Severity), String> {
+pub fn parse_override(s: &str) -> Result<(Code, Severity), PolicyError> {
     let (c, l) = s
         .split_once('=')
-        .ok_or_else(|| format!("`{s}` is not CODE=LEVEL (e.g. CELL_OVERLAP=error)"))?;
+        .ok_or_else(|| PolicyError::NotAnOverride(s.to_string()))?;
     Ok((parse_code(c)?, parse_severity(l)?))
 }
 
@@ -67,11 +77,11 @@ impl Policy {
 
     /// The policy of `ignore` codes and `severity` overrides, named as a user writes them
     /// (a configuration's `[check]` section). Unknown names are errors the schema cannot
-    /// catch (codes are not in it), reported as strings.
+    /// catch (codes are not in it).
     pub(crate) fn from_names<'a>(
         ignore: impl IntoIterator<Item = &'a String>,
         severity: impl IntoIterator<Item = (&'a String, &'a String)>,
-    ) -> Result<Policy, String> {
+    ) -> Result<Policy, PolicyError> {
         let mut p = Policy::default();
         for c in ignore {
             p.ignore(parse_code(c)?);
@@ -114,8 +124,17 @@ mod tests {
         ]);
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].severity, Severity::Warning);
-        assert!(parse_override("LEAK").is_err());
-        assert!(parse_override("NOPE=error").is_err());
-        assert!(parse_override("LEAK=fatal").is_err());
+        assert_eq!(
+            parse_override("LEAK"),
+            Err(PolicyError::NotAnOverride("LEAK".into()))
+        );
+        assert_eq!(
+            parse_override("NOPE=error"),
+            Err(PolicyError::UnknownCode("NOPE".into()))
+        );
+        assert_eq!(
+            parse_override("LEAK= Fatal").unwrap_err().to_string(),
+            "unknown severity `fatal`: use error, warning or info"
+        );
     }
 }

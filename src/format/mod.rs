@@ -6,17 +6,20 @@
 //! This module is the floor an engine's runtime stands on, below everything else but the leaf
 //! helpers: the records (`records`, one struct per schema object that both reads and writes),
 //! reading an annotation back and validating what the schema cannot ([`read`]), the PVS
-//! ([`Pvs`], [`Method`]) and its encodings ([`visibility`]), and the GLB container ([`glb`]).
+//! ([`Pvs`], [`Method`]) and its encodings ([`visibility`]), the GLB container ([`glb`]), and
+//! [`FormatError`], why any of them cannot be read.
 //! How an annotation is built from a level and written, and the input hash that tells a
 //! stale one, are the exporter's (`crate::export`); the runtime depends on this module alone.
 
 pub(crate) mod bits;
+mod error;
 pub mod glb;
 pub(crate) mod pvs;
 pub mod read;
 pub(crate) mod records;
 pub mod visibility;
 
+pub use error::FormatError;
 pub use pvs::{Method, Pvs, DEFAULT_TRANSFORM_DEPTH};
 pub use read::{annotation, consistency};
 pub use records::{Annotated, Bounds, CellRecord, PortalRecord, RoomRecord};

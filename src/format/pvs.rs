@@ -3,6 +3,7 @@
 //! asymmetric.
 
 use super::bits::{self, BitMatrix};
+use super::FormatError;
 
 /// How many transformed portals (mirrors, teleporters) one sightline may pass through when
 /// there is no level to ask: graphs built by hand or read from .prt files (which have no
@@ -127,23 +128,23 @@ impl Pvs {
     }
 
     /// Reads the `c: v1 v2 ...` form. `Err` names the line (1-based) that does not parse.
-    pub fn parse_text(text: &str, cells: usize) -> Result<Pvs, String> {
+    pub fn parse_text(text: &str, cells: usize) -> Result<Pvs, FormatError> {
         let mut bits = BitMatrix::new(cells);
         for (i, line) in text.lines().enumerate() {
             let line = line.trim();
             if line.is_empty() {
                 continue;
             }
-            let bad = |what: &str| format!("line {}: {what}", i + 1);
-            let (c, rest) = line.split_once(':').ok_or_else(|| bad("no `:`"))?;
-            let c: usize = c.trim().parse().map_err(|_| bad("bad cell index"))?;
+            let n = i + 1;
+            let (c, rest) = line.split_once(':').ok_or(FormatError::TextNoColon(n))?;
+            let c: usize = c.trim().parse().map_err(|_| FormatError::TextBadCell(n))?;
             if c >= cells {
-                return Err(bad("cell index out of range"));
+                return Err(FormatError::TextCellOutOfRange(n));
             }
             for t in rest.split_whitespace() {
-                let v: usize = t.parse().map_err(|_| bad("bad visible cell"))?;
+                let v: usize = t.parse().map_err(|_| FormatError::TextBadVisible(n))?;
                 if v >= cells {
-                    return Err(bad("visible cell out of range"));
+                    return Err(FormatError::TextVisibleOutOfRange(n));
                 }
                 bits.set(c, v);
             }
@@ -164,6 +165,13 @@ mod tests {
         assert_eq!(t, "0: 0 2\n1: 1\n2: 2\n");
         assert_eq!(Pvs::parse_text(&t, 3).unwrap(), p);
         assert_eq!(p.pairs(), 4);
-        assert!(Pvs::parse_text("0: 5", 3).is_err());
+        assert_eq!(
+            Pvs::parse_text("0: 5", 3),
+            Err(FormatError::TextVisibleOutOfRange(1))
+        );
+        assert_eq!(
+            FormatError::TextVisibleOutOfRange(1).to_string(),
+            "line 1: visible cell out of range"
+        );
     }
 }

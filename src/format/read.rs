@@ -4,12 +4,12 @@
 use serde_json::Value;
 
 use super::records::Annotated;
-use super::NAME;
+use super::{FormatError, NAME};
 
 /// The annotation of a glTF document, if it has one. `Err` says why it does not parse.
-pub fn annotation(doc: &Value) -> Option<Result<Annotated, String>> {
+pub fn annotation(doc: &Value) -> Option<Result<Annotated, FormatError>> {
     let ext = doc.get("extensions")?.get(NAME)?;
-    Some(serde_json::from_value(ext.clone()).map_err(|e| e.to_string()))
+    Some(serde_json::from_value(ext.clone()).map_err(|e| FormatError::Parse(e.to_string())))
 }
 
 /// The stored PVS, decoded. `buffers`: the document's buffers as loaded (for a .glb, buffer 0
@@ -18,7 +18,7 @@ pub fn visibility(
     a: &Annotated,
     doc: &Value,
     buffers: &[Vec<u8>],
-) -> Option<Result<super::Pvs, String>> {
+) -> Option<Result<super::Pvs, FormatError>> {
     let v = a.visibility.as_ref()?;
     let blob = match v.get("bufferView").and_then(Value::as_u64) {
         None => None,
@@ -32,71 +32,82 @@ pub fn visibility(
             });
             match bytes {
                 Some(b) => Some(b),
-                None => return Some(Err(format!("visibility: buffer view {i} cannot be read"))),
+                None => return Some(Err(FormatError::ViewUnreadable(i))),
             }
         }
     };
     Some(super::visibility::decode(v, a.cells.len(), blob))
 }
 
-/// Checks what the schema cannot: indices in range and partners mutual. One line per problem.
-pub fn consistency(a: &Annotated, node_count: usize) -> Vec<String> {
+/// Checks what the schema cannot: indices in range and partners mutual. One error per problem.
+pub fn consistency(a: &Annotated, node_count: usize) -> Vec<FormatError> {
     let mut out = Vec::new();
     let cells = a.cells.len();
     for (i, r) in a.rooms.iter().enumerate() {
         for &c in &r.cells {
             if c >= cells {
-                out.push(format!(
-                    "/rooms/{i}: cell {c} does not exist ({cells} cells)"
-                ));
+                out.push(FormatError::RoomCellMissing {
+                    room: i,
+                    cell: c,
+                    cells,
+                });
             }
         }
     }
     for (i, c) in a.cells.iter().enumerate() {
         for &n in &c.nodes {
             if n >= node_count {
-                out.push(format!(
-                    "/cells/{i}: node {n} does not exist ({node_count} nodes)"
-                ));
+                out.push(FormatError::CellNodeMissing {
+                    cell: i,
+                    node: n,
+                    nodes: node_count,
+                });
             }
         }
     }
     for (i, p) in a.portals.iter().enumerate() {
         for &c in &p.cells {
             if c >= cells {
-                out.push(format!(
-                    "/portals/{i}: cell {c} does not exist ({cells} cells)"
-                ));
+                out.push(FormatError::PortalCellMissing {
+                    portal: i,
+                    cell: c,
+                    cells,
+                });
             }
         }
         if let Some(j) = p.partner {
             match a.portals.get(j) {
-                None => out.push(format!("/portals/{i}: partner {j} does not exist")),
-                Some(q) if q.partner != Some(i) => {
-                    out.push(format!("/portals/{i}: partner {j} does not name it back"))
-                }
+                None => out.push(FormatError::PartnerMissing {
+                    portal: i,
+                    partner: j,
+                }),
+                Some(q) if q.partner != Some(i) => out.push(FormatError::PartnerNotMutual {
+                    portal: i,
+                    partner: j,
+                }),
                 Some(q)
                     if j != i
                         && (q.from() != p.to().unwrap_or(usize::MAX)
                             || q.to() != Some(p.from())) =>
                 {
-                    out.push(format!(
-                        "/portals/{i}: partner {j} does not join the same cells the other way"
-                    ))
+                    out.push(FormatError::PartnerCellsDiffer {
+                        portal: i,
+                        partner: j,
+                    })
                 }
                 _ => {}
             }
         }
         if let Some(n) = p.node {
             if n >= node_count {
-                out.push(format!("/portals/{i}: node {n} does not exist"));
+                out.push(FormatError::PortalNodeMissing { portal: i, node: n });
             }
         }
     }
     if let Some(v) = &a.visibility {
         if v.get("encoding").and_then(Value::as_str) == Some("lists") {
             if let Err(e) = super::visibility::decode(v, cells, None) {
-                out.push(format!("/visibility: {e}"));
+                out.push(FormatError::StoredLists(Box::new(e)));
             }
         }
     }

@@ -15,7 +15,7 @@
 
 use serde_json::{json, Value};
 
-use super::{Method, Pvs};
+use super::{FormatError, Method, Pvs};
 
 /// Cells up to which the lists are always used.
 const LISTS_UP_TO: usize = 16;
@@ -118,7 +118,7 @@ pub fn encode(pvs: &Pvs, method: Method) -> Option<Encoded> {
 }
 
 /// Reads an encoded PVS back (`blob`: the bytes of its buffer view). `Err` says what is wrong.
-pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, String> {
+pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, FormatError> {
     let enc = json.get("encoding").and_then(Value::as_str).unwrap_or("");
     let mut pvs = Pvs::identity(cells);
     pvs.bits = super::bits::BitMatrix::new(cells);
@@ -127,15 +127,18 @@ pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, St
             let lists = json
                 .get("lists")
                 .and_then(Value::as_array)
-                .ok_or("`lists` is missing")?;
+                .ok_or(FormatError::ListsMissing)?;
             if lists.len() != cells {
-                return Err(format!("{} lists for {cells} cells", lists.len()));
+                return Err(FormatError::ListCount {
+                    lists: lists.len(),
+                    cells,
+                });
             }
             for (c, l) in lists.iter().enumerate() {
-                for v in l.as_array().ok_or("a list is not an array")? {
-                    let v = v.as_u64().ok_or("a list holds a non-index")? as usize;
+                for v in l.as_array().ok_or(FormatError::ListNotArray)? {
+                    let v = v.as_u64().ok_or(FormatError::ListNonIndex)? as usize;
                     if v >= cells {
-                        return Err(format!("/lists/{c}: cell {v} does not exist"));
+                        return Err(FormatError::ListCellMissing { row: c, cell: v });
                     }
                     pvs.bits.set(c, v);
                 }
@@ -144,15 +147,18 @@ pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, St
         "bits" | "bitsZeroRun" => {
             let rb = cells.div_ceil(8);
             if json.get("rowBytes").and_then(Value::as_u64) != Some(rb as u64) {
-                return Err(format!("rowBytes must be {rb} for {cells} cells"));
+                return Err(FormatError::RowBytes {
+                    row_bytes: rb,
+                    cells,
+                });
             }
-            let data = blob.ok_or("the buffer view cannot be read")?;
+            let data = blob.ok_or(FormatError::NoBlob)?;
             let raw = if enc == "bits" {
                 (data.len() >= rb * cells).then(|| data[..rb * cells].to_vec())
             } else {
                 zero_run_decode(data, rb * cells)
             }
-            .ok_or("the buffer view holds fewer rows than cells")?;
+            .ok_or(FormatError::FewerRows)?;
             for c in 0..cells {
                 for v in 0..cells {
                     if raw[c * rb + v / 8] >> (v % 8) & 1 == 1 {
@@ -161,7 +167,7 @@ pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, St
                 }
             }
         }
-        other => return Err(format!("unknown visibility encoding `{other}`")),
+        other => return Err(FormatError::UnknownEncoding(other.to_string())),
     }
     Ok(pvs)
 }

@@ -168,17 +168,3 @@ pub(crate) fn audit_stored(
     let triangles = crate::portals::blocking_triangles(&tagged.scene, &tagged.tagging, &[]);
     crate::check::sightlines::audit(subject, &triangles, &pvs, rays, depth)
 }
-
-/// Hands the heap a stage freed (portals, the PVS) back to the system before the next
-/// allocates its own: glibc's malloc keeps it otherwise, and the next stage's large blocks do
-/// not always fit in it (on a big level, 30 MB more at the export after a PVS). The
-/// `portcullis` binary allocates through jemalloc, which returns freed pages by itself after
-/// 0.3 s, so there this only trims what C code allocated; it matters to library callers on
-/// glibc's malloc.
-pub fn release_free_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only returns free pages of the allocator's heap to the system.
-    unsafe {
-        libc::malloc_trim(0);
-    }
-}

@@ -3,41 +3,15 @@
 //! the culling data alone.
 
 use std::io::{Read, Seek, SeekFrom};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use base64::Engine as _;
 use serde::Deserialize;
 use serde_json::Value;
 
+use super::{LevelError, LoadError};
 use crate::format::Annotated;
 use crate::format::Pvs;
-
-/// Why a level cannot be loaded: what, where, and what to do.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LoadError {
-    /// The file that could not be loaded.
-    pub path: PathBuf,
-    /// What is wrong, for the player-facing log.
-    pub message: String,
-    /// What to do about it (reconvert the level, check the path).
-    pub hint: &'static str,
-    /// The file itself could not be read (as opposed to read and found unusable).
-    pub unreadable: bool,
-}
-
-impl std::fmt::Display for LoadError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{}: {} ({})",
-            self.path.display(),
-            self.message,
-            self.hint
-        )
-    }
-}
-
-impl std::error::Error for LoadError {}
 
 pub(super) const CONVERT_HINT: &str =
     "run `portcullis convert` on the level and load the file it writes";
@@ -61,49 +35,48 @@ struct Extensions {
 /// The annotation of the .glb or .gltf at `path` and its decoded PVS (`None` when it stores
 /// none, as a one-cell level does).
 pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
-    let err = |message: String| LoadError {
+    let err = |kind: LevelError| LoadError {
         path: path.to_path_buf(),
-        message,
+        kind,
         hint: CONVERT_HINT,
         unreadable: false,
     };
     let bytes = std::fs::read(path).map_err(|e| LoadError {
         path: path.to_path_buf(),
-        message: format!("cannot be read: {e}"),
+        kind: LevelError::Unreadable(e.to_string()),
         hint: "check the path and the file's permissions",
         unreadable: true,
     })?;
     let (json, bin) = split(&bytes).map_err(err)?;
     let doc: Doc =
-        serde_json::from_slice(json).map_err(|e| err(format!("is not a glTF document: {e}")))?;
+        serde_json::from_slice(json).map_err(|e| err(LevelError::NotGltf(e.to_string())))?;
     let annotated = doc
         .extensions
         .and_then(|e| e.portals)
-        .ok_or_else(|| err("has no PORTCULLIS_portals extension".into()))?;
+        .ok_or_else(|| err(LevelError::NoExtension))?;
     let Some(vis) = annotated.visibility.as_ref() else {
         return Ok((annotated, None));
     };
     let blob = match vis.get("bufferView").and_then(Value::as_u64) {
         None => None,
-        Some(i) => Some(
-            view_bytes(path, &doc.buffer_views, &doc.buffers, bin, i as usize)
-                .map_err(|e| err(format!("visibility: buffer view {i} {e}")))?,
-        ),
+        Some(i) => {
+            Some(view_bytes(path, &doc.buffer_views, &doc.buffers, bin, i as usize).map_err(err)?)
+        }
     };
     let pvs = crate::format::visibility::decode(vis, annotated.cells.len(), blob.as_deref())
-        .map_err(|e| err(format!("visibility: {e}")))?;
+        .map_err(|e| err(LevelError::Visibility(e)))?;
     Ok((annotated, Some(pvs)))
 }
 
 /// The JSON text and the BIN chunk of a .glb, or the whole text of a .gltf.
-fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), LevelError> {
     use crate::format::glb;
     if !glb::is_glb(bytes) {
         return Ok((bytes, None));
     }
     glb::split(bytes)
         .map(|g| (g.json, g.bin))
-        .map_err(|e| format!("is not a readable .glb: {e}"))
+        .map_err(LevelError::NotGlb)
 }
 
 /// The bytes of buffer view `i`, reading only its range of an external buffer file.
@@ -113,35 +86,43 @@ fn view_bytes(
     buffers: &[Value],
     bin: Option<&[u8]>,
     i: usize,
-) -> Result<Vec<u8>, String> {
-    let view = views.get(i).ok_or("does not exist")?;
+) -> Result<Vec<u8>, LevelError> {
+    let view = views.get(i).ok_or(LevelError::ViewMissing(i))?;
     let field = |k: &str| view.get(k).and_then(Value::as_u64).map(|v| v as usize);
-    let b = field("buffer").ok_or("names no buffer")?;
+    let b = field("buffer").ok_or(LevelError::ViewNoBuffer(i))?;
     let off = field("byteOffset").unwrap_or(0);
-    let len = field("byteLength").ok_or("has no byteLength")?;
-    let buffer = buffers.get(b).ok_or("names a buffer that does not exist")?;
-    let range = |data: &[u8]| -> Result<Vec<u8>, String> {
-        data.get(off..off.checked_add(len).ok_or("is out of range")?)
+    let len = field("byteLength").ok_or(LevelError::ViewNoLength(i))?;
+    let buffer = buffers.get(b).ok_or(LevelError::ViewBufferMissing(i))?;
+    let range = |data: &[u8]| -> Result<Vec<u8>, LevelError> {
+        let end = off.checked_add(len).ok_or(LevelError::ViewOutOfRange(i))?;
+        data.get(off..end)
             .map(<[u8]>::to_vec)
-            .ok_or_else(|| "lies beyond its buffer".to_string())
+            .ok_or(LevelError::ViewBeyondBuffer(i))
     };
     match buffer.get("uri").and_then(Value::as_str) {
-        None => range(bin.ok_or("lies in a BIN chunk the file does not have")?),
+        None => range(bin.ok_or(LevelError::ViewNoBin(i))?),
         Some(uri) if uri.starts_with("data:") => {
             let data = uri
                 .split_once(";base64,")
                 .and_then(|(_, d)| base64::engine::general_purpose::STANDARD.decode(d).ok())
-                .ok_or("lies in a data URI that is not base64")?;
+                .ok_or(LevelError::ViewBadDataUri(i))?;
             range(&data)
         }
         Some(uri) => {
             let file = path.parent().unwrap_or(Path::new(".")).join(uri);
-            let mut f = std::fs::File::open(&file)
-                .map_err(|e| format!("lies in {} which cannot be read: {e}", file.display()))?;
+            let mut f = std::fs::File::open(&file).map_err(|e| LevelError::ViewFileUnreadable {
+                view: i,
+                file: file.clone(),
+                error: e.to_string(),
+            })?;
             let mut out = vec![0; len];
             f.seek(SeekFrom::Start(off as u64))
                 .and_then(|_| f.read_exact(&mut out))
-                .map_err(|e| format!("lies beyond the end of {}: {e}", file.display()))?;
+                .map_err(|e| LevelError::ViewFileShort {
+                    view: i,
+                    file: file.clone(),
+                    error: e.to_string(),
+                })?;
             Ok(out)
         }
     }

@@ -39,13 +39,15 @@
 //! teleporters in camera space by a draw transform; doors, one-way, the PVS row of the camera's
 //! cell as prefilter, the portal and cell guards of a path, depth limits). `clip.rs`: half-spaces,
 //! 3D and screen polygon clipping that keeps what lies within a hair of the inside (culling errs
-//! towards drawing), distances.
+//! towards drawing), distances. `error.rs`: [`LoadError`] (the file, the hint) around a
+//! [`LevelError`] (what is wrong with the file or with one of its records).
 //!
 //! Invariants: a trace allocates nothing once its [`Trace`] has grown; every result is a superset
 //! of what rays through the level's triangles reach (tests/runtime.rs); the same answer for the
 //! level moved with the camera.
 
 mod clip;
+mod error;
 mod load;
 mod locate;
 mod trace;
@@ -55,7 +57,7 @@ use std::path::Path;
 
 use glam::{DMat4, DVec3};
 
-pub use load::LoadError;
+pub use error::{LevelError, LoadError};
 pub use locate::Location;
 pub use trace::{Stats, Trace, TraceOptions, View, ViewError, Visible};
 
@@ -140,9 +142,9 @@ impl Level {
     /// Loads the extension of a converted .glb or .gltf (the meshes are not read).
     pub fn load(path: &Path) -> Result<Level, LoadError> {
         let (annotated, pvs) = load::read(path)?;
-        Level::from_annotation(&annotated, pvs).map_err(|message| LoadError {
+        Level::from_annotation(&annotated, pvs).map_err(|kind| LoadError {
             path: path.to_path_buf(),
-            message,
+            kind,
             hint: load::CONVERT_HINT,
             unreadable: false,
         })
@@ -150,17 +152,17 @@ impl Level {
 
     /// Builds the runtime data of an annotation already read. `Err` names the first record
     /// that cannot be used.
-    pub fn from_annotation(a: &Annotated, pvs: Option<Pvs>) -> Result<Level, String> {
-        if let Some(problem) = crate::format::read::consistency(a, usize::MAX).first() {
-            return Err(problem.clone());
+    pub fn from_annotation(a: &Annotated, pvs: Option<Pvs>) -> Result<Level, LevelError> {
+        if let Some(problem) = crate::format::read::consistency(a, usize::MAX)
+            .into_iter()
+            .next()
+        {
+            return Err(LevelError::Inconsistent(problem));
         }
         let tolerance = if a.tolerance.is_finite() && a.tolerance > 0.0 {
             a.tolerance
         } else {
-            return Err(format!(
-                "tolerance {} is not a positive number",
-                a.tolerance
-            ));
+            return Err(LevelError::Tolerance(a.tolerance));
         };
         let mut level = Level {
             tolerance,
@@ -186,7 +188,7 @@ impl Level {
         let cells = level.cells.len();
         level.link_regions();
         if level.pvs.as_ref().is_some_and(|p| p.cells() != cells) {
-            return Err("the visibility does not have one row per cell".into());
+            return Err(LevelError::PvsRows);
         }
         level.grid = locate::Grid::build(&level);
         locate::mark_overlaps(&mut level);
@@ -202,14 +204,14 @@ impl Level {
         c: &crate::format::CellRecord,
         a_buf: &mut Vec<DVec3>,
         b_buf: &mut Vec<DVec3>,
-    ) -> Result<(), String> {
+    ) -> Result<(), LevelError> {
         let tolerance = self.tolerance;
         let start = self.planes.len() as u32;
         for p in &c.planes {
             let n = DVec3::new(p[0], p[1], p[2]);
             let len = n.length();
             if !(len.is_finite() && len > 0.5 && p[3].is_finite()) {
-                return Err(format!("/cells/{i}: plane {p:?} has no unit normal"));
+                return Err(LevelError::PlaneNotUnit { cell: i, plane: *p });
             }
             self.planes.push(Half {
                 n: n / len,
@@ -219,7 +221,7 @@ impl Level {
         let planes = start..self.planes.len() as u32;
         let (min, max) = (DVec3::from(c.bounds.min), DVec3::from(c.bounds.max));
         if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
-            return Err(format!("/cells/{i}: bounds are not a box"));
+            return Err(LevelError::BoundsNotBox(i));
         }
         // Faces: a square on each plane cut by the others; their corners give a point
         // inside and the distance from outside.
@@ -251,7 +253,7 @@ impl Level {
             }
         }
         if count == 0.0 {
-            return Err(format!("/cells/{i}: its planes enclose nothing"));
+            return Err(LevelError::EnclosesNothing(i));
         }
         let inner = sum / count;
         // Divergence theorem about the inner point (so a level far from the origin keeps
@@ -274,28 +276,27 @@ impl Level {
     }
 
     /// Portal `i` of the annotation, its plane and transform checked.
-    fn add_portal(&mut self, i: usize, p: &crate::format::PortalRecord) -> Result<(), String> {
+    fn add_portal(&mut self, i: usize, p: &crate::format::PortalRecord) -> Result<(), LevelError> {
         let start = self.corners.len() as u32;
         self.corners
             .extend(p.polygon.iter().map(|v| DVec3::from(*v)));
         let poly = &self.corners[start as usize..];
         if poly.len() < 3 || !poly.iter().all(|v| v.is_finite()) {
-            return Err(format!("/portals/{i}: the polygon is not a polygon"));
+            return Err(LevelError::NotPolygon(i));
         }
         let from = p.from();
         let centre = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
         // Counter-clockwise seen from the source: the Newell normal points back into the
         // source, so sight travels against it. A mirror standing free in its room faces
         // away from the room's middle, so the winding, not the cell, says which way.
-        let plane = Half::through(centre, -clip::newell(poly))
-            .ok_or_else(|| format!("/portals/{i}: the polygon has no area"))?;
+        let plane = Half::through(centre, -clip::newell(poly)).ok_or(LevelError::NoArea(i))?;
         let transform = match p.transform {
             None => None,
             Some(m) => {
                 let m = DMat4::from_cols_array(&m);
                 let det = m.determinant();
                 if !(det.is_finite() && det.abs() > 1e-12) {
-                    return Err(format!("/portals/{i}: the transform cannot be inverted"));
+                    return Err(LevelError::Singular(i));
                 }
                 self.transforms.push((m, m.inverse()));
                 Some(self.transforms.len() as u32 - 1)

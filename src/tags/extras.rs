@@ -14,7 +14,18 @@ pub(crate) enum ExtrasValue {
     /// The key names something (a room, a target).
     Named(String),
     /// The key holds a value of a type that means nothing here.
-    Invalid(String),
+    Invalid(ExtrasError),
+}
+
+/// Why an extras value cannot be read as what its key asks for; the value is kept to be named.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ExtrasError {
+    /// Neither a name nor a flag: a number other than 1 and 0, an array or an object.
+    #[error("expected a name (a string) or a flag (true, false, 1, 0), found {0}")]
+    NotANameOrFlag(Value),
+    /// Neither a whole number nor a non-empty string, where an identifier is asked for.
+    #[error("expected an identifier (a whole number or a string), found {0}")]
+    NotAnId(Value),
 }
 
 /// Looks up a dotted key (`egg_scalars.portal`), also inside a `portcullis` object so that
@@ -48,9 +59,7 @@ fn classify(v: &Value) -> ExtrasValue {
         Value::Number(n) => match n.as_f64() {
             Some(1.0) => ExtrasValue::On,
             Some(0.0) => ExtrasValue::Off,
-            _ => ExtrasValue::Invalid(format!(
-                "expected a name (a string) or a flag (true, false, 1, 0), found {v}"
-            )),
+            _ => ExtrasValue::Invalid(ExtrasError::NotANameOrFlag(v.clone())),
         },
         Value::String(s) => {
             let t = s.trim();
@@ -60,22 +69,20 @@ fn classify(v: &Value) -> ExtrasValue {
                 _ => ExtrasValue::Named(t.to_string()),
             }
         }
-        Value::Array(_) | Value::Object(_) => ExtrasValue::Invalid(format!(
-            "expected a name (a string) or a flag (true, false, 1, 0), found {v}"
-        )),
+        Value::Array(_) | Value::Object(_) => {
+            ExtrasValue::Invalid(ExtrasError::NotANameOrFlag(v.clone()))
+        }
     }
 }
 
 /// An identifier written into a rule's room template (`sector_${value}` of Doom's
 /// `"doom_sector": 12`): a whole number or a non-empty string.
-pub(crate) fn read_id(extras: Option<&Value>, key: &str) -> Result<Option<String>, String> {
+pub(crate) fn read_id(extras: Option<&Value>, key: &str) -> Result<Option<String>, ExtrasError> {
     match extras.and_then(|e| lookup(e, key)) {
         None | Some(Value::Null) => Ok(None),
         Some(Value::Number(n)) if n.is_i64() || n.is_u64() => Ok(Some(n.to_string())),
         Some(Value::String(s)) if !s.trim().is_empty() => Ok(Some(s.trim().to_string())),
-        Some(v) => Err(format!(
-            "expected an identifier (a whole number or a string), found {v}"
-        )),
+        Some(v) => Err(ExtrasError::NotAnId(v.clone())),
     }
 }
 
@@ -174,7 +181,10 @@ mod tests {
         assert!(matches!(read(Some(&odd), "room"), ExtrasValue::Invalid(_)));
         assert_eq!(read_id(Some(&odd), "id"), Ok(Some("12".into())));
         assert_eq!(read_id(Some(&odd), "name"), Ok(Some("a".into())));
-        assert!(read_id(Some(&e), "e").is_err());
+        assert_eq!(
+            read_id(Some(&e), "e").unwrap_err().to_string(),
+            "expected an identifier (a whole number or a string), found [1]"
+        );
         let typed = json!({"priority": "high", "footprint_height": -2, "closed": "maybe",
                            "source_room": 3, "one_way": 1});
         let keys: Vec<&str> = attribute_problems(Some(&typed))
@@ -188,7 +198,10 @@ mod tests {
         let fine = json!({"priority": 2, "footprint_height": "2.5", "closed": "yes"});
         assert!(attribute_problems(Some(&fine)).is_empty());
         assert_eq!(read(Some(&e), "d"), ExtrasValue::On);
-        assert!(matches!(read(Some(&e), "e"), ExtrasValue::Invalid(_)));
+        assert_eq!(
+            read(Some(&e), "e"),
+            ExtrasValue::Invalid(ExtrasError::NotANameOrFlag(json!([1])))
+        );
         assert_eq!(read(Some(&e), "egg_scalars.portal"), ExtrasValue::On);
         assert_eq!(read(Some(&e), "missing"), ExtrasValue::Off);
         assert_eq!(read_bool(Some(&e), "one_way"), Some(true));

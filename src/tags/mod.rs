@@ -812,7 +812,7 @@ fn classify(scene: &Scene, rules: &RuleSet, n: NodeId, diags: &mut Diagnostics) 
             ExtrasValue::Named(s) => Some(s),
             ExtrasValue::Invalid(why) => {
                 diags.push(
-                    extras_invalid(scene, n, key, &why)
+                    extras_invalid(scene, n, key, &why.to_string())
                         .hint("write a name in quotes (`\"kitchen\"`), or true for a flag"),
                 );
                 continue;

@@ -191,6 +191,35 @@ pub(crate) struct Rule {
     pub(crate) regex: Option<Regex>,
 }
 
+/// Why a rule cannot be compiled; each names the rule by its `id`.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RuleError {
+    /// An extras rule without the key it reads.
+    #[error("rule `{rule}` matches on extras but has no `key`")]
+    NoKey {
+        /// The rule's id.
+        rule: String,
+    },
+    /// A name or material rule without its pattern.
+    #[error("rule `{rule}` matches on {on:?} but has no `pattern`")]
+    NoPattern {
+        /// The rule's id.
+        rule: String,
+        /// What it matches on.
+        on: MatchOn,
+    },
+    /// A pattern the regex crate refuses.
+    #[error("rule `{rule}` has an invalid pattern `{pattern}`: {why}")]
+    BadPattern {
+        /// The rule's id.
+        rule: String,
+        /// The pattern as written.
+        pattern: String,
+        /// The regex error's reason, on one line.
+        why: String,
+    },
+}
+
 /// A compiled rule set.
 #[derive(Debug, Clone)]
 pub struct RuleSet {
@@ -226,23 +255,21 @@ pub(crate) fn numbered_duplicate_stem(text: &str) -> Option<&str> {
 
 impl RuleSet {
     /// Compiles a spec; an invalid pattern or a rule missing its pattern/key is an error
-    /// message naming the rule.
-    pub fn compile(spec: &RuleSetSpec) -> Result<RuleSet, String> {
+    /// naming the rule.
+    pub fn compile(spec: &RuleSetSpec) -> Result<RuleSet, RuleError> {
         let mut rules = Vec::with_capacity(spec.rules.len());
         for r in &spec.rules {
             let regex = match r.on {
                 MatchOn::Extras => {
                     if r.key.as_deref().unwrap_or("").is_empty() {
-                        return Err(format!(
-                            "rule `{}` matches on extras but has no `key`",
-                            r.id
-                        ));
+                        return Err(RuleError::NoKey { rule: r.id.clone() });
                     }
                     None
                 }
                 MatchOn::Name | MatchOn::Material => {
-                    let p = r.pattern.as_deref().ok_or_else(|| {
-                        format!("rule `{}` matches on {:?} but has no `pattern`", r.id, r.on)
+                    let p = r.pattern.as_deref().ok_or_else(|| RuleError::NoPattern {
+                        rule: r.id.clone(),
+                        on: r.on,
                     })?;
                     let re = RegexBuilder::new(p)
                         .case_insensitive(!spec.case_sensitive)
@@ -258,7 +285,11 @@ impl RuleSet {
                                 .find_map(|l| l.strip_prefix("error: "))
                                 .unwrap_or(text.as_str())
                                 .to_string();
-                            format!("rule `{}` has an invalid pattern `{p}`: {why}", r.id)
+                            RuleError::BadPattern {
+                                rule: r.id.clone(),
+                                pattern: p.to_string(),
+                                why,
+                            }
                         })?;
                     Some(re)
                 }

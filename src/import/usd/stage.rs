@@ -228,43 +228,69 @@ pub(crate) struct BuiltMesh {
     pub not_simple: usize,
 }
 
+/// Why a mesh's arrays do not fit together (the mesh is skipped, `USD_MESH_INVALID`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StageError {
+    /// `points` does not hold whole points.
+    #[error("points holds {0} numbers, not a whole number of points")]
+    PartialPoint(usize),
+    /// More points than a `u32` index reaches.
+    #[error("{0} points are more than portcullis indexes")]
+    TooManyPoints(usize),
+    /// A negative face size.
+    #[error("faceVertexCounts holds {0}")]
+    NegativeCount(i32),
+    /// The face sizes do not add up to the corners given.
+    #[error("faceVertexCounts add up to {corners} corners, but faceVertexIndices holds {indices}")]
+    CornerCount {
+        /// The sum of `faceVertexCounts`.
+        corners: usize,
+        /// The length of `faceVertexIndices`.
+        indices: usize,
+    },
+    /// A corner names a point that does not exist.
+    #[error("faceVertexIndices refers to point {index}, but the mesh has {points} points")]
+    PointMissing {
+        /// The index given.
+        index: i32,
+        /// The mesh's points.
+        points: usize,
+    },
+}
+
 /// Checks and triangulates one mesh; `Err` says why its arrays do not fit together.
 pub(crate) fn build_mesh(
     m: &RawMesh,
     mpu: f64,
     material_count: usize,
-) -> Result<BuiltMesh, String> {
+) -> Result<BuiltMesh, StageError> {
     if m.points.len() % 3 != 0 {
-        return Err(format!(
-            "points holds {} numbers, not a whole number of points",
-            m.points.len()
-        ));
+        return Err(StageError::PartialPoint(m.points.len()));
     }
     let n_points = m.points.len() / 3;
     if n_points > u32::MAX as usize {
-        return Err(format!(
-            "{n_points} points are more than portcullis indexes"
-        ));
+        return Err(StageError::TooManyPoints(n_points));
     }
     let mut corners = 0usize;
     for &c in &m.counts {
-        let c = usize::try_from(c).map_err(|_| format!("faceVertexCounts holds {c}"))?;
+        let c = usize::try_from(c).map_err(|_| StageError::NegativeCount(c))?;
         corners = corners.saturating_add(c);
     }
     if corners != m.indices.len() {
-        return Err(format!(
-            "faceVertexCounts add up to {corners} corners, but faceVertexIndices holds {}",
-            m.indices.len()
-        ));
+        return Err(StageError::CornerCount {
+            corners,
+            indices: m.indices.len(),
+        });
     }
     if let Some(&bad) = m
         .indices
         .iter()
         .find(|&&i| usize::try_from(i).map_or(true, |i| i >= n_points))
     {
-        return Err(format!(
-            "faceVertexIndices refers to point {bad}, but the mesh has {n_points} points"
-        ));
+        return Err(StageError::PointMissing {
+            index: bad,
+            points: n_points,
+        });
     }
     let positions: Vec<DVec3> = m
         .points
@@ -517,13 +543,25 @@ mod tests {
     fn inconsistent_arrays_are_refused() {
         let mut m = quad_mesh();
         m.indices.push(0);
-        assert!(build_mesh(&m, 1.0, 0).unwrap_err().contains("add up to 4"));
+        let e = build_mesh(&m, 1.0, 0).unwrap_err();
+        assert_eq!(
+            e,
+            StageError::CornerCount {
+                corners: 4,
+                indices: 5
+            }
+        );
+        assert!(e.to_string().contains("add up to 4"));
         let mut m = quad_mesh();
         m.indices[3] = 7;
-        assert!(build_mesh(&m, 1.0, 0).unwrap_err().contains("point 7"));
+        let e = build_mesh(&m, 1.0, 0).unwrap_err();
+        assert!(e.to_string().contains("point 7"), "{e}");
         let mut m = quad_mesh();
         m.counts[0] = -4;
-        assert!(build_mesh(&m, 1.0, 0).is_err());
+        assert_eq!(
+            build_mesh(&m, 1.0, 0).unwrap_err(),
+            StageError::NegativeCount(-4)
+        );
     }
 
     #[test]
