@@ -7,7 +7,7 @@ use super::FormatError;
 
 /// How many transformed portals (mirrors, teleporters) one sightline may pass through when
 /// there is no level to ask: graphs built by hand or read from .prt files (which have no
-/// transforms). Levels use `vis::level_transform_depth`, the loop check's run-time bound; two
+/// transforms). Levels use `pipeline::transform_depth`, the loop check's run-time bound; two
 /// covers a mirror seen in a mirror.
 pub const DEFAULT_TRANSFORM_DEPTH: usize = 2;
 

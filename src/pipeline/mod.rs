@@ -18,6 +18,7 @@ use crate::diag::Diagnostic;
 use crate::export::output::{self, Output};
 pub use crate::free::drop_elsewhere;
 pub use crate::level::{Level, Tagged};
+use crate::portals::PortalSet;
 use crate::vis::{Method, Pvs};
 pub use gate::{check_file, Checked, GateOptions};
 pub use load::{config_for, load_tagged, tag, LoadOptions};
@@ -56,7 +57,7 @@ pub fn build_cells(tagged: &mut Tagged) -> CellSet {
 
 /// The portals of a tagged level with its cells; diagnostics are appended to
 /// `tagged.diagnostics`.
-pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> crate::portals::PortalSet {
+pub fn build_portals(tagged: &mut Tagged, cells: &CellSet) -> PortalSet {
     let set = crate::portals::build(
         &tagged.scene,
         &tagged.tagging,
@@ -92,11 +93,22 @@ pub fn check(level: &mut Level, sealed: bool) -> Vec<Vec<glam::DVec3>> {
 /// How many transformed portals (mirrors, teleporters) one sightline of the level's PVS may
 /// pass through: `[vis] transform_depth`, else the run-time bound the loop check gives.
 pub fn transform_depth(level: &Level) -> usize {
-    crate::vis::level_transform_depth(
-        &level.cells,
-        &level.portals,
-        level.config().vis.transform_depth,
-    )
+    let bounds =
+        (level.cells.cells.iter()).fold(crate::geom::aabb::Aabb::EMPTY, |b, c| b.union(&c.bounds));
+    let extent = if bounds.is_empty() {
+        1.0
+    } else {
+        bounds.size().length()
+    };
+    depth_bound(level.config(), &level.portals, extent)
+}
+
+/// The one rule for the depth bound, for a level built or stored: `[vis] transform_depth`,
+/// else the bound the loop check gives renderers (`portals::loops::recursion_depth`), so the
+/// PVS covers every view an engine will draw through mirrors and teleporters.
+fn depth_bound(config: &crate::config::Config, portals: &PortalSet, extent: f64) -> usize {
+    (config.vis.transform_depth)
+        .unwrap_or_else(|| crate::portals::loops::recursion_depth(portals, extent))
 }
 
 /// The note `convert` and `vis` give when the level has open transformed portals: how deep
@@ -154,10 +166,7 @@ pub(crate) fn audit_stored(
         let doc = src.subset(&["bufferViews"]).ok()?;
         crate::format::read::visibility(annotated, &doc, &buffers)?.ok()
     });
-    let depth =
-        tagged.config.vis.transform_depth.unwrap_or_else(|| {
-            crate::portals::loops::recursion_depth(subject.portals, subject.extent)
-        });
+    let depth = depth_bound(&tagged.config, subject.portals, subject.extent);
     let pvs = stored.unwrap_or_else(|| {
         let opts = crate::vis::VisOptions {
             transform_depth: depth,

@@ -107,28 +107,6 @@ pub fn timed(g: &VisGraph, opts: &VisOptions) -> (Pvs, Duration) {
     (p, t.elapsed())
 }
 
-/// The depth bound for a level: `configured` (`[vis] transform_depth`), else the bound the loop
-/// check gives renderers (`portals::loops::recursion_depth`), so the PVS covers every view an
-/// engine will draw through mirrors and teleporters.
-pub(crate) fn level_transform_depth(
-    cells: &crate::cells::CellSet,
-    portals: &PortalSet,
-    configured: Option<usize>,
-) -> usize {
-    configured.unwrap_or_else(|| {
-        let bounds = cells
-            .cells
-            .iter()
-            .fold(crate::geom::aabb::Aabb::EMPTY, |b, c| b.union(&c.bounds));
-        let extent = if bounds.is_empty() {
-            1.0
-        } else {
-            bounds.size().length()
-        };
-        crate::portals::loops::recursion_depth(portals, extent)
-    })
-}
-
 /// The note that sightlines through transformed portals stop at the depth bound.
 pub fn transform_depth_note(file: &std::path::Path, depth: usize) -> crate::diag::Diagnostic {
     crate::diag::Diagnostic::new(
