@@ -61,7 +61,7 @@ impl Side {
     pub const ALL: [Side; 4] = [Side::West, Side::East, Side::South, Side::North];
 
     /// The neighbouring cell, if inside the grid.
-    pub fn neighbour(
+    pub(crate) fn neighbour(
         self,
         (c, r): (usize, usize),
         cols: usize,

@@ -979,7 +979,7 @@ impl Frame {
         let (a, b) = Plane { normal: up, d: 0.0 }.basis();
         Frame { up, u: b, v: a }
     }
-    pub fn plan(&self, p: DVec3) -> DVec2 {
+    pub(crate) fn plan(&self, p: DVec3) -> DVec2 {
         DVec2::new(p.dot(self.u), p.dot(self.v))
     }
     /// A ground-plane vector back in 3D.

@@ -90,7 +90,12 @@ impl HashOf for InputHash<'_> {
 
 impl<'a> Annotation<'a> {
     /// An annotation of these members only (nothing serialized from a level).
-    pub fn of(root: Value, nodes: Vec<(usize, Value)>, blob: Option<Vec<u8>>) -> Annotation<'a> {
+    #[cfg(test)]
+    pub(crate) fn of(
+        root: Value,
+        nodes: Vec<(usize, Value)>,
+        blob: Option<Vec<u8>>,
+    ) -> Annotation<'a> {
         Annotation {
             root,
             nodes,

@@ -87,7 +87,7 @@ impl PortalStyle {
     }
 
     /// The legend's word for the style.
-    pub fn label(self) -> &'static str {
+    pub(crate) fn label(self) -> &'static str {
         match self {
             PortalStyle::Plain => "plain two-way",
             PortalStyle::OneWay => "one-way",

@@ -51,7 +51,7 @@ impl<'r> Source<'r> {
     }
 
     /// `"key":`, with a comma before it unless it is the first member.
-    pub fn key(key: &str, first: bool) -> serde_json::Result<Source<'r>> {
+    pub(crate) fn key(key: &str, first: bool) -> serde_json::Result<Source<'r>> {
         let mut b = Vec::with_capacity(key.len() + 4);
         if !first {
             b.push(b',');
@@ -62,7 +62,7 @@ impl<'r> Source<'r> {
     }
 
     /// A value serialized as it is.
-    pub fn value<T: serde::Serialize + Sync + ?Sized>(v: &'r T) -> Source<'r> {
+    pub(crate) fn value<T: serde::Serialize + Sync + ?Sized>(v: &'r T) -> Source<'r> {
         Source::Job(Box::new(move |b| serde_json::to_writer(b, v)))
     }
 }

@@ -40,7 +40,7 @@ impl Aabb {
         }
     }
     /// The box grown by `pad` on every side.
-    pub fn grown(&self, pad: f64) -> Aabb {
+    pub(crate) fn grown(&self, pad: f64) -> Aabb {
         Aabb {
             min: self.min - DVec3::splat(pad),
             max: self.max + DVec3::splat(pad),
@@ -54,7 +54,7 @@ impl Aabb {
         }
     }
     /// Whether the two boxes share a point (touching counts; an empty box meets nothing).
-    pub fn meets(&self, o: &Aabb) -> bool {
+    pub(crate) fn meets(&self, o: &Aabb) -> bool {
         (0..3).all(|k| self.min[k] <= o.max[k] && self.max[k] >= o.min[k])
     }
     /// True for a box holding no point (such as `EMPTY`).

@@ -26,7 +26,7 @@ impl BoxGrid {
     /// Indexes `count` boxes given by `box_of` without keeping them: for millions of small boxes
     /// (a level's triangles) that are cheaper to recompute than to store; query with
     /// [`BoxGrid::query_by`].
-    pub fn index(count: usize, box_of: impl Fn(usize) -> Aabb) -> BoxGrid {
+    pub(crate) fn index(count: usize, box_of: impl Fn(usize) -> Aabb) -> BoxGrid {
         let count = u32::try_from(count).expect("a grid indexes at most 2^32 boxes");
         BoxGrid::index_ids(0..count, |i| box_of(i as usize))
     }

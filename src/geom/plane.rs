@@ -52,7 +52,7 @@ impl Plane {
     }
 
     /// The plane moved by `t`.
-    pub fn translated(&self, t: DVec3) -> Plane {
+    pub(crate) fn translated(&self, t: DVec3) -> Plane {
         Plane {
             normal: self.normal,
             d: self.d + self.normal.dot(t),
@@ -68,7 +68,7 @@ impl Plane {
     }
 
     /// The reflection in this plane, as an affine transform (mirrors).
-    pub fn reflection(&self) -> glam::DMat4 {
+    pub(crate) fn reflection(&self) -> glam::DMat4 {
         let n = self.normal;
         let m = glam::DMat3::IDENTITY - 2.0 * glam::DMat3::from_cols(n * n.x, n * n.y, n * n.z);
         let mut out = glam::DMat4::from_mat3(m);

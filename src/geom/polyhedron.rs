@@ -180,7 +180,7 @@ impl ConvexPolyhedron {
     }
 
     /// The solid moved by `t`.
-    pub fn translated(&self, t: DVec3) -> ConvexPolyhedron {
+    pub(crate) fn translated(&self, t: DVec3) -> ConvexPolyhedron {
         ConvexPolyhedron {
             faces: self
                 .faces
@@ -194,7 +194,7 @@ impl ConvexPolyhedron {
     }
 
     /// The part behind `plane` (`distance <= 0`). `None` when nothing of volume remains.
-    pub fn clip(&self, plane: &Plane, eps: f64) -> Option<ConvexPolyhedron> {
+    pub(crate) fn clip(&self, plane: &Plane, eps: f64) -> Option<ConvexPolyhedron> {
         let mut any_out = false;
         let mut any_in = false;
         for f in &self.faces {

@@ -42,7 +42,7 @@ impl Tolerance {
     /// ulps of where it should, and two copies of one vertex must not fall either side of a
     /// plane (at four, a 0.13 m L-shaped room 1.9e5 m out lost a corner of a face and 11% of
     /// a cell's volume; tests/cells_props.rs).
-    pub fn derive(
+    pub(crate) fn derive(
         extent: f64,
         spacing: f64,
         steps: f64,
@@ -59,16 +59,6 @@ impl Tolerance {
             angle: DEFAULT_ANGLE,
             input_precision,
             capped,
-        }
-    }
-
-    /// A fixed tolerance, for tests and for callers that know their data.
-    pub fn fixed(distance: f64) -> Tolerance {
-        Tolerance {
-            distance,
-            angle: DEFAULT_ANGLE,
-            input_precision: 0.0,
-            capped: false,
         }
     }
 

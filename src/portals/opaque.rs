@@ -193,7 +193,7 @@ impl Shadows {
     /// same corners as an earlier one (to the bit, in any order) is left out. A wall between
     /// two rooms is usually modelled from both sides, the same triangles twice; a boolean or a
     /// cover test gives the same answer for one copy as for two, at half the cost.
-    pub fn rings(&self) -> Vec<&[DVec2]> {
+    pub(crate) fn rings(&self) -> Vec<&[DVec2]> {
         let mut seen: HashSet<[(u64, u64); 5], foldhash::fast::FixedState> =
             HashSet::with_capacity_and_hasher(self.ends.len(), Default::default());
         let mut start = 0;

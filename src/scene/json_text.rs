@@ -161,7 +161,7 @@ pub(crate) struct Elements<'a> {
 
 impl<'a> Elements<'a> {
     /// The elements of `array`; `None` if it is not an array.
-    pub fn of(array: &'a str) -> Option<Elements<'a>> {
+    pub(crate) fn of(array: &'a str) -> Option<Elements<'a>> {
         let start = array.len() - array.trim_start().len();
         (array.as_bytes().get(start) == Some(&b'[')).then_some(Elements {
             text: array,

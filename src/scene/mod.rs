@@ -105,7 +105,7 @@ impl Precision {
     /// sixteen keeps a quarter of the tolerance above that). Eight units of a decimal's last
     /// digit: the rounding to text is half a unit, and what the writer computed in binary
     /// before printing is far below a unit of six or seven digits.
-    pub fn steps(self) -> f64 {
+    pub(crate) fn steps(self) -> f64 {
         match self {
             Precision::Binary32 => 16.0,
             Precision::Binary64 | Precision::Decimal(_) => 8.0,

@@ -19,7 +19,7 @@ pub(crate) enum ExtrasValue {
 
 /// Why an extras value cannot be read as what its key asks for; the value is kept to be named.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ExtrasError {
+pub(crate) enum ExtrasError {
     /// Neither a name nor a flag: a number other than 1 and 0, an array or an object.
     #[error("expected a name (a string) or a flag (true, false, 1, 0), found {0}")]
     NotANameOrFlag(Value),

@@ -193,7 +193,7 @@ pub(crate) struct Rule {
 
 /// Why a rule cannot be compiled; each names the rule by its `id`.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RuleError {
+pub(crate) enum RuleError {
     /// An extras rule without the key it reads.
     #[error("rule `{rule}` matches on extras but has no `key`")]
     NoKey {
@@ -256,7 +256,7 @@ pub(crate) fn numbered_duplicate_stem(text: &str) -> Option<&str> {
 impl RuleSet {
     /// Compiles a spec; an invalid pattern or a rule missing its pattern/key is an error
     /// naming the rule.
-    pub fn compile(spec: &RuleSetSpec) -> Result<RuleSet, RuleError> {
+    pub(crate) fn compile(spec: &RuleSetSpec) -> Result<RuleSet, RuleError> {
         let mut rules = Vec::with_capacity(spec.rules.len());
         for r in &spec.rules {
             let regex = match r.on {

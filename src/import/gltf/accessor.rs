@@ -223,7 +223,11 @@ impl<'a> Reader<'a> {
     }
 
     /// Vertex indices of an `indices` accessor.
-    pub fn indices(&self, accessor: u64, from: &dyn Display) -> Result<Vec<u32>, Diagnostic> {
+    pub(crate) fn indices(
+        &self,
+        accessor: u64,
+        from: &dyn Display,
+    ) -> Result<Vec<u32>, Diagnostic> {
         let (i, acc) = self.accessor(accessor, from)?;
         let pointer = &Pointer("/accessors", i);
         let (kind, ct) = self.kind(acc, &pointer)?;

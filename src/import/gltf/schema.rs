@@ -161,7 +161,7 @@ impl<'a> Root<'a> {
     }
 
     /// A member parsed (the text was checked to parse).
-    pub fn value(&self, key: &str) -> Option<Value> {
+    pub(crate) fn value(&self, key: &str) -> Option<Value> {
         Some(serde_json::from_str(self.get(key)?.get()).unwrap_or_default())
     }
 }

@@ -230,7 +230,7 @@ pub(crate) struct BuiltMesh {
 
 /// Why a mesh's arrays do not fit together (the mesh is skipped, `USD_MESH_INVALID`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum StageError {
+pub(crate) enum StageError {
     /// `points` does not hold whole points.
     #[error("points holds {0} numbers, not a whole number of points")]
     PartialPoint(usize),
