@@ -7,7 +7,8 @@
 #   scripts/compare_outputs.sh BIN OUT_DIR            write BIN's outputs to OUT_DIR
 #   scripts/compare_outputs.sh --diff OLD_BIN NEW_BIN  write both and diff them (exit 1 if any differ)
 #
-# Shared levels are read from ../shared (skipped when absent).
+# Shared levels and portal files are read from $SHARED (default ../shared, relative to the
+# repository); the run names how many it found, so a missing folder cannot pass unnoticed.
 set -u
 here=$(cd "$(dirname "$0")/.." && pwd)
 
@@ -30,6 +31,8 @@ bin=$(realpath "$1") out=$2
 mkdir -p "$out"
 out=$(realpath "$out")
 cd "$here"
+shared=${SHARED:-../shared}
+echo "shared levels from $shared: $(ls "$shared"/levels/*/*.{glb,gltf,obj,map} 2> /dev/null | wc -l) files" >&2
 
 # preset for a level, from its folder or name
 preset() {
@@ -49,9 +52,9 @@ run() { # name, command... : stdout, stderr (paths made relative) and exit code 
 
 levels=$(ls samples/*.gltf samples/*.obj samples/*.map; find samples/broken -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' -o -name '*.map' \) | sort;
     find tests/fixtures -type f \( -name '*.gltf' -o -name '*.glb' -o -name '*.obj' -o -name '*.map' \) | sort;
-    ls ../shared/levels/*/*.{glb,gltf,obj,map} 2> /dev/null)
+    ls "$shared"/levels/*/*.{glb,gltf,obj,map} 2> /dev/null)
 for level in $levels; do
-    name=$(echo "$level" | sed 's#^\.\./##; s#/#_#g')
+    name=$(echo "${level/#$shared/shared}" | sed 's#/#_#g')
     src=$(realpath "$level")
     work=$(mktemp -d)
     # the level's own folder holds any portcullis.toml next to it
@@ -72,9 +75,9 @@ for level in $levels; do
     done
     rm -rf "$work"
 done
-for prt in ../shared/prt/*.prt tests/fixtures/prt/*.prt; do
+for prt in "$shared"/prt/*.prt tests/fixtures/prt/*.prt; do
     [ -f "$prt" ] || continue
-    name=$(echo "$prt" | sed 's#^\.\./##; s#/#_#g')
+    name=$(echo "${prt/#$shared/shared}" | sed 's#/#_#g')
     work=$(dirname "$(realpath "$prt")")
     run "$name.vis" "$bin" vis --color never "$(basename "$prt")"
     run "$name.fast" "$bin" vis --color never --method fast "$(basename "$prt")"
