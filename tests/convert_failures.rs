@@ -197,3 +197,24 @@ fn out_dir_refuses_two_inputs_of_the_same_name_before_any_output() {
     assert_eq!(o.status.code(), Some(0));
     assert_eq!(left(&dir.path().join("out")), ["level.glb", "other.glb"]);
 }
+
+/// `-o` names the level's own file: an extension portcullis writes only beside it (an SVG map,
+/// an HTML page) or not at all is refused before any work, and nothing is written.
+#[test]
+fn an_output_that_is_not_a_level_format_is_refused_and_nothing_written() {
+    let level = sample("two_rooms.gltf");
+    for out in ["map.svg", "page.html", "level.txt"] {
+        let dir = tempfile::tempdir().unwrap();
+        let o = convert(&[level.as_os_str(), os("-o"), os(out)], dir.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{out}: {err}");
+        assert!(
+            err.contains("error[OUTPUT_FORMAT_UNKNOWN]")
+                && err.contains(&format!(
+                    "cannot write `{out}`: portcullis writes .gltf, .glb and .usda"
+                )),
+            "{out}: {err}"
+        );
+        assert!(left(dir.path()).is_empty(), "{out}: {:?}", left(dir.path()));
+    }
+}

@@ -1097,11 +1097,17 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
     let glb = convert(&common::sample("two_rooms.gltf"), None, dir.path());
     let unconverted = common::sample("two_rooms.gltf");
     let missing = dir.path().join("missing.glb");
+    // A converted .glb cut short, and one cut inside its header: the shared GLB reader names
+    // what is wrong with the container.
+    let cut = dir.path().join("cut.glb");
+    std::fs::write(&cut, &std::fs::read(&glb).unwrap()[..300]).unwrap();
+    let stub = dir.path().join("stub.glb");
+    std::fs::write(&stub, b"glTF\x02\x00\x00\x00").unwrap();
     let cams = dir.path().join("cams.jsonl");
     let good = "{\"eye\":[1,1,1],\"look\":[1,0,0]}\n";
     // (level, cameras, extra arguments, what the report must say); each run exits 2 and
     // prints nothing on stdout.
-    let cases: [(&Path, String, &[&str], &[&str]); 9] = [
+    let cases: [(&Path, String, &[&str], &[&str]); 11] = [
         (
             &glb,
             format!("{good}{{\"eye\":[1,1],\"look\":[1,0,0]}}\n"),
@@ -1169,6 +1175,25 @@ fn cull_refuses_bad_input_with_what_where_and_how() {
             good.into(),
             &[],
             &["error[IO_READ_FAILED]", "cannot be read"],
+        ),
+        (
+            &cut,
+            good.into(),
+            &[],
+            &[
+                "error[CULL_NOT_CONVERTED]",
+                "not a readable .glb: truncated GLB: the header says",
+                "but the file has 300",
+            ],
+        ),
+        (
+            &stub,
+            good.into(),
+            &[],
+            &[
+                "error[CULL_NOT_CONVERTED]",
+                "8 bytes, shorter than the 12-byte header",
+            ],
         ),
     ];
     for (level, cams_text, extra, says) in cases {
