@@ -367,6 +367,22 @@ def level_samples():
     s["PLAYER_START_OUTSIDE.gltf"] = (t, lambda doc: doc["nodes"][node_index(doc, "Spawn")]
                                       .update({"translation": [20.0, 1.0, 2.0]}))
 
+    # Rooms of solid blocks: a closet of slabs, a hollow box of six slabs standing in it.
+    def closet(*extra, hollow=True):
+        box = [ms.block(f"box_{k}", b) for k, b in enumerate([
+            (0.6, 0.0, 0.6, 1.4, 0.1, 1.4), (0.6, 0.7, 0.6, 1.4, 0.8, 1.4),
+            (0.6, 0.1, 0.6, 0.7, 0.7, 1.4), (1.3, 0.1, 0.6, 1.4, 0.7, 1.4),
+            (0.7, 0.1, 0.6, 1.3, 0.7, 0.7), (0.7, 0.1, 1.3, 1.3, 0.7, 1.4)])]
+        return ms.level(ms.slab_room("closet-room", 0, 2, 0, 2, 2.5, 0.3,
+                                     extra=box if hollow else ()), *extra)
+    torch = lambda at: {"name": "Torch", "extras": {"occupant": True}, "translation": at}  # noqa: E731
+    s["CELL_POCKETS_FILLED.gltf"] = (closet(ms.start((1.7, 1.0, 1.7))), None)
+    s["CELL_ROOM_NO_OCCUPANT/level.gltf"] = (closet(), None)
+    s["CELL_OCCUPANT_IN_SOLID.gltf"] = (
+        closet(ms.start((1.0, 1.0, 1.0)), torch((2.15, 1.5, 1.0)), hollow=False), None)
+    s["OCCUPANT_OUTSIDE.gltf"] = (
+        closet(ms.start((1.0, 1.0, 1.0)), torch((5.0, 1.5, 1.0)), hollow=False), None)
+
     # Leaks: a window in the kitchen's outer wall.
     def windowed():
         t = ms.level(closed_room("kitchen-room", 0.0, 4.0, holes=[("x1", 1.5, 2.5, 0, 2.2), ("z0", 1.0, 3.0, 1.0, 2.0)]),
@@ -504,6 +520,10 @@ def written():
     (OUT / "CELL_OVERLAP").mkdir(exist_ok=True)
     (OUT / "CELL_OVERLAP" / "portcullis.toml").write_text(
         "# The two rooms overlap and share no opening; only the overlap is under test here.\n"
+        "[check]\nignore = [\"GRAPH_UNREACHABLE\"]\n")
+    (OUT / "CELL_ROOM_NO_OCCUPANT").mkdir(exist_ok=True)
+    (OUT / "CELL_ROOM_NO_OCCUPANT" / "portcullis.toml").write_text(
+        "# The box's inside is a region no portal reaches; only the room's doubt is under test.\n"
         "[check]\nignore = [\"GRAPH_UNREACHABLE\"]\n")
     (OUT / "LEAK").mkdir(exist_ok=True)
     (OUT / "LEAK" / "portcullis.toml").write_text("[check]\nsealed = true\n")

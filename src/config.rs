@@ -15,6 +15,11 @@ use crate::schema::{self, Schema};
 use crate::tags::presets;
 use crate::tags::rules::{RuleSet, RuleSetSpec, RuleSpec};
 
+/// The crack width of glTF, OBJ and USD levels when `[cells] crack_width` is unset (m): wider
+/// than the gaps f32 rounding and hand modelling leave where blocks were meant to meet (up to
+/// 5 mm on the shared Panda3D level), narrow enough that a 2 cm slit is an opening.
+pub const DEFAULT_CRACK_WIDTH: f64 = 0.008;
+
 /// The configuration file looked for next to a level.
 pub(crate) const FILE_NAME: &str = "portcullis.toml";
 
@@ -84,6 +89,15 @@ pub struct CellsConfig {
     pub detect_props: bool,
     /// The level's up direction (glTF and portcullis's importers use +Y).
     pub up: [f64; 3],
+    /// Gaps narrower than this (m) are cracks: closed where blocks meet (no cell, no leak) and
+    /// between blockers of an opening (no portal, no split portal). One absolute width for the
+    /// solid-block reading and the portal stage alike, never taken from a room's size. Unset:
+    /// the format's own, qbsp's 0.2 units for a brush map (`[import] map_scale` converts it),
+    /// [`DEFAULT_CRACK_WIDTH`] for glTF, OBJ and USD.
+    // Left out of the input hash's settings when unset, so annotations written before the
+    // key existed are not all reported stale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crack_width: Option<f64>,
     /// The distance tolerance is the policy's times this (1 in every run of the tool; not a
     /// configuration key). For tests that check a result does not hang on the exact value
     /// the policy picks.
@@ -105,6 +119,7 @@ impl Default for CellsConfig {
             max_tolerance: crate::geom::tolerance::DEFAULT_MAX_DISTANCE,
             detect_props: true,
             up: [0.0, 1.0, 0.0],
+            crack_width: None,
             tolerance_factor: 1.0,
         }
     }
@@ -121,12 +136,8 @@ pub struct PortalsConfig {
     pub conservative: bool,
     /// Derive portals to the exterior (openings no other cell shares).
     pub exterior: bool,
-    /// Openings, and parts of openings, narrower than this (m) are cracks, not openings: no
-    /// portal, no leak. Unset: a tenth of the shortest edge of what blocks sight, an order of
-    /// magnitude below anything the level models, so a door is kept while the gap where a
-    /// stair stops 0.25 mm short of a wall is not. The line is drawn from the level, not from
-    /// the tolerance: a 0.25 mm gap is 11 tolerances of an f32 level and 0.3 of a six-digit
-    /// OBJ. 0 keeps every opening the tolerance can resolve.
+    /// The earlier name of `[cells] crack_width`, still read: when that is unset, this is
+    /// the crack width (see [`CellsConfig::crack_width`]).
     // Left out of the input hash's settings when unset, so annotations written before the
     // key existed are not all reported stale.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -237,6 +248,15 @@ pub fn parse(text: &str, path: &Path) -> Result<Config, Diagnostic> {
             "see schemas/config.schema.json",
         )
     })?;
+    if let (Some(a), Some(b)) = (cfg.cells.crack_width, cfg.portals.min_opening_width) {
+        if a != b {
+            return Err(invalid(
+                format!("`{}` sets both [cells] crack_width ({a}) and its earlier name [portals] min_opening_width ({b})", path.display()),
+                "keep [cells] crack_width and delete [portals] min_opening_width",
+            ));
+        }
+    }
+    cfg.cells.crack_width = cfg.cells.crack_width.or(cfg.portals.min_opening_width);
     cfg.path = Some(path.to_path_buf());
     Ok(cfg)
 }

@@ -170,17 +170,37 @@ fn no_errors(b: &Built) {
     assert!(!b.t.diagnostics.has_errors(), "{:#?}", b.t.diagnostics);
 }
 
-/// A door 1e-4 m wide (z 2 .. 2.0001) between two rooms: one pair of 1e-4 x 2.2 m portals.
+/// A door 1e-4 m wide (z 2 .. 2.0001) between two rooms: one pair of 1e-4 x 2.2 m portals,
+/// with the crack width set below it (`[cells] crack_width = 1e-5`); at the default 8 mm it
+/// is a crack (`a_door_narrower_than_the_crack_width_is_a_crack`).
 #[test]
 fn portal_1e4_m_wide() {
     let mut l = ObjLevel::default();
     door_pair(&mut l, "", 0.0, 0.0, 0.0, (2.0, 2.0001));
-    let b = build_obj(&l);
+    let dir = tempfile::tempdir().unwrap();
+    let path = common::write(dir.path(), "level.obj", &l.text());
+    common::write(
+        dir.path(),
+        "portcullis.toml",
+        "[cells]\ncrack_width = 1e-5\n",
+    );
+    let mut t = load_tagged(&path, &LoadOptions::default()).unwrap();
+    let b = finish(&mut t);
     assert_eq!(b.c.cells.len(), 2);
     let p = one_pair(&b, "west", "east", 1e-4 * 2.2, 1e-6);
     assert_door(p, 4.0, 2.0, 2.0001, 1e-9);
     assert_eq!(b.room_portals().len(), 2);
     no_errors(&b);
+}
+
+/// The same door at the default crack width (8 mm): a crack, no portal, no leak.
+#[test]
+fn a_door_narrower_than_the_crack_width_is_a_crack() {
+    let mut l = ObjLevel::default();
+    door_pair(&mut l, "", 0.0, 0.0, 0.0, (2.0, 2.0001));
+    let b = build_obj(&l);
+    assert_eq!(b.c.cells.len(), 2);
+    assert!(b.room_portals().is_empty());
 }
 
 /// A wall 1e-6 m thick (the rooms' own walls at x = 4 and x = 4.000001) with a 1 x 2.2 m door:

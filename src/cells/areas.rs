@@ -12,7 +12,7 @@
 //! `NAME_areaK` (K from 1), declared by the same node and owning no nodes (the cells keep the
 //! nodes they render).
 
-use super::blocks::shared_faces;
+use super::air::shared_faces;
 use super::{CellSet, GateKind};
 use crate::disjoint::DisjointSets;
 use crate::geom::grid::BoxGrid;

@@ -1,489 +1,496 @@
-//! The air of a room built of solid blocks, as convex cells: the room's hull minus the union
-//! of its solids, and of that only what is the room's inside.
+//! The air of the rooms built of solid blocks, for the whole level at once: every solid carves
+//! every room, so a wall listed once bounds both rooms it separates, and the air of the level
+//! is one space in which occupants are followed from room to room.
 //!
-//! The way qbsp finds a map's inside (brush CSG, a BSP of the brush faces, the outside filled
-//! from the void and from leak portals), with the room's convex hull as the world's box:
-//!
-//! 1. **BSP.** The hull is split by the planes of the solids' faces and of the room's other
-//!    surfaces, until no face lies inside a leaf. A region that lies wholly inside one convex
-//!    solid is solid at once and split no further (most of a brush map's volume). The splitter
-//!    is chosen among the planes nearest the middle of the node's faces by how few faces it
-//!    cuts and how evenly it divides them (as qbsp does, without its preference for axial
-//!    planes, so a turned level is cut the same way), ties by plane order, which follows the
-//!    canonical triangle order. Each node costs a bounded number of passes over its faces.
-//! 2. **Air.** A leaf is air when its inside point lies in no solid (by their planes, or by
-//!    the winding number of a solid that is not convex) and no surface on its faces turns its
-//!    back on it.
-//! 3. **Inside.** Air leaves that share a face (area over the tolerance) are one region. A
-//!    region *opens* where a leaf face lies on the hull and no surface of the room covers it.
-//!    Regions that do not open (sealed by the solids), regions holding a player start, and
-//!    regions a surface of the room faces into are inside. When some region is inside, the
-//!    others are the void around the level and make no cells (qbsp's outside fill). When none
-//!    is (a leaking room, a room open to the sky, with no start), a region is inside when the
-//!    solids hold it over more area than it opens: a roofless room's basin is, the wedge of
-//!    void outside an L-shaped building's corner is not. Nothing is decided by volume.
-//! 4. **Cells.** The inside leaves are merged into maximal convex unions as for any room.
+//! 1. **Props** (`props.rs`): blocks nothing holds and that separate no air are set aside.
+//! 2. **Leaves** (`bsp.rs`): the hull of every room's solids (the world) is cut by the planes
+//!    of the solids' faces, the rooms' surfaces, the rooms' hulls and the gates.
+//! 3. **Air** (`air.rs`): the leaves in no solid, joined through faces wider than the crack
+//!    width; whose they are and which are air, by the occupants and the rules there.
+//! 4. **Cells**: each room's air leaves are merged into maximal convex unions, within the
+//!    gates they lie in only.
 //!
 //! **Gates** (a door's brush, an area portal's or visportal's brush) are volumes of air that
 //! something can close: their faces split the BSP like any face but bound nothing, and leaves
 //! are merged only with leaves inside the same gates, so each gate's air is cells of its own
 //! whose portals the gate can close (qbsp keeps doors out of the world BSP; an engine that
 //! closes a door must know which openings it fills).
-//!
-//! A leak then shows as it does for any room: a cell with an exterior opening, found by
-//! `check --sealed` with the path from the player start.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use glam::DVec3;
 
-use super::interior::{merge, thickness, unit_normal, PlaneIndex};
+use super::air::{least_width, shared_faces, touching, Air};
+use super::bsp::{Faces, Frag, Leaf, Owner, Space};
+use super::interior::{merge, thickness};
+use super::props::Contacts;
 use super::solids::Solid;
+use super::Gate;
 use crate::disjoint::DisjointSets;
-use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
-use crate::geom::plane::Plane;
+use crate::geom::hull::hull;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
+use crate::scene::NodeId;
 
-/// A piece of one face of a solid or a surface.
-#[derive(Debug, Clone)]
-struct Frag {
-    pts: Vec<DVec3>,
-    plane: u32,
-    /// Unit normal towards the air: out of a solid, in front of a surface.
-    air: DVec3,
-    /// Part of a surface (not of a solid): it covers and seeds what it faces.
-    surface: bool,
+/// One room of solid blocks, as the cells stage found it (recentred coordinates).
+pub(super) struct BlockRoom {
+    /// Its rank by name: ties of ownership go to the lower.
+    pub rank: usize,
+    pub solids: Vec<Solid>,
+    /// Its other structural triangles, which bound its air as they face.
+    pub surfaces: Vec<[DVec3; 3]>,
+    /// Nodes whose blocks may be props (prop detection on, not tagged `structure`).
+    pub prop_candidates: Vec<NodeId>,
 }
 
-/// What the BSP reads: planes, and the solids by box.
-struct Space<'a> {
-    planes: Vec<Plane>,
-    solids: &'a [Solid],
-    grid: BoxGrid,
+/// What the reading found, room by room (in the order of the rooms given).
+#[derive(Default)]
+pub(super) struct Reading {
+    /// Each room's cells, each with the indices of the gates it lies in.
+    pub cells: Vec<Vec<(ConvexPolyhedron, Vec<usize>)>>,
+    /// Nodes whose blocks are props, by room.
+    pub props: Vec<Vec<NodeId>>,
+    /// Sealed pockets no occupant reaches, filled: per room, their count, volume and a point.
+    pub pockets: Vec<Option<(usize, f64, DVec3)>>,
+    /// Rooms no occupant reaches that keep several separate regions: their volumes and points.
+    pub unsure: Vec<Vec<(f64, DVec3)>>,
+    /// The occupants that stand inside a solid (they seed nothing).
+    pub buried: Vec<usize>,
+}
+
+/// Reads the air of the block rooms (see the module docs). `others` are solids of the level
+/// outside these rooms, which carve them too unless they are props (`loose`: they may be); `gates` the level's gates (convex volumes);
+/// `occupants` where the occupants stand; gaps narrower than `crack` are closed.
+pub(super) fn read(
+    rooms: &[BlockRoom],
+    others: &[Solid],
+    loose: bool,
+    gates: &[(Gate, ConvexPolyhedron)],
+    occupants: &[DVec3],
+    crack: f64,
     eps: f64,
-}
-
-/// A leaf of the BSP with the surface fragments on its faces.
-struct Leaf {
-    region: ConvexPolyhedron,
-    surfaces: Vec<Frag>,
-}
-
-/// The inside of a block room as convex cells (see the module docs). `solids` are the room's
-/// structural solids, `surfaces` its other structural triangles, `hull` the hull of both,
-/// `gates` the gates' convex volumes, `seeds` the player starts (all recentred); gaps narrower
-/// than `min_opening` (the format's own, see `Scene::min_opening`) join nothing. Each cell
-/// comes with the indices of the gates it lies in (none for most). Empty when nothing is
-/// inside.
-pub(crate) fn decompose(
-    solids: &[Solid],
-    surfaces: &[[DVec3; 3]],
-    hull: &ConvexPolyhedron,
-    gates: &[ConvexPolyhedron],
-    seeds: &[DVec3],
-    min_opening: f64,
-    eps: f64,
-) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
-    let mut index = PlaneIndex::default();
-    let mut planes: Vec<Plane> = Vec::new();
-    let mut active = Vec::new();
-    let mut on_hull: Vec<Frag> = Vec::new();
-    let all = solids
-        .iter()
-        .flat_map(|s| s.tris.iter().map(|t| (t, false)))
-        .chain(surfaces.iter().map(|t| (t, true)));
-    for (t, surface) in all {
-        let Some(unit) = unit_normal(t, eps) else {
-            continue;
-        };
-        let hull_face = hull
-            .faces
-            .iter()
-            .any(|f| t.iter().all(|p| f.plane.distance(*p).abs() <= 2.0 * eps));
-        if hull_face && !surface {
-            continue; // a solid's face on the hull bounds nothing the hull does not
-        }
-        let id = index.intern(&mut planes, unit, t, eps);
-        let frag = Frag {
-            pts: t.to_vec(),
-            plane: id as u32,
-            air: unit,
-            surface,
-        };
-        if hull_face {
-            on_hull.push(frag);
-        } else {
-            active.push(frag);
-        }
-    }
-    // Air joins air through a face wider than a crack, as the portal stage lets sight through
-    // (geom/crack.rs): a tenth of the shortest edge of the room's faces, never under ten
-    // tolerances. Leaves that meet along an edge, or across a hairline gap between two blocks
-    // that were meant to touch, are not one region.
-    let crack = shortest_edge(&active, &on_hull, eps) / 10.0;
-    let crack = crack.max(min_opening).max(10.0 * eps);
-    // The gates' faces cut, inside the hull, and are neither solid nor surface.
-    for g in gates {
-        for f in &g.faces {
-            let mut pts = f.points.clone();
-            for h in &hull.faces {
-                pts = clip_polygon(&pts, h.plane.normal, h.plane.d);
-            }
-            if pts.len() < 3 || polygon_area(&pts, f.plane.normal) <= eps * eps {
-                continue;
-            }
-            if hull
-                .faces
-                .iter()
-                .any(|h| pts.iter().all(|p| h.plane.distance(*p).abs() <= 2.0 * eps))
-            {
-                continue;
-            }
-            let t = [pts[0], pts[1], pts[2]];
-            let id = index.intern(&mut planes, f.plane.normal, &t, eps);
-            active.push(Frag {
-                pts,
-                plane: id as u32,
-                air: f.plane.normal,
-                surface: false,
-            });
-        }
-    }
-    let space = Space {
-        planes,
-        solids,
-        grid: BoxGrid::new(solids.iter().map(|s| s.bounds).collect()),
-        eps,
+) -> Reading {
+    let mut out = Reading {
+        cells: vec![Vec::new(); rooms.len()],
+        props: vec![Vec::new(); rooms.len()],
+        pockets: vec![None; rooms.len()],
+        unsure: vec![Vec::new(); rooms.len()],
+        buried: Vec::new(),
     };
-    let leaves = space.leaves(hull.clone(), active, on_hull.clone());
-    let air: Vec<Leaf> = leaves.into_iter().filter(|l| space.is_air(l)).collect();
-    let keep = inside(&air, hull, &on_hull, seeds, crack, eps);
-    // Leaves grouped by the gates they lie in, merged within each group only.
-    let mut groups: std::collections::BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> =
-        Default::default();
-    for (l, _) in air.into_iter().zip(keep).filter(|(_, k)| *k) {
-        let p = l.region.interior_point();
-        let inside_gates: Vec<usize> = (0..gates.len())
-            .filter(|&g| gates[g].contains(p, eps))
-            .collect();
-        groups.entry(inside_gates).or_default().push(l.region);
+    // All solids, each with its room (none for `others`).
+    let mut solids: Vec<Solid> = Vec::new();
+    let mut room_of: Vec<Option<usize>> = Vec::new();
+    for (r, room) in rooms.iter().enumerate() {
+        solids.extend(room.solids.iter().cloned());
+        room_of.extend(std::iter::repeat_n(Some(r), room.solids.len()));
     }
-    groups
-        .into_iter()
-        .flat_map(|(g, cells)| merge(cells, eps).into_iter().map(move |c| (c, g.clone())))
-        .collect()
-}
-
-impl Space<'_> {
-    /// The BSP's leaves that are not wholly inside one convex solid.
-    fn leaves(&self, region: ConvexPolyhedron, active: Vec<Frag>, bound: Vec<Frag>) -> Vec<Leaf> {
-        let eps = self.eps;
-        let mut out = Vec::new();
-        let mut stack = vec![(region, active, bound)];
-        while let Some((region, mut active, mut bound)) = stack.pop() {
-            if self.inside_one_solid(&region) {
-                continue;
-            }
-            let split = loop {
-                let Some(id) = self.splitter(&active) else {
-                    break None;
-                };
-                let pl = self.planes[id as usize];
-                match (region.clip(&pl, eps), region.clip(&pl.flipped(), eps)) {
-                    (Some(b), Some(f)) => break Some((id, b, f)),
-                    _ => {
-                        // The plane only grazes the region: its faces lie on the boundary.
-                        let (on, rest): (Vec<Frag>, Vec<Frag>) =
-                            active.into_iter().partition(|f| f.plane == id);
-                        active = rest;
-                        bound.extend(on.into_iter().filter(|f| f.surface));
-                    }
-                }
-            };
-            let Some((id, back, front)) = split else {
-                out.push(Leaf {
-                    region,
-                    surfaces: bound,
-                });
-                continue;
-            };
-            let pl = self.planes[id as usize];
-            let mut sides: [(Vec<Frag>, Vec<Frag>); 2] = Default::default();
-            for (list, is_active) in [(active, true), (bound, false)] {
-                for f in list {
-                    let mut put = |k: usize, f: Frag| {
-                        if is_active {
-                            sides[k].0.push(f)
-                        } else {
-                            sides[k].1.push(f)
-                        }
-                    };
-                    let (lo, hi) = extent(&pl, &f.pts);
-                    if lo >= -eps && hi <= eps {
-                        if f.surface {
-                            sides[0].1.push(f.clone());
-                            sides[1].1.push(f);
-                        }
-                    } else if hi <= eps {
-                        put(0, f);
-                    } else if lo >= -eps {
-                        put(1, f);
-                    } else {
-                        for (k, (n, d)) in [(pl.normal, pl.d), (-pl.normal, -pl.d)]
-                            .into_iter()
-                            .enumerate()
-                        {
-                            let pts = clip_polygon(&f.pts, n, d);
-                            if pts.len() >= 3 && polygon_area(&pts, f.air) > eps * eps {
-                                put(k, Frag { pts, ..f.clone() });
-                            }
-                        }
-                    }
-                }
-            }
-            let [(ab, bb), (af, bf)] = sides;
-            stack.push((front, af, bf));
-            stack.push((back, ab, bb));
-        }
-        out
-    }
-
-    /// Whether every corner of `region` lies in one convex solid.
-    fn inside_one_solid(&self, region: &ConvexPolyhedron) -> bool {
-        let b = region.bounds();
-        self.grid.query(&b, self.eps).into_iter().any(|i| {
-            let s = &self.solids[i];
-            s.convex
-                && s.hull.as_ref().is_some_and(|h| {
-                    region
-                        .faces
-                        .iter()
-                        .flat_map(|f| f.points.iter())
-                        .all(|p| h.contains(*p, self.eps))
-                })
-        })
-    }
-
-    /// The plane to split by: among the (at most 12) planes nearest the middle of the node's
-    /// faces, the one cutting fewest faces and dividing them most evenly; ties by plane order.
-    fn splitter(&self, active: &[Frag]) -> Option<u32> {
-        let mut candidates: Vec<u32> = active.iter().map(|f| f.plane).collect();
-        candidates.sort_unstable();
-        candidates.dedup();
-        if candidates.len() <= 1 {
-            return candidates.first().copied();
-        }
-        let eps = self.eps;
-        let centre = active
-            .iter()
-            .map(|f| f.pts.iter().copied().sum::<DVec3>() / f.pts.len() as f64)
-            .sum::<DVec3>()
-            / active.len() as f64;
-        const NEAREST: usize = 12;
-        if candidates.len() > NEAREST {
-            let grid = |x: f64| (x / eps).round() as i64;
-            candidates.sort_by_key(|&p| (grid(self.planes[p as usize].distance(centre).abs()), p));
-            candidates.truncate(NEAREST);
-            candidates.sort_unstable();
-        }
-        candidates.into_iter().min_by_key(|&p| {
-            let pl = &self.planes[p as usize];
-            let (mut cuts, mut back, mut front) = (0i64, 0i64, 0i64);
-            for f in active {
-                let (lo, hi) = extent(pl, &f.pts);
-                if lo < -eps && hi > eps {
-                    cuts += 1;
-                } else if hi <= eps && lo < -eps {
-                    back += 1;
-                } else if lo >= -eps && hi > eps {
-                    front += 1;
-                }
-            }
-            (5 * cuts + (back - front).abs(), p)
-        })
-    }
-
-    /// Whether a leaf is air: in no solid, and no surface on it faces away.
-    fn is_air(&self, leaf: &Leaf) -> bool {
-        let eps = self.eps;
-        if thickness(&leaf.region) <= 2.0 * eps {
-            return false;
-        }
-        let p = leaf.region.interior_point();
-        if surface_evidence(leaf, p) < 0.0 {
-            return false;
-        }
-        let b = Aabb { min: p, max: p };
-        !self
-            .grid
-            .query(&b, eps)
-            .into_iter()
-            .any(|i| self.solids[i].contains(p, eps))
-    }
-}
-
-/// The least and greatest signed distance of some points from a plane.
-fn extent(pl: &Plane, pts: &[DVec3]) -> (f64, f64) {
-    pts.iter()
-        .map(|p| pl.distance(*p))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| {
-            (lo.min(d), hi.max(d))
-        })
-}
-
-/// Area of the surfaces on a leaf facing into it, less the area facing away.
-fn surface_evidence(leaf: &Leaf, inside: DVec3) -> f64 {
-    leaf.surfaces
+    solids.extend(others.iter().cloned());
+    room_of.extend(std::iter::repeat_n(None, others.len()));
+    let mut candidates: BTreeSet<NodeId> = rooms
         .iter()
-        .map(|f| {
-            let c = f.pts.iter().copied().sum::<DVec3>() / f.pts.len() as f64;
-            polygon_area(&f.pts, f.air) * f.air.dot(inside - c).signum()
-        })
-        .sum()
-}
-
-/// The shortest edge longer than `eps` of any face (solids' and surfaces').
-fn shortest_edge(a: &[Frag], b: &[Frag], eps: f64) -> f64 {
-    a.iter()
-        .chain(b)
-        .flat_map(|f| {
-            (0..f.pts.len()).map(move |k| f.pts[k].distance(f.pts[(k + 1) % f.pts.len()]))
-        })
-        .filter(|&l| l > eps)
-        .fold(f64::INFINITY, f64::min)
-}
-
-/// Twice the area over the perimeter: how wide a polygon is on average.
-fn mean_width(pts: &[DVec3], normal: DVec3) -> f64 {
-    let perimeter: f64 = (0..pts.len())
-        .map(|k| pts[k].distance(pts[(k + 1) % pts.len()]))
-        .sum();
-    2.0 * polygon_area(pts, normal) / perimeter.max(f64::MIN_POSITIVE)
-}
-
-/// The part of convex polygon `a` inside convex polygon `b` (both on one plane, `b` wound
-/// counter-clockwise about `normal`).
-fn overlap(a: &[DVec3], b: &[DVec3], normal: DVec3) -> Vec<DVec3> {
-    let mut out = a.to_vec();
-    for i in 0..b.len() {
-        let (p, q) = (b[i], b[(i + 1) % b.len()]);
-        // Outward normal of b's edge pq in the plane.
-        let Some(m) = (q - p).cross(normal).try_normalize() else {
-            continue;
-        };
-        out = clip_polygon(&out, m, m.dot(p));
-        if out.len() < 3 {
-            return Vec::new();
+        .flat_map(|r| r.prop_candidates.iter().copied())
+        .collect();
+    if loose {
+        candidates.extend(others.iter().map(|s| s.node));
+    }
+    let gone = find_props(rooms, &solids, &room_of, &candidates, crack, eps);
+    for (r, room) in rooms.iter().enumerate() {
+        let mut p: Vec<NodeId> = room
+            .prop_candidates
+            .iter()
+            .copied()
+            .filter(|n| gone.contains(n))
+            .collect();
+        p.sort_unstable();
+        p.dedup();
+        // Never call all of a room's blocks props.
+        if room.solids.iter().all(|s| p.contains(&s.node)) {
+            p.clear();
         }
+        out.props[r] = p;
+    }
+    let keep: Vec<bool> = solids
+        .iter()
+        .zip(&room_of)
+        .map(|(s, r)| match r {
+            Some(r) => !out.props[*r].contains(&s.node),
+            None => !gone.contains(&s.node),
+        })
+        .collect();
+    let (solids, room_of): (Vec<Solid>, Vec<Option<usize>>) = solids
+        .into_iter()
+        .zip(room_of)
+        .zip(keep)
+        .filter(|(_, k)| *k)
+        .map(|(x, _)| x)
+        .unzip();
+    let Some(level) = Level::new(rooms, &solids, &room_of, gates, crack, eps) else {
+        return out;
+    };
+    let air = &level.air;
+    // Occupants, and what they reach.
+    let mut seeds = Vec::new();
+    for (k, &p) in occupants.iter().enumerate() {
+        // On a block's face counts as in it, as qbsp prefers the sealing side.
+        if level.space.held(p) {
+            out.buried.push(k);
+            continue;
+        }
+        match air.leaf_at(p) {
+            Some(i) if !air.thin[i] => seeds.push(i),
+            Some(_) => out.buried.push(k),
+            None => {}
+        }
+    }
+    let reached = air.flood(&seeds);
+    let open = &level.open;
+    let owners = level.owners(&solids, &room_of);
+    let mut owned: Vec<Vec<usize>> = vec![Vec::new(); rooms.len()];
+    for (i, o) in owners.iter().enumerate() {
+        if let Some(r) = o {
+            owned[*r as usize].push(i);
+        }
+    }
+    for (r, leaves) in owned.iter().enumerate() {
+        let kept = decide(air, leaves, &reached, open, r, &mut out);
+        out.cells[r] = level.cells(&kept, gates, eps);
     }
     out
 }
 
-/// Where two convex regions touch face to face: each common polygon (opposite coplanar faces'
-/// overlap) with the first region's outward normal.
-pub(super) fn shared_faces<'a>(
-    a: &'a ConvexPolyhedron,
-    b: &'a ConvexPolyhedron,
-    eps: f64,
-) -> impl Iterator<Item = (Vec<DVec3>, DVec3)> + 'a {
-    a.faces.iter().flat_map(move |f| {
-        b.faces.iter().filter_map(move |g| {
-            let facing = f.plane.normal.dot(g.plane.normal) < -0.999_999
-                && (f.plane.d + g.plane.d).abs() <= 2.0 * eps;
-            let common = facing.then(|| overlap(&f.points, &g.points, g.plane.normal))?;
-            (common.len() >= 3).then_some((common, f.plane.normal))
-        })
-    })
+/// What the rules keep of a room's leaves (see `air.rs`, steps 3 and 4).
+fn decide(
+    air: &Air,
+    leaves: &[usize],
+    reached: &[bool],
+    open: &[bool],
+    r: usize,
+    out: &mut Reading,
+) -> Vec<usize> {
+    if leaves.iter().any(|&i| reached[i]) {
+        let (kept, rest): (Vec<usize>, Vec<usize>) = leaves.iter().partition(|&&i| reached[i]);
+        let pockets: Vec<Vec<usize>> = air
+            .components(&rest)
+            .into_iter()
+            .filter(|part| part.iter().all(|&i| !open[i]))
+            .collect();
+        if !pockets.is_empty() {
+            let all: Vec<usize> = pockets.iter().flatten().copied().collect();
+            let largest = pockets
+                .iter()
+                .max_by(|a, b| air.volume(a).total_cmp(&air.volume(b)))
+                .map_or(DVec3::ZERO, |p| air.point(p));
+            out.pockets[r] = Some((pockets.len(), air.volume(&all), largest));
+        }
+        return kept;
+    }
+    let mut kept = Vec::new();
+    let mut parts = Vec::new();
+    for part in air.components(leaves) {
+        let (held, opens) = air.held_and_open(&part);
+        if opens <= 0.0 || held > opens {
+            parts.push((air.volume(&part), air.point(&part)));
+            kept.extend(part);
+        }
+    }
+    if parts.len() >= 2 {
+        out.unsure[r] = parts;
+    }
+    kept.sort_unstable();
+    kept
 }
 
-/// Which air leaves are the room's inside (see the module docs, step 3).
-fn inside(
-    air: &[Leaf],
-    hull: &ConvexPolyhedron,
-    on_hull: &[Frag],
-    seeds: &[DVec3],
+/// The props among the rooms' candidates (see `props.rs`): a block's regions of air are
+/// read with every block in place, and only when some candidate is free.
+fn find_props(
+    rooms: &[BlockRoom],
+    solids: &[Solid],
+    room_of: &[Option<usize>],
+    candidates: &BTreeSet<NodeId>,
     crack: f64,
     eps: f64,
-) -> Vec<bool> {
-    let n = air.len();
-    let mut parts = DisjointSets::new(n);
-    let mut shared = vec![0.0f64; n];
-    let grid = BoxGrid::new(air.iter().map(|l| l.region.bounds()).collect());
-    for (i, j) in grid.pairs(2.0 * eps) {
-        let area: f64 = shared_faces(&air[i].region, &air[j].region, eps)
-            .filter(|(common, normal)| mean_width(common, *normal) > crack)
-            .map(|(common, normal)| polygon_area(&common, normal))
-            .sum();
-        if area > eps * eps {
-            shared[i] += area;
-            shared[j] += area;
+) -> BTreeSet<NodeId> {
+    if candidates.is_empty() {
+        return BTreeSet::new();
+    }
+    let contacts = Contacts::new(solids, crack.max(2.0 * eps));
+    let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let mut level: Option<Option<Level>> = None;
+    let mut separates = |clusters: &[Vec<NodeId>]| -> Vec<bool> {
+        let level =
+            level.get_or_insert_with(|| Level::new(rooms, solids, room_of, &[], crack, eps));
+        match level {
+            Some(level) => clusters
+                .iter()
+                .map(|c| separating(level, solids, c, crack, eps))
+                .collect(),
+            None => vec![false; clusters.len()],
+        }
+    };
+    contacts
+        .props(&nodes, candidates, &mut separates)
+        .into_iter()
+        .collect()
+}
+
+/// Whether a cluster of nodes' blocks, taken away together, would join air: the space they
+/// fill, less every other block, has a connected piece that touches two regions of air (or
+/// one and the void around the world, or one and a crack), as a block plugging a hole in a
+/// wall does. A crate
+/// pushed through a wall touches the room and the void, but the wall parts its two pieces.
+fn separating(level: &Level, solids: &[Solid], cluster: &[NodeId], crack: f64, eps: f64) -> bool {
+    let air = &level.air;
+    // Every region that reaches the world's boundary is the one void around it.
+    let region = |i: usize| if level.open[i] { VOID } else { air.region[i] };
+    let mine: Vec<usize> = (0..solids.len())
+        .filter(|&s| cluster.contains(&solids[s].node))
+        .collect();
+    // A quick look first: the regions the blocks' faces touch.
+    let mut touched: BTreeSet<usize> = BTreeSet::new();
+    for &s in &mine {
+        for i in level.leaf_grid.query(&solids[s].bounds, 2.0 * eps) {
+            let leaf = &air.leaves[i];
+            if !touching(leaf, solids, std::iter::once(s), eps).is_empty() {
+                touched.insert(region(i));
+            }
+        }
+    }
+    if mine
+        .iter()
+        .any(|&s| solids[s].hull.as_ref().is_some_and(|h| level.on_world(h)))
+    {
+        touched.insert(VOID);
+    }
+    if touched.len() < 2 {
+        return false;
+    }
+    let all = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
+    let wide = |p: &ConvexPolyhedron, q: &ConvexPolyhedron| {
+        shared_faces(p, q, eps).any(|(c, n)| least_width(&c, n) > crack)
+    };
+    let mut pieces: Vec<ConvexPolyhedron> = Vec::new();
+    for &si in &mine {
+        let s = &solids[si];
+        let Some(h) = &s.hull else { continue };
+        let local: Vec<Solid> = all
+            .query(&s.bounds, 2.0 * eps)
+            .into_iter()
+            .filter(|&o| !cluster.contains(&solids[o].node))
+            .map(|o| solids[o].clone())
+            .collect();
+        let mut faces = Faces::new(h, eps);
+        for (k, o) in local.iter().enumerate() {
+            for t in &o.tris {
+                faces.face(t, Owner::Solid(k as u32));
+            }
+        }
+        let Faces { planes, frags, .. } = faces;
+        let space = Space::new(planes, &local, eps);
+        pieces.extend(
+            space
+                .leaves(h.clone(), frags)
+                .into_iter()
+                .map(|l| l.region)
+                .filter(|r| {
+                    thickness(r) > 2.0 * eps && space.in_solid(r.interior_point()).is_none()
+                }),
+        );
+    }
+    let mut parts = DisjointSets::new(pieces.len());
+    let pgrid = BoxGrid::new(pieces.iter().map(|p| p.bounds()).collect());
+    for (i, j) in pgrid.pairs(2.0 * eps) {
+        if wide(&pieces[i], &pieces[j]) {
             parts.union(i, j);
         }
     }
-    // Surfaces on the hull, by the hull face they lie on, cover what they face.
-    let mut cover: HashMap<usize, Vec<&Frag>> = HashMap::new();
-    for f in on_hull.iter().filter(|f| f.surface) {
-        if let Some(k) = hull.faces.iter().position(|h| {
-            f.pts
-                .iter()
-                .all(|p| h.plane.distance(*p).abs() <= 2.0 * eps)
-        }) {
-            if f.air.dot(hull.faces[k].plane.normal) < 0.0 {
-                cover.entry(k).or_default().push(f);
+    let mut regions: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
+    for (k, p) in pieces.iter().enumerate() {
+        if level.on_world(p) {
+            regions.entry(parts.find(k)).or_default().insert(VOID);
+        }
+        for i in level.leaf_grid.query(&p.bounds(), 2.0 * eps) {
+            // A crack counts as a region of its own: its mouth, which the block covered, may
+            // be wide where its depth is not, and the portal stage would see it open.
+            let meets = if air.thin[i] {
+                shared_faces(p, &air.leaves[i].region, eps)
+                    .any(|(c, n)| polygon_area(&c, n) > eps * eps)
+            } else {
+                wide(p, &air.leaves[i].region)
+            };
+            if meets {
+                regions.entry(parts.find(k)).or_default().insert(region(i));
             }
         }
     }
-    let (mut open, mut total, mut seeded) = (vec![0.0f64; n], vec![0.0f64; n], vec![false; n]);
-    for (i, leaf) in air.iter().enumerate() {
-        for f in &leaf.region.faces {
-            let area = polygon_area(&f.points, f.plane.normal);
-            total[i] += area;
-            let Some(k) = hull
+    regions.values().any(|r| r.len() >= 2)
+}
+
+/// The region id the world's boundary stands for (the void around it).
+const VOID: usize = usize::MAX;
+
+/// The level's space of solids, cut and read.
+struct Level<'a> {
+    /// The hull of every room's solids: outside it is the void.
+    world: ConvexPolyhedron,
+    space: Space<'a>,
+    /// The air leaves by box.
+    leaf_grid: BoxGrid,
+    /// Per air leaf, whether its region reaches the world's boundary.
+    open: Vec<bool>,
+    air: Air<'a>,
+    hulls: Vec<Option<ConvexPolyhedron>>,
+    ranks: Vec<usize>,
+    eps: f64,
+}
+
+impl<'a> Level<'a> {
+    /// The leaves of the world (the hull of every room's solids) and their air; `None` when
+    /// no room has a hull.
+    fn new(
+        rooms: &[BlockRoom],
+        solids: &'a [Solid],
+        room_of: &[Option<usize>],
+        gates: &[(Gate, ConvexPolyhedron)],
+        crack: f64,
+        eps: f64,
+    ) -> Option<Level<'a>> {
+        let hulls: Vec<Option<ConvexPolyhedron>> = (0..rooms.len())
+            .map(|r| {
+                let pts: Vec<DVec3> = solids
+                    .iter()
+                    .zip(room_of)
+                    .filter(|(_, o)| **o == Some(r))
+                    .flat_map(|(s, _)| s.tris.iter().flatten().copied())
+                    .collect();
+                hull(&pts, eps).ok()
+            })
+            .collect();
+        let corners: Vec<DVec3> = hulls
+            .iter()
+            .flatten()
+            .flat_map(|h| h.faces.iter().flat_map(|f| f.points.iter().copied()))
+            .collect();
+        let world = hull(&corners, eps).ok()?;
+        let world_box = world.bounds();
+        let mut faces = Faces::new(&world, eps);
+        let mut world_surfaces: Vec<Frag> = Vec::new();
+        for (i, s) in solids.iter().enumerate() {
+            if s.bounds.meets(&world_box.grown(eps)) {
+                for t in &s.tris {
+                    faces.face(t, Owner::Solid(i as u32));
+                }
+            }
+        }
+        for (r, room) in rooms.iter().enumerate() {
+            let Some(h) = &hulls[r] else { continue };
+            for t in &room.surfaces {
+                let mut pts = t.to_vec();
+                for f in &h.faces {
+                    pts = clip_polygon(&pts, f.plane.normal, f.plane.d + eps);
+                }
+                if let Some(frag) = faces.face(&pts, Owner::Surface(r as u32)) {
+                    world_surfaces.push(frag);
+                }
+            }
+            for f in &h.faces {
+                faces.cut(&f.points, f.plane.normal);
+            }
+        }
+        for (_, g) in gates {
+            for f in &g.faces {
+                faces.cut(&f.points, f.plane.normal);
+            }
+        }
+        let Faces { planes, frags, .. } = faces;
+        let space = Space::new(planes, solids, eps);
+        let leaves: Vec<Leaf> = space
+            .leaves(world.clone(), frags)
+            .into_iter()
+            .filter(|l| {
+                thickness(&l.region) > 2.0 * eps
+                    && space.in_solid(l.region.interior_point()).is_none()
+            })
+            .collect();
+        let air = Air::new(leaves, &world, &world_surfaces, crack, eps);
+        Some(Level {
+            world,
+            leaf_grid: BoxGrid::new(air.leaves.iter().map(|l| l.region.bounds()).collect()),
+            open: air.open_regions(),
+            space,
+            air,
+            hulls,
+            ranks: rooms.iter().map(|r| r.rank).collect(),
+            eps,
+        })
+    }
+
+    /// Whether a convex region has a face on the world's boundary (it touches the void).
+    fn on_world(&self, p: &ConvexPolyhedron) -> bool {
+        p.faces.iter().any(|f| {
+            self.world
                 .faces
                 .iter()
-                .position(|h| h.plane.same_as(&f.plane, 2.0 * eps, 1e-6))
-            else {
-                continue;
-            };
-            let covered: f64 = cover.get(&k).map_or(0.0, |list| {
-                list.iter()
-                    .map(|c| {
-                        let part = overlap(&c.pts, &f.points, f.plane.normal);
-                        if part.len() >= 3 {
-                            polygon_area(&part, f.plane.normal)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .sum()
-            });
-            open[i] += (area - covered).max(0.0);
-        }
-        let p = leaf.region.interior_point();
-        seeded[i] =
-            surface_evidence(leaf, p) > 0.0 || seeds.iter().any(|s| leaf.region.contains(*s, eps));
-    }
-    // Per region: open area, held area, seeded.
-    let mut regions: HashMap<usize, (f64, f64, bool)> = HashMap::new();
-    for i in 0..n {
-        let r = parts.find(i);
-        let e = regions.entry(r).or_insert((0.0, 0.0, false));
-        e.0 += open[i];
-        e.1 += (total[i] - shared[i] - open[i]).max(0.0);
-        e.2 |= seeded[i];
-    }
-    let sealed_below = (10.0 * eps).powi(2);
-    let is_inside = |&(open, _, seeded): &(f64, f64, bool)| seeded || open <= sealed_below;
-    let any_inside = regions.values().any(is_inside);
-    (0..n)
-        .map(|i| {
-            let r = &regions[&parts.find(i)];
-            if any_inside {
-                is_inside(r)
-            } else {
-                r.1 > r.0
-            }
+                .any(|w| w.plane.same_as(&f.plane, 2.0 * self.eps, 1e-6))
         })
-        .collect()
+    }
+
+    /// One owner per air leaf, or none (see `air.rs`, step 2).
+    fn owners(&self, solids: &[Solid], room_of: &[Option<usize>]) -> Vec<Option<u32>> {
+        let hulls: Vec<Option<&ConvexPolyhedron>> = self.hulls.iter().map(Option::as_ref).collect();
+        let candidates = self.air.candidates(&hulls);
+        let size: Vec<f64> = self
+            .hulls
+            .iter()
+            .map(|h| h.as_ref().map_or(0.0, |h| h.volume()))
+            .collect();
+        let grid = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
+        let eps = self.eps;
+        let frame = |i: usize, r: u32| -> f64 {
+            let leaf = &self.air.leaves[i];
+            let near = grid.query(&leaf.region.bounds(), 2.0 * eps).into_iter();
+            let blocks: f64 = touching(leaf, solids, near, eps)
+                .into_iter()
+                .filter(|(s, _)| room_of[*s] == Some(r as usize))
+                .map(|(_, a)| a)
+                .sum();
+            let surfaces: f64 = leaf
+                .surfaces
+                .iter()
+                .filter(|f| f.owner == Owner::Surface(r))
+                .map(|f| polygon_area(&f.pts, f.air))
+                .sum();
+            blocks + surfaces
+        };
+        self.air.owners(&candidates, &size, &self.ranks, &frame)
+    }
+
+    /// Some leaves as cells: merged within the gates they lie in.
+    fn cells(
+        &self,
+        kept: &[usize],
+        gates: &[(Gate, ConvexPolyhedron)],
+        eps: f64,
+    ) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
+        let mut groups: BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> = BTreeMap::new();
+        for &i in kept {
+            let region = &self.air.leaves[i].region;
+            let p = region.interior_point();
+            let inside: Vec<usize> = (0..gates.len())
+                .filter(|&g| gates[g].1.contains(p, eps))
+                .collect();
+            groups.entry(inside).or_default().push(region.clone());
+        }
+        let mut out: Vec<(ConvexPolyhedron, Vec<usize>)> = groups
+            .into_iter()
+            .flat_map(|(g, cells)| merge(cells, eps).into_iter().map(move |c| (c, g.clone())))
+            .collect();
+        // The room's largest cell first (its main space before its door reveals), volumes
+        // compared in millionths of the room's so near-equal ones keep the leaves' order.
+        let total: f64 = out.iter().map(|(c, _)| c.volume()).sum();
+        let key = |v: f64| (v / total.max(f64::MIN_POSITIVE) * 1e6).round() as i64;
+        out.sort_by_key(|(c, _)| std::cmp::Reverse(key(c.volume())));
+        out
+    }
 }

@@ -46,7 +46,7 @@ use glam::DVec3;
 use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
-use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
+use crate::geom::polyhedron::{clip_polygon, overlap, polygon_area, ConvexPolyhedron};
 
 /// A piece of one room triangle.
 #[derive(Debug, Clone)]
@@ -776,7 +776,33 @@ fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<
         .iter()
         .map(|f| polygon_area(&f.points, f.plane.normal))
         .sum();
-    (u.volume() <= a.volume() + b.volume() + 2.0 * eps * area).then_some(u)
+    if u.volume() > a.volume() + b.volume() + 2.0 * eps * area {
+        return None;
+    }
+    // Every face of the union lies on faces of the two: a wedge missing between them (a
+    // sliver of a solid the union would swallow) leaves part of the union's boundary bare,
+    // however little volume it has.
+    let bare = u.faces.iter().any(|f| {
+        let covered: f64 = a
+            .faces
+            .iter()
+            .chain(b.faces.iter())
+            .filter(|g| g.plane.same_as(&f.plane, eps, 1e-9))
+            .map(|g| {
+                let part = overlap(&g.points, &f.points, f.plane.normal);
+                if part.len() >= 3 {
+                    polygon_area(&part, f.plane.normal)
+                } else {
+                    0.0
+                }
+            })
+            .sum();
+        let perimeter: f64 = (0..f.points.len())
+            .map(|k| f.points[k].distance(f.points[(k + 1) % f.points.len()]))
+            .sum();
+        polygon_area(&f.points, f.plane.normal) - covered > 2.0 * eps * perimeter
+    });
+    (!bare).then_some(u)
 }
 
 #[cfg(test)]

@@ -61,16 +61,21 @@ use crate::scene::{NodeId, Scene};
 use crate::tags::rules::VolumeHint;
 use crate::tags::{Room, RoomId, Tagging};
 
+mod air;
 mod assign;
 pub use assign::drop_far_structure;
 mod areas;
 pub use areas::split as split_areas;
+mod block_rooms;
+use block_rooms::BlockCells;
 mod blocks;
+mod bsp;
 mod footprint;
 mod interior;
 mod overlap;
 pub use overlap::Overlap;
 mod prism;
+mod props;
 mod solids;
 pub(crate) mod split;
 
@@ -119,9 +124,9 @@ pub enum PropReason {
     /// It touches fewer than two sides of the box around the rest of the room (a crate on the
     /// floor touches one, a lamp none).
     LooseInRoom,
-    /// A solid block on fewer than two faces of the room's hull and not held between two other
-    /// blocks from opposite sides (a crate on the floor, a shelf on a wall, a crate pushed into
-    /// a wall), where a wall stands between floor and ceiling and a lintel between two jambs.
+    /// A solid block nothing holds (not pressed between two structural blocks from opposite
+    /// sides, not spanning two that do not touch) and that separates no air: a crate on the
+    /// floor, a stack of crates, a shelf on a wall, a crate pushed into a wall.
     LooseBlock,
 }
 
@@ -133,7 +138,7 @@ impl PropReason {
                 "touches fewer than two sides of the box around the rest of the room"
             }
             PropReason::LooseBlock => {
-                "a solid block on fewer than two faces of the room's hull, not held between two blocks from opposite sides"
+                "a solid block nothing holds (not pressed between two blocks from opposite sides, not spanning two) that separates no air"
             }
         }
     }
@@ -176,6 +181,11 @@ pub struct CellSet {
     /// Where cells of different rooms overlapped before one was cut around the other (those
     /// of equal priority reported as `CELL_OVERLAP`).
     pub overlaps: Vec<Overlap>,
+    /// The crack width (m): gaps narrower than this were closed here, and are not openings
+    /// to the portal stage either (`[cells] crack_width`, else the format's).
+    pub crack: f64,
+    /// Occupants standing inside a solid block: they seed nothing (qbsp skips them too).
+    pub buried: Vec<NodeId>,
     /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
@@ -376,12 +386,11 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
     let top = level_top(scene, origin, &frame);
     let (skip, extruded) = footprint_nodes(scene, tagging, origin, &frame);
     let ctx = footprint::Context::new(scene, &skip, &extruded, origin, cfg, eps, (frame, top));
-    let starts: Vec<DVec3> = tagging
-        .player_starts
-        .iter()
-        .map(|s| scene.nodes[s.node].world.w_axis.truncate() - origin)
-        .collect();
-    let b = RoomBuilder {
+    let crack = cfg
+        .crack_width
+        .or(scene.crack_width)
+        .unwrap_or(crate::config::DEFAULT_CRACK_WIDTH);
+    let mut b = RoomBuilder {
         scene,
         cfg,
         ctx: &ctx,
@@ -389,8 +398,11 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         eps,
         extent,
         frame,
-        starts,
+        crack,
+        blocks: Vec::new(),
     };
+    let (blocks, buried) = b.read_blocks(tagging, &mut diags);
+    b.blocks = blocks;
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count.
     let built: Vec<RoomCells> = tagging
@@ -417,6 +429,8 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         props,
         prop_reasons,
         overlaps: Vec::new(),
+        crack,
+        buried,
         diagnostics: diags,
     };
     let took = overlap::resolve(scene, tagging, cfg, &mut set, origin);
@@ -491,8 +505,11 @@ struct RoomBuilder<'a> {
     /// The level's diagonal, what the prop test's touching distance is relative to.
     extent: f64,
     frame: Frame,
-    /// The player starts (recentred): they tell a block room's inside from the void.
-    starts: Vec<DVec3>,
+    /// Gaps narrower than this are cracks (m).
+    crack: f64,
+    /// The cells of each room read as solid blocks (`None`: read otherwise), found for the
+    /// whole level at once before any room is built.
+    blocks: Vec<Option<BlockCells>>,
 }
 
 impl RoomBuilder<'_> {
@@ -516,7 +533,7 @@ impl RoomBuilder<'_> {
         } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
             self.extrude_all(room, &room.footprints, "footprint", &mut polys, &mut diags);
         } else {
-            self.structure_polys(room, &mut polys, &mut gates, &mut props, &mut diags);
+            self.structure_polys(ri, room, &mut polys, &mut gates, &mut props, &mut diags);
         }
         gates.resize(polys.len(), Vec::new());
         for ((p, source), gates) in polys.into_iter().zip(gates) {
@@ -632,13 +649,20 @@ impl RoomBuilder<'_> {
     /// when convex, else its convex pieces; a room of only floor is extruded instead.
     fn structure_polys(
         &self,
+        ri: RoomId,
         room: &Room,
         polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
         gates: &mut Vec<Vec<Gate>>,
         props: &mut Vec<(NodeId, PropReason)>,
         diags: &mut Vec<Diagnostic>,
     ) {
-        if self.block_polys(room, polys, gates, props) {
+        if let Some(bc) = self.blocks.get(ri).and_then(Option::as_ref) {
+            for (c, g) in &bc.polys {
+                polys.push((c.clone(), bc.source));
+                gates.push(g.clone());
+            }
+            props.extend(bc.props.iter().copied());
+            diags.extend(bc.diags.iter().cloned());
             return;
         }
         let (scene, origin, eps, frame) = (self.scene, self.origin, self.eps, &self.frame);
@@ -698,115 +722,6 @@ impl RoomBuilder<'_> {
                 diags.push(d)
             }
         }
-    }
-}
-
-impl RoomBuilder<'_> {
-    /// The cells of a room built of solid blocks (see `blocks`), with the solids that are
-    /// props set aside; false (nothing added) when the room has no solids, or is one closed
-    /// mesh and nothing else (a room modelled as its own volume), or its solids leave no
-    /// inside and none is tagged `solid`.
-    fn block_polys(
-        &self,
-        room: &Room,
-        polys: &mut Vec<(ConvexPolyhedron, CellSource)>,
-        gates: &mut Vec<Vec<Gate>>,
-        props: &mut Vec<(NodeId, PropReason)>,
-    ) -> bool {
-        let (scene, eps) = (self.scene, self.eps);
-        let mut solids = Vec::new();
-        let mut surfaces: Vec<(NodeId, [DVec3; 3])> = Vec::new();
-        for (n, tris) in canonical_node_triangles(scene, &room.structure, self.origin) {
-            let (s, rest) = solids::split_node(n, &tris, eps);
-            solids.extend(s);
-            surfaces.extend(rest.into_iter().map(|t| (n, t)));
-        }
-        if solids.is_empty() {
-            return false;
-        }
-        let all_hull = |solids: &[solids::Solid], surfaces: &[(NodeId, [DVec3; 3])]| {
-            let pts: Vec<DVec3> = solids
-                .iter()
-                .flat_map(|s| s.tris.iter().flatten())
-                .chain(surfaces.iter().flat_map(|(_, t)| t.iter()))
-                .copied()
-                .collect();
-            hull(&pts, eps).ok()
-        };
-        let Some(mut h) = all_hull(&solids, &surfaces) else {
-            return false;
-        };
-        let mut found: Vec<(NodeId, PropReason)> = Vec::new();
-        if self.cfg.detect_props && room.structure.len() >= 2 {
-            // Nodes of solids only by the solids' rule; any other by the box-side rule.
-            let has_surface = |n: NodeId| surfaces.iter().any(|(m, _)| *m == n);
-            let keep = |n: NodeId| extras_flag(scene, n, "structure") || has_surface(n);
-            found = solids::prop_nodes(&solids, &h, &keep, eps)
-                .into_iter()
-                .map(|n| (n, PropReason::LooseBlock))
-                .collect();
-            let boxed = detect_props(
-                scene,
-                &room.structure,
-                self.origin,
-                self.extent,
-                &self.frame,
-            );
-            found.extend(
-                boxed
-                    .into_iter()
-                    .filter(|&n| has_surface(n) && !extras_flag(scene, n, "structure"))
-                    .map(|n| (n, PropReason::LooseInRoom)),
-            );
-            found.sort_unstable_by_key(|(n, _)| *n);
-            // Never call everything a prop.
-            if room
-                .structure
-                .iter()
-                .all(|n| found.iter().any(|(m, _)| m == n))
-            {
-                found.clear();
-            }
-            if !found.is_empty() {
-                let is_prop = |n: &NodeId| found.iter().any(|(m, _)| m == n);
-                solids.retain(|s| !is_prop(&s.node));
-                surfaces.retain(|(n, _)| !is_prop(n));
-                match all_hull(&solids, &surfaces) {
-                    Some(g) => h = g,
-                    None => return false,
-                }
-            }
-        }
-        let tagged = solids.iter().any(|s| extras_flag(scene, s.node, "solid"));
-        if solids.is_empty() || (!tagged && solids.len() == 1 && surfaces.is_empty()) {
-            return false;
-        }
-        let flat: Vec<[DVec3; 3]> = surfaces.iter().map(|(_, t)| *t).collect();
-        let min_opening = scene.min_opening.unwrap_or(0.0);
-        let (gate_of, gate_hulls) = self.gates(room);
-        let cells = blocks::decompose(
-            &solids,
-            &flat,
-            &h,
-            &gate_hulls,
-            &self.starts,
-            min_opening,
-            eps,
-        );
-        if cells.is_empty() && !tagged {
-            return false;
-        }
-        let source = if cells.len() == 1 && cells[0].0 == h {
-            CellSource::Hull
-        } else {
-            CellSource::Split
-        };
-        for (c, g) in cells {
-            polys.push((c, source));
-            gates.push(g.into_iter().map(|k| gate_of[k]).collect());
-        }
-        props.extend(found);
-        true
     }
 }
 

@@ -9,21 +9,13 @@
 //! only the topology and the sign of a sum, so moving, turning or scaling a level cannot change
 //! it.
 //!
-//! A solid is structure when it shapes the air: it lies on the room's hull (a floor, a ceiling,
-//! an outer wall), or it is held between two others from opposite sides (a wall between floor
-//! and ceiling, a jamb between floor and lintel, a lintel between two jambs, a pillar). Anything
-//! else (a crate on the floor, a shelf on a wall, a crate pushed into a wall) is a prop: rendered
-//! by the cell around it, never carving it. Contact and its direction come from the separating
-//! axes of the solids' hulls (the face normal along which two solids overlap least), so the
-//! decision turns with the level. `-detail` keeps a block out of the cells; `[cells]
-//! detect_props = false` or extras `"structure": true` keeps it in.
+//! Which solids are props is decided in `props.rs`.
 
 use std::collections::HashMap;
 
 use glam::DVec3;
 
 use crate::geom::aabb::Aabb;
-use crate::geom::grid::BoxGrid;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
@@ -53,6 +45,31 @@ impl Solid {
         match (&self.hull, self.convex) {
             (Some(h), true) => h.contains_strictly(p, eps),
             _ => super::interior::winding_number(&self.tris, p) > 0.5,
+        }
+    }
+}
+
+impl Solid {
+    /// Whether `p` lies inside the solid or on its boundary, within `eps`: where qbsp, finding
+    /// an entity's leaf, prefers the side that seals.
+    pub fn holds(&self, p: DVec3, eps: f64) -> bool {
+        let (lo, hi) = (self.bounds.min, self.bounds.max);
+        if (0..3).any(|k| p[k] < lo[k] - eps || p[k] > hi[k] + eps) {
+            return false;
+        }
+        match (&self.hull, self.convex) {
+            (Some(h), true) => h.contains(p, eps),
+            _ => [
+                DVec3::ZERO,
+                DVec3::X,
+                -DVec3::X,
+                DVec3::Y,
+                -DVec3::Y,
+                DVec3::Z,
+                -DVec3::Z,
+            ]
+            .iter()
+            .any(|d| super::interior::winding_number(&self.tris, p + *d * eps) > 0.5),
         }
     }
 }
@@ -167,52 +184,9 @@ fn solid(node: NodeId, tris: Vec<[DVec3; 3]>, eps: f64) -> Option<Solid> {
     })
 }
 
-/// The nodes whose solids are props (see the module docs): a node is the designer's object,
-/// so a table's legs holding up its top do not make it structure. `room_hull` is the hull of
-/// the room's structure; `keep` holds nodes a tag keeps as structure; nodes in `surfaces`
-/// have other geometry too and are left to the surface rule.
-pub(crate) fn prop_nodes(
-    solids: &[Solid],
-    room_hull: &ConvexPolyhedron,
-    keep: &dyn Fn(NodeId) -> bool,
-    eps: f64,
-) -> Vec<NodeId> {
-    let grid = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
-    let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
-    nodes.sort_unstable();
-    nodes.dedup();
-    let mut out = Vec::new();
-    for &n in &nodes {
-        let own: Vec<&Solid> = solids.iter().filter(|s| s.node == n).collect();
-        if keep(n) || own.iter().any(|s| on_hull_faces(s, room_hull, eps) >= 2) {
-            continue;
-        }
-        let mut dirs: Vec<DVec3> = Vec::new();
-        for s in &own {
-            let Some(a) = &s.hull else { continue };
-            dirs.extend(
-                grid.query(&s.bounds, 2.0 * eps)
-                    .into_iter()
-                    .filter(|&j| solids[j].node != n)
-                    .filter_map(|j| solids[j].hull.as_ref())
-                    .filter_map(|b| contact(a, b, eps)),
-            );
-        }
-        let held = dirs
-            .iter()
-            .enumerate()
-            .any(|(k, d)| dirs[k + 1..].iter().any(|e| d.dot(*e) < -0.5));
-        if !held {
-            out.push(n);
-        }
-    }
-    out
-}
-
-/// On how many distinct faces of the room's hull the solid has a face.
-fn on_hull_faces(s: &Solid, room_hull: &ConvexPolyhedron, eps: f64) -> usize {
-    room_hull
-        .faces
+/// On how many distinct faces of a hull a solid has a face (lying on it, facing out).
+pub(crate) fn on_hull_faces(s: &Solid, hull: &ConvexPolyhedron, eps: f64) -> usize {
+    hull.faces
         .iter()
         .filter(|f| {
             s.tris.iter().any(|t| {
@@ -221,34 +195,4 @@ fn on_hull_faces(s: &Solid, room_hull: &ConvexPolyhedron, eps: f64) -> usize {
             })
         })
         .count()
-}
-
-/// Where `b` touches or overlaps `a`: the unit direction from `a` towards `b` along the face
-/// normal (of either hull) on which they overlap least; `None` when a face plane separates them.
-fn contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<DVec3> {
-    let reach = |p: &ConvexPolyhedron, n: DVec3| {
-        p.faces
-            .iter()
-            .flat_map(|f| f.points.iter())
-            .map(|q| q.dot(n))
-            .fold(f64::NEG_INFINITY, f64::max)
-    };
-    let mut best: Option<(f64, DVec3)> = None;
-    for (f, dir) in a
-        .faces
-        .iter()
-        .map(|f| (f, 1.0))
-        .chain(b.faces.iter().map(|f| (f, -1.0)))
-    {
-        // Overlap along the direction from a towards b: how far a reaches past b's start.
-        let n = f.plane.normal * dir;
-        let overlap = reach(a, n) + reach(b, -n);
-        if overlap < -eps {
-            return None;
-        }
-        if best.is_none_or(|(o, _)| overlap < o - eps) {
-            best = Some((overlap, n));
-        }
-    }
-    best.map(|(_, n)| n)
 }

@@ -42,8 +42,8 @@ fn at_cell(s: &Subject, c: usize) -> Location {
     }
 }
 
-/// `seeds`: (start, cell) pairs; the part of the level holding the first start is the main
-/// one, else the part with the most cells.
+/// `seeds`: (occupant, cell) pairs; the parts of the level holding an occupant are the
+/// level's, else the part with the most cells.
 pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], out: &mut Diagnostics) {
     let n = s.cells.len();
     if n < 2 {
@@ -63,24 +63,28 @@ pub(super) fn check(s: &Subject, seeds: &[(usize, usize)], out: &mut Diagnostics
         parts.entry(r).or_default().push(c);
     }
     if parts.len() > 1 {
-        let main = match seeds.first() {
-            Some(&(_, c)) => root(&mut parent, c),
-            None => {
-                let mut best = (0usize, usize::MAX);
-                for (r, cs) in &parts {
-                    if cs.len() > best.0 {
-                        best = (cs.len(), *r);
-                    }
+        // Every part an occupant stands in is the level's; without occupants, the largest.
+        let mut main: std::collections::BTreeSet<usize> =
+            seeds.iter().map(|&(_, c)| root(&mut parent, c)).collect();
+        if main.is_empty() {
+            let mut best = (0usize, usize::MAX);
+            for (r, cs) in &parts {
+                if cs.len() > best.0 {
+                    best = (cs.len(), *r);
                 }
-                best.1
             }
-        };
-        let reference = match seeds.first() {
-            Some(&(k, _)) => s.starts[k].label.clone(),
-            None => format!("the largest part ({})", list(s, &parts[&main])),
+            main.insert(best.1);
+        }
+        let reference = match seeds {
+            [] => format!(
+                "the largest part ({})",
+                list(s, &parts[main.first().unwrap_or(&0)])
+            ),
+            [(k, _)] => s.starts[*k].label.clone(),
+            [(k, _), ..] => format!("{} or any other occupant", s.starts[*k].label),
         };
         for (r, cs) in &parts {
-            if *r == main {
+            if main.contains(r) {
                 continue;
             }
             out.push(

@@ -136,8 +136,9 @@ fn void_starts(s: &Subject, seeds: &[(usize, usize)], f: &mut Findings) {
     }
 }
 
-/// Shortest cell chains from the starts' cells, or from every cell when there are none:
-/// distance and (previous cell, portal) per cell.
+/// Shortest cell chains from the player starts' cells, then from the other occupants' for the
+/// cells no start reaches, or from every cell when there are none: distance and (previous
+/// cell, portal) per cell.
 #[allow(clippy::type_complexity)]
 fn bfs(s: &Subject, seeds: &[(usize, usize)]) -> (Vec<Option<usize>>, Vec<Option<(usize, usize)>>) {
     let n = s.cells.len();
@@ -147,25 +148,34 @@ fn bfs(s: &Subject, seeds: &[(usize, usize)]) -> (Vec<Option<usize>>, Vec<Option
     }
     let mut dist = vec![None; n];
     let mut prev = vec![None; n];
-    let mut queue = VecDeque::new();
-    let sources: Vec<usize> = if seeds.is_empty() {
-        (0..n).collect()
+    // Player starts first: a cell they reach is traced from one; the other occupants reach
+    // the rest (each wave a breadth-first search of its own, so distances are per wave).
+    let waves: Vec<Vec<usize>> = if seeds.is_empty() {
+        vec![(0..n).collect()]
     } else {
-        seeds.iter().map(|&(_, c)| c).collect()
+        let (players, others): (Vec<_>, Vec<_>) =
+            seeds.iter().partition(|&&(k, _)| s.starts[k].player);
+        vec![
+            players.iter().map(|&&(_, c)| c).collect(),
+            others.iter().map(|&&(_, c)| c).collect(),
+        ]
     };
-    for c in sources {
-        if dist[c].is_none() {
-            dist[c] = Some(0);
-            queue.push_back(c);
+    for sources in waves {
+        let mut queue = VecDeque::new();
+        for c in sources {
+            if dist[c].is_none() {
+                dist[c] = Some(0);
+                queue.push_back(c);
+            }
         }
-    }
-    while let Some(c) = queue.pop_front() {
-        let d = dist[c].unwrap_or(0);
-        for &(t, p) in &adj[c] {
-            if dist[t].is_none() {
-                dist[t] = Some(d + 1);
-                prev[t] = Some((c, p));
-                queue.push_back(t);
+        while let Some(c) = queue.pop_front() {
+            let d = dist[c].unwrap_or(0);
+            for &(t, p) in &adj[c] {
+                if dist[t].is_none() {
+                    dist[t] = Some(d + 1);
+                    prev[t] = Some((c, p));
+                    queue.push_back(t);
+                }
             }
         }
     }

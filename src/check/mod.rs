@@ -63,13 +63,15 @@ pub struct CellInfo {
     pub at: Location,
 }
 
-/// A player start: where leak paths begin.
+/// A player start or another occupant: where leak paths begin.
 #[derive(Debug, Clone)]
 pub struct Start {
     /// World position of the start (m).
     pub point: DVec3,
     /// How reports name the start (its node's name).
     pub label: String,
+    /// A player start (not another occupant): leak paths run from one when they can.
+    pub player: bool,
     /// Where the start comes from, for diagnostics.
     pub at: Location,
 }
@@ -94,7 +96,7 @@ pub struct Subject<'a> {
     pub extent: f64,
     /// Portals this far across a wall still lie on their cells' boundary (m).
     pub max_wall_thickness: f64,
-    /// Player starts: where leak searches begin (none: no leak search).
+    /// Occupants, player starts first: where leak searches begin (none: no leak search).
     pub starts: Vec<Start>,
     /// Where two rooms' cells overlapped before one was cut around the other (the region and
     /// the two rooms' names), for the sightline audit to name; none for a stored annotation.
@@ -180,7 +182,7 @@ impl<'a> Subject<'a> {
                 bounds.size().length()
             },
             max_wall_thickness: tagged.config.portals.max_wall_thickness,
-            starts: starts(tagged),
+            starts: starts(tagged, &cells.buried),
             overlaps: cells
                 .overlaps
                 .iter()
@@ -227,18 +229,27 @@ pub(crate) fn portal_label(i: usize, name: Option<&str>, from: &str, to: Option<
     format!("portal {i}{name} (`{from}` -> {to})")
 }
 
-/// The player starts of a tagged level, at their nodes' origins.
-pub fn starts(tagged: &Tagged) -> Vec<Start> {
+/// The occupants of a tagged level (player starts first), at their nodes' origins, but for
+/// those `buried` inside a solid block, which seed nothing.
+pub fn starts(tagged: &Tagged, buried: &[crate::scene::NodeId]) -> Vec<Start> {
     let scene = &tagged.scene;
+    let starts = tagged.tagging.player_starts.len();
     tagged
         .tagging
-        .player_starts
-        .iter()
-        .map(|s| {
+        .all_occupants()
+        .enumerate()
+        .filter(|(_, s)| !buried.contains(&s.node))
+        .map(|(k, s)| {
             let n = &scene.nodes[s.node];
+            let what = if k < starts {
+                "player start"
+            } else {
+                "occupant"
+            };
             Start {
                 point: n.world.transform_point3(DVec3::ZERO),
-                label: format!("player start `{}`", scene.node_label(s.node)),
+                label: format!("{what} `{}`", scene.node_label(s.node)),
+                player: k < starts,
                 at: Location::file(&scene.path)
                     .with_source(n.source.clone())
                     .with_node(s.path.clone()),
@@ -297,11 +308,19 @@ fn seed_cells(s: &Subject, out: &mut Diagnostics) -> Vec<(usize, usize)> {
             Some(c) => seeds.push((k, c)),
             None => out.push(
                 Diagnostic::new(
-                    Code::PLAYER_START_OUTSIDE,
+                    if st.player {
+                        Code::PLAYER_START_OUTSIDE
+                    } else {
+                        Code::OCCUPANT_OUTSIDE
+                    },
                     format!("{} lies in no cell", st.label),
                     st.at.clone().with_position(st.point.to_array()),
                 )
-                .hint("move it inside a room (above the floor, below the ceiling); leak paths start from every cell instead"),
+                .hint(if st.player {
+                    "move it inside a room (above the floor, below the ceiling); leak paths start from every cell instead"
+                } else {
+                    "move it into a room's air, or tag it `ignore` if it marks nothing; in a sealed level an occupant outside every room is a leak"
+                }),
             ),
         }
     }

@@ -240,7 +240,7 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
             bounds.size().length()
         },
         max_wall_thickness: t.config.portals.max_wall_thickness,
-        starts: super::starts(t),
+        starts: super::starts(t, &[]),
         overlaps: Vec::new(),
     }
 }

@@ -107,6 +107,9 @@ codes! {
     CELL_TOO_MANY_PLANES = Warning, "a cell has more planes than configured";
     CELL_OVERLAP = Warning, "cells of two rooms of equal priority overlap (one keeps the space, the other is cut around it)";
     CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
+    CELL_POCKETS_FILLED = Info, "sealed pockets of air among solid blocks that no occupant reaches were filled, as qbsp fills them";
+    CELL_ROOM_NO_OCCUPANT = Warning, "a room of solid blocks with no occupant encloses several separate regions of air; all were kept";
+    CELL_OCCUPANT_IN_SOLID = Info, "an occupant stands inside a solid block, so it marks no air";
 
     // --- annotated files ---
     ANNOTATION_INVALID = Error, "the file's PORTCULLIS_portals extension breaks its schema or refers to things that do not exist";
@@ -137,6 +140,7 @@ codes! {
     GRAPH_ONE_WAY_DEAD_END = Warning, "one-way portals lead into cells with no way back out";
     GRAPH_TRANSFORM_LOOP = Warning, "sightlines loop through mirrors or teleporters without bound";
     PLAYER_START_OUTSIDE = Warning, "a player start lies in no cell";
+    OCCUPANT_OUTSIDE = Warning, "an occupant (not a player start) lies in no cell";
 
     // --- leaks ---
     EXTERIOR_OPENINGS = Info, "cells open to the exterior (an error when the level is declared sealed)";

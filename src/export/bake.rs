@@ -14,7 +14,8 @@ use glam::DMat4;
 use crate::scene::Scene;
 
 /// `scene` itself when every node transform is the identity, else a copy with each mesh node's
-/// mesh in world space (winding kept facing the same way under a mirroring transform).
+/// mesh in world space (winding kept facing the same way under a mirroring transform); a node
+/// without a mesh keeps its transform, of which the writer takes the place.
 pub(crate) fn world_space(scene: &Scene) -> Cow<'_, Scene> {
     if scene.nodes.iter().all(|n| n.world == DMat4::IDENTITY) {
         return Cow::Borrowed(scene);
@@ -34,8 +35,9 @@ pub(crate) fn world_space(scene: &Scene) -> Cow<'_, Scene> {
             }
             n.mesh = Some(meshes.len());
             meshes.push(mesh);
+            n.world = DMat4::IDENTITY;
         }
-        n.world = DMat4::IDENTITY;
+        // A node without a mesh (a player start, an occupant) keeps its place.
     }
     out.meshes = meshes;
     Cow::Owned(out)

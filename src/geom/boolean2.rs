@@ -202,7 +202,6 @@ pub fn difference<R: AsRef<[DVec2]>>(a: &[Polygon2], b: &[R], grid: f64) -> Vec<
 
 /// The union of rings; overlapping rings are merged (non-zero would double-count holes made of
 /// triangles, so each ring is added as its own positive shape first).
-#[cfg(test)]
 pub fn union<R: AsRef<[DVec2]>>(a: &[R], grid: f64) -> Vec<Polygon2> {
     if !(grid.is_finite() && grid > 0.0) {
         return Vec::new();

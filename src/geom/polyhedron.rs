@@ -356,6 +356,23 @@ pub(crate) fn clip_polygon(poly: &[DVec3], normal: DVec3, d: f64) -> Vec<DVec3> 
     out
 }
 
+/// The part of convex polygon `a` inside convex polygon `b` (both on one plane, `b` wound
+/// counter-clockwise about `normal`); fewer than three points when they do not overlap.
+pub(crate) fn overlap(a: &[DVec3], b: &[DVec3], normal: DVec3) -> Vec<DVec3> {
+    let mut out = a.to_vec();
+    for i in 0..b.len() {
+        let (p, q) = (b[i], b[(i + 1) % b.len()]);
+        let Some(m) = (q - p).cross(normal).try_normalize() else {
+            continue;
+        };
+        out = clip_polygon(&out, m, m.dot(p));
+        if out.len() < 3 {
+            return Vec::new();
+        }
+    }
+    out
+}
+
 /// Area of a planar polygon (projected on `normal`).
 ///
 /// Measured from its first vertex: cross products of world positions cancel, and a 1 m² door

@@ -193,9 +193,7 @@ pub(crate) fn derive(
         || Opaque::new(scene, tagging, cells, reach + 3.0 * k.eps),
         || cells.pairs_in_order(reach),
     );
-    k.crack = cfg.min_opening_width.unwrap_or_else(|| {
-        (opaque.shortest_edge(k.eps) / 10.0).max(scene.min_opening.unwrap_or(0.0))
-    });
+    k.crack = cells.crack;
     k.min_width = k.min_width.max(k.crack);
     // Each pair's openings are computed in parallel; they are applied in pair order, so the
     // portals are numbered the same whatever the thread count. Pairs differ a lot in cost

@@ -324,28 +324,6 @@ impl Opaque {
         }
     }
 
-    /// The shortest edge of any blocking triangle longer than `eps` (an edge within the
-    /// tolerance is a point), or 0 when there is none: the level's smallest modelled feature,
-    /// from which the width of a crack is taken (`geom/crack.rs`).
-    pub(crate) fn shortest_edge(&self, eps: f64) -> f64 {
-        let shortest = self
-            .tris
-            .par_iter()
-            .map(|t| {
-                let p = t.map(|v| self.verts[v as usize]);
-                (0..3)
-                    .map(|k| p[k].distance(p[(k + 1) % 3]))
-                    .filter(|&l| l > eps)
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .reduce(|| f64::INFINITY, f64::min);
-        if shortest.is_finite() {
-            shortest
-        } else {
-            0.0
-        }
-    }
-
     fn triangle(&self, i: u32) -> [DVec3; 3] {
         self.tris[i as usize].map(|v| self.verts[v as usize])
     }

@@ -504,7 +504,7 @@ pub struct Scene {
     /// The narrowest gap (m) the format's own compiler lets anything through, when it has one:
     /// for a brush map qbsp's 0.2 units (it drops portals with fewer than three edges longer).
     /// Narrower gaps are cracks, whatever the level's shortest edge says.
-    pub min_opening: Option<f64>,
+    pub crack_width: Option<f64>,
     /// How finely the file stored the mesh positions.
     pub precision: Precision,
 }
@@ -522,7 +522,7 @@ impl Scene {
             gltf: None,
             stored_tags: None,
             to_file: None,
-            min_opening: None,
+            crack_width: None,
             precision: Precision::of_format(format),
         }
     }

@@ -169,6 +169,9 @@ pub struct Tagging {
     pub detail: Vec<NodeRef>,
     /// Where leak searches start.
     pub player_starts: Vec<NodeRef>,
+    /// Other occupants (a brush map's point entities, nodes tagged `occupant`): they tell a
+    /// block room's air from the void and seed leak searches, as the player starts do.
+    pub occupants: Vec<NodeRef>,
     /// Structural mesh nodes in no room (the cells stage places or reports them).
     pub unassigned: Vec<NodeRef>,
     /// Names that look like tags but match no rule (each also reported).
@@ -187,6 +190,11 @@ pub struct Tagging {
 }
 
 impl Tagging {
+    /// Every occupant: the player starts first (in scene order), then the other occupants.
+    pub fn all_occupants(&self) -> impl Iterator<Item = &NodeRef> {
+        self.player_starts.iter().chain(self.occupants.iter())
+    }
+
     /// A room for an area of room `of` that its area portals cut off, called `name`: declared
     /// by the same node, owning no nodes (`of`'s geometry renders in its cells).
     pub(crate) fn add_area(&mut self, of: RoomId, name: String) -> RoomId {
@@ -341,6 +349,7 @@ impl<'a> Recognition<'a> {
             ignored: Vec::new(),
             detail: Vec::new(),
             player_starts: Vec::new(),
+            occupants: Vec::new(),
             unassigned: Vec::new(),
             near_misses: Vec::new(),
             settings: Vec::new(),
@@ -490,6 +499,7 @@ impl<'a> Recognition<'a> {
                     _ => self.t.detail.push(nref()),
                 },
                 Some(TagKind::PlayerStart) => self.t.player_starts.push(nref()),
+                Some(TagKind::Occupant) => self.t.occupants.push(nref()),
                 Some(TagKind::Roomgroup) => {}
                 None => self.place_untagged(n, has_mesh),
             }

@@ -29,6 +29,9 @@ pub enum TagKind {
     Detail,
     /// A player start: the seed for leak searches.
     PlayerStart,
+    /// An occupant (a monster, an item, any place a player can reach): like a player start,
+    /// it tells the air around it from the void and seeds leak searches.
+    Occupant,
 }
 
 impl TagKind {
@@ -43,6 +46,7 @@ impl TagKind {
             TagKind::Ignore => "ignore",
             TagKind::Detail => "detail",
             TagKind::PlayerStart => "player_start",
+            TagKind::Occupant => "occupant",
         }
     }
 }

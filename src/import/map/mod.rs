@@ -19,7 +19,12 @@
 //!   (`cells::Gate`), volumes whose air gets cells of its own so that the portals where they
 //!   fill an opening are theirs (a door's start open and close with it);
 //! - point entities are nodes at their `origin`, turned by `angle`, with every key/value in
-//!   their extras; `info_player_start` (`_deathmatch`, `_coop`, `2`) are player starts.
+//!   their extras; `info_player_start` (`_deathmatch`, `_coop`, `2`) are player starts;
+//! - every entity with a place (a point entity, a brush entity with an `origin` key or an
+//!   origin brush) is an **occupant**, as qbsp's outside fill takes them (`qbsp/outside.cc`):
+//!   it marks the air it stands in, and a leak is the void reaching it. Exempt, as there:
+//!   entities at (0 0 0), and those with `_nofill` or `_lightgrid_hint` set; one inside a
+//!   brush is skipped by the cells stage.
 //!
 //! Units: map units are inches with Z up; the scene is metres with glTF's +Y up, `(x, y, z)`
 //! -> `(x, z, -y) * 0.0254` (`[import] map_scale` sets another number of metres per unit). Each brush is one node and one mesh, a material per texture name
@@ -130,7 +135,7 @@ struct Builder<'a> {
 impl<'a> Builder<'a> {
     fn new(path: &'a Path, scale: f64) -> Self {
         let mut scene = Scene::new(path.to_path_buf(), Format::Map);
-        scene.min_opening = Some(TINY_EDGE * scale);
+        scene.crack_width = Some(TINY_EDGE * scale);
         // The inverse of `to_scene`: x = x / s, y = -z / s, z = y / s.
         scene.to_file = Some(DMat4::from_cols(
             glam::DVec4::new(1.0 / scale, 0.0, 0.0, 0.0),
@@ -174,6 +179,9 @@ impl<'a> Builder<'a> {
             self.point_entity(e);
             return Ok(());
         }
+        if class != "worldspawn" {
+            self.brush_entity_occupant(e);
+        }
         let room_name = match class.as_str() {
             "func_group" => e.get("_portcullis_room").unwrap_or("world"),
             _ => "world",
@@ -211,11 +219,10 @@ impl<'a> Builder<'a> {
             let mesh = self.mesh(&b.faces, &rings, b.line);
             let mut extras = Map::new();
             match role {
-                Role::Structure => {
-                    // Every world brush seals, however loose it stands (qbsp has no props).
-                    extras.insert("structure".into(), Value::Bool(true));
-                    extras.insert("solid".into(), Value::Bool(true))
-                }
+                // A world brush is a solid block, judged as any level's blocks are: a loose
+                // one that separates no air is a prop (the same cells as the same brushes in
+                // glTF); `solid` keeps even a one-brush map solid.
+                Role::Structure => extras.insert("solid".into(), Value::Bool(true)),
                 Role::Detail => extras.insert("detail".into(), Value::Bool(true)),
                 Role::Ignored => extras.insert("ignore".into(), Value::Bool(true)),
                 Role::Door => {
@@ -307,6 +314,38 @@ impl<'a> Builder<'a> {
         m
     }
 
+    /// A brush entity with a place (an `origin` key, else its origin brush's centre) is an
+    /// occupant there, as qbsp takes it.
+    fn brush_entity_occupant(&mut self, e: &parse::Entity) {
+        let origin = e.get("origin").and_then(parse_vec3).or_else(|| {
+            e.brushes
+                .iter()
+                .find(|b| b.faces.iter().all(|f| texture_name(&f.texture) == "origin"))
+                .and_then(|b| brush::polygons(&b.faces))
+                .map(|rings| {
+                    let pts: Vec<DVec3> =
+                        rings.iter().flat_map(|(r, _)| r.iter().copied()).collect();
+                    let (lo, hi) = pts.iter().fold(
+                        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+                    );
+                    (lo + hi) * 0.5
+                })
+        });
+        let Some(origin) = origin.filter(|o| occupies(e, *o)) else {
+            return;
+        };
+        let extras = json!({ "occupant": true, "classname": e.classname() });
+        let n = node(
+            Some(format!("{} origin", e.classname())),
+            Some(self.root),
+            Some(extras),
+            DMat4::from_translation(to_scene(origin, self.scale)),
+            e.line,
+        );
+        self.scene.add_node(n);
+    }
+
     fn point_entity(&mut self, e: &parse::Entity) {
         let class = e.classname();
         let origin = e.get("origin").and_then(parse_vec3);
@@ -337,6 +376,8 @@ impl<'a> Builder<'a> {
                 | "info_player_coop"
         ) {
             extras.insert("player_start".into(), Value::Bool(true));
+        } else if occupies(e, origin) {
+            extras.insert("occupant".into(), Value::Bool(true));
         }
         let n = node(
             Some(class.to_string()),
@@ -347,6 +388,23 @@ impl<'a> Builder<'a> {
         );
         self.scene.add_node(n);
     }
+}
+
+/// Whether an entity at `origin` is an occupant (qbsp's `MarkOccupiedLeafs`): not at the map's
+/// origin (where brush models without one sit), and not `_nofill` or `_lightgrid_hint`.
+fn occupies(e: &parse::Entity, origin: DVec3) -> bool {
+    let set = |k: &str| {
+        e.get(k)
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .is_some_and(|v| v as i64 != 0)
+    };
+    origin.abs().max_element() > 1e-4 && !set("_nofill") && !set("_lightgrid_hint")
+}
+
+/// A texture's name without its folder, in lower case (`textures/common/Origin` -> `origin`).
+fn texture_name(t: &str) -> String {
+    let t = t.to_ascii_lowercase();
+    t.rsplit('/').next().unwrap_or(&t).to_string()
 }
 
 /// Three finite numbers (an `origin`).

@@ -1,0 +1,279 @@
+//! The rooms of solid blocks, gathered from the scene for the level-wide reading (`blocks.rs`)
+//! and its findings turned into each room's cells, props and diagnostics.
+//!
+//! A room is read as blocks when its structure has closed, outward-facing parts (`solids.rs`),
+//! unless that is one solid and nothing else (a room modelled as its own volume) and the
+//! solid is not tagged `solid`. A room whose blocks enclose no air keeps to the surface
+//! reading (a shell of quads around a pillar block), unless its blocks are tagged `solid`.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::blocks::{self, BlockRoom};
+use super::solids::{self, Solid};
+use super::{
+    canonical_node_triangles, detect_props, extras_flag, CellSource, Gate, PropReason, RoomBuilder,
+};
+use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::scene::NodeId;
+use crate::tags::{Room, Tagging};
+
+/// One room's cells from the level-wide reading.
+pub(super) struct BlockCells {
+    pub polys: Vec<(ConvexPolyhedron, Vec<Gate>)>,
+    pub source: CellSource,
+    pub props: Vec<(NodeId, PropReason)>,
+    pub diags: Vec<Diagnostic>,
+}
+
+/// A room's blocks and the rest of its structure, before the reading.
+struct Prep {
+    solids: Vec<Solid>,
+    surfaces: Vec<[DVec3; 3]>,
+    /// Nodes with surfaces taken for props by the box rule.
+    boxed: Vec<(NodeId, PropReason)>,
+    candidates: Vec<NodeId>,
+    tagged: bool,
+    gates: Vec<(Gate, ConvexPolyhedron)>,
+}
+
+impl RoomBuilder<'_> {
+    /// Every block room's cells (`None` for rooms read otherwise), and the occupants standing
+    /// inside a solid.
+    pub(super) fn read_blocks(
+        &self,
+        tagging: &Tagging,
+        diags: &mut Diagnostics,
+    ) -> (Vec<Option<BlockCells>>, Vec<NodeId>) {
+        let preps: Vec<Option<Prep>> = tagging
+            .rooms
+            .par_iter()
+            .map(|room| self.prep(room))
+            .collect();
+        let read: Vec<usize> = (0..preps.len()).filter(|&r| preps[r].is_some()).collect();
+        let mut by_name: Vec<usize> = read.clone();
+        by_name.sort_by(|&a, &b| tagging.rooms[a].name.cmp(&tagging.rooms[b].name));
+        let mut gates: Vec<(Gate, ConvexPolyhedron)> = Vec::new();
+        let mut rooms: Vec<BlockRoom> = Vec::new();
+        for &r in &read {
+            let Some(p) = &preps[r] else { continue };
+            gates.extend(p.gates.iter().cloned());
+            rooms.push(BlockRoom {
+                rank: by_name.iter().position(|&x| x == r).unwrap_or(0),
+                solids: p.solids.clone(),
+                surfaces: p.surfaces.clone(),
+                prop_candidates: p.candidates.clone(),
+            });
+        }
+        if rooms.is_empty() {
+            return ((0..preps.len()).map(|_| None).collect(), Vec::new());
+        }
+        let near = rooms
+            .iter()
+            .flat_map(|r| r.solids.iter().map(|s| s.bounds))
+            .fold(crate::geom::aabb::Aabb::EMPTY, |a, b| a.union(&b));
+        let others = self.unassigned_solids(tagging, &near);
+        let occupants: Vec<(NodeId, DVec3)> = tagging
+            .all_occupants()
+            .map(|o| {
+                let at = self.scene.nodes[o.node].world.w_axis.truncate() - self.origin;
+                (o.node, at)
+            })
+            .collect();
+        let points: Vec<DVec3> = occupants.iter().map(|(_, p)| *p).collect();
+        let reading = blocks::read(
+            &rooms,
+            &others,
+            self.cfg.detect_props,
+            &gates,
+            &points,
+            self.crack,
+            self.eps,
+        );
+        let mut out: Vec<Option<BlockCells>> = (0..preps.len()).map(|_| None).collect();
+        for (k, &r) in read.iter().enumerate() {
+            let Some(p) = &preps[r] else { continue };
+            let cells = &reading.cells[k];
+            if cells.is_empty() && !p.tagged {
+                continue; // no air in its blocks: the surface reading
+            }
+            let room = &tagging.rooms[r];
+            let mut props = p.boxed.clone();
+            props.extend(
+                reading.props[k]
+                    .iter()
+                    .map(|&n| (n, PropReason::LooseBlock)),
+            );
+            props.sort_unstable_by_key(|(n, _)| *n);
+            let mut d = Vec::new();
+            if let Some((count, volume, at)) = reading.pockets[k] {
+                d.push(self.pockets(room, count, volume, at));
+            }
+            if !reading.unsure[k].is_empty() {
+                d.push(self.unsure(room, &reading.unsure[k]));
+            }
+            out[r] = Some(BlockCells {
+                polys: cells
+                    .iter()
+                    .map(|(c, g)| (c.clone(), g.iter().map(|&i| gates[i].0).collect()))
+                    .collect(),
+                source: CellSource::Split,
+                props,
+                diags: d,
+            });
+        }
+        let buried: Vec<NodeId> = reading.buried.iter().map(|&k| occupants[k].0).collect();
+        for &n in &buried {
+            diags.push(
+                Diagnostic::new(
+                    Code::CELL_OCCUPANT_IN_SOLID,
+                    format!(
+                        "occupant `{}` stands inside a solid block: it marks no air and seeds no leak search",
+                        self.scene.node_label(n)
+                    ),
+                    self.loc(n).with_position(self.scene.nodes[n].world.w_axis.truncate().to_array()),
+                )
+                .hint("move it into the room's air if it should mark it (qbsp skips such entities too)"),
+            );
+        }
+        (out, buried)
+    }
+
+    /// A room's blocks, or `None` when it is read otherwise (see the module docs).
+    fn prep(&self, room: &Room) -> Option<Prep> {
+        let (scene, eps) = (self.scene, self.eps);
+        if !room.bounds.is_empty()
+            || !room.footprints.is_empty()
+            || room.volume == crate::tags::rules::VolumeHint::Footprint
+        {
+            return None;
+        }
+        let mut solids = Vec::new();
+        let mut surfaces: Vec<(NodeId, [DVec3; 3])> = Vec::new();
+        for (n, tris) in canonical_node_triangles(scene, &room.structure, self.origin) {
+            let (s, rest) = solids::split_node(n, &tris, eps);
+            solids.extend(s);
+            surfaces.extend(rest.into_iter().map(|t| (n, t)));
+        }
+        if solids.is_empty() {
+            return None;
+        }
+        let has_surface = |n: NodeId| surfaces.iter().any(|(m, _)| *m == n);
+        let detect = self.cfg.detect_props && room.structure.len() >= 2;
+        let mut boxed: Vec<(NodeId, PropReason)> = Vec::new();
+        if detect {
+            boxed = detect_props(
+                scene,
+                &room.structure,
+                self.origin,
+                self.extent,
+                &self.frame,
+            )
+            .into_iter()
+            .filter(|&n| has_surface(n) && !extras_flag(scene, n, "structure"))
+            .map(|n| (n, PropReason::LooseInRoom))
+            .collect();
+        }
+        let candidates: Vec<NodeId> = if detect {
+            // A block on two faces of the hull of the room's blocks bounds the room (a wall
+            // of a roofless yard: its side and its top); nothing else makes it structure.
+            let pts: Vec<DVec3> = solids
+                .iter()
+                .flat_map(|s| s.tris.iter().flatten())
+                .copied()
+                .collect();
+            let hull = crate::geom::hull::hull(&pts, eps).ok();
+            let bounding = |n: NodeId| {
+                hull.as_ref().is_some_and(|h| {
+                    solids
+                        .iter()
+                        .filter(|s| s.node == n)
+                        .any(|s| solids::on_hull_faces(s, h, eps) >= 2)
+                })
+            };
+            let mut c: Vec<NodeId> = solids
+                .iter()
+                .map(|s| s.node)
+                .filter(|&n| !has_surface(n) && !extras_flag(scene, n, "structure"))
+                .filter(|&n| !bounding(n))
+                .collect();
+            c.dedup();
+            c
+        } else {
+            Vec::new()
+        };
+        let boxed_out = |n: &NodeId| boxed.iter().any(|(m, _)| m == n);
+        surfaces.retain(|(n, _)| !boxed_out(n));
+        solids.retain(|s| !boxed_out(&s.node));
+        let tagged = solids.iter().any(|s| extras_flag(scene, s.node, "solid"));
+        if solids.is_empty() || (!tagged && solids.len() == 1 && surfaces.is_empty()) {
+            return None;
+        }
+        Some(Prep {
+            solids,
+            surfaces: surfaces.into_iter().map(|(_, t)| t).collect(),
+            boxed,
+            candidates,
+            tagged,
+            gates: {
+                let (g, h) = self.gates(room);
+                g.into_iter().zip(h).collect()
+            },
+        })
+    }
+
+    /// The closed parts of structure in no room whose box meets `near` (the rooms' blocks):
+    /// they carve the rooms around them too.
+    fn unassigned_solids(&self, tagging: &Tagging, near: &crate::geom::aabb::Aabb) -> Vec<Solid> {
+        let nodes: Vec<NodeId> = tagging
+            .unassigned
+            .iter()
+            .map(|u| u.node)
+            .filter(|&n| {
+                let mut b = crate::geom::aabb::Aabb::EMPTY;
+                for p in self.scene.world_positions_used_iter(n) {
+                    b.add(p - self.origin);
+                }
+                b.meets(&near.grown(self.eps))
+            })
+            .collect();
+        canonical_node_triangles(self.scene, &nodes, self.origin)
+            .into_iter()
+            .flat_map(|(n, tris)| solids::split_node(n, &tris, self.eps).0)
+            .collect()
+    }
+
+    fn pockets(&self, room: &Room, count: usize, volume: f64, at: DVec3) -> Diagnostic {
+        Diagnostic::new(
+            Code::CELL_POCKETS_FILLED,
+            format!(
+                "room `{}`: {count} sealed pocket(s) of air that no occupant reaches were filled, {volume:.3} m³ in all (the largest here)",
+                room.name
+            ),
+            self.loc(room.node).with_position((at + self.origin).to_array()),
+        )
+        .hint("a pocket is air the blocks seal off (inside a hollow block or a wall); if it is a room, put an occupant in it or open it to the rest")
+    }
+
+    fn unsure(&self, room: &Room, parts: &[(f64, DVec3)]) -> Diagnostic {
+        let list: Vec<String> = parts
+            .iter()
+            .map(|(v, p)| {
+                let q = *p + self.origin;
+                format!("{v:.3} m³ at ({:.2}, {:.2}, {:.2})", q.x, q.y, q.z)
+            })
+            .collect();
+        Diagnostic::new(
+            Code::CELL_ROOM_NO_OCCUPANT,
+            format!(
+                "room `{}` has no occupant and its blocks enclose {} separate regions of air ({}); all were kept as its air",
+                room.name,
+                parts.len(),
+                list.join(", ")
+            ),
+            self.loc(room.node).with_position((parts[0].1 + self.origin).to_array()),
+        )
+        .hint("if some are pockets (a hollow block, the inside of a wall), put a player start or an occupant (extras `\"occupant\": true`, a `-occupant` node) in the room's air: regions no occupant reaches are then filled")
+    }
+}
