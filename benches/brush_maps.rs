@@ -16,7 +16,24 @@ use std::time::Instant;
 mod common;
 
 use portcullis::diag::Code;
+use portcullis::import::{import_bytes, ImportOptions};
 use portcullis::pipeline::{check, load, LoadOptions};
+use portcullis::scene::Format;
+
+/// The map's brushes as the library reads them: one node with a mesh each (point entities,
+/// rooms and the root have none).
+fn brush_count(path: &Path) -> usize {
+    let bytes = std::fs::read(path).expect("the map reads");
+    let base = path.parent().unwrap_or(Path::new("."));
+    let imported = import_bytes(&bytes, path, Format::Map, base, &ImportOptions::default())
+        .unwrap_or_else(|d| panic!("{}: {d}", path.display()));
+    imported
+        .scene
+        .nodes
+        .iter()
+        .filter(|n| n.mesh.is_some())
+        .count()
+}
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -82,7 +99,7 @@ fn qbsp(bin: &Path, map: &Path) -> (f64, Option<(usize, usize)>) {
 }
 
 fn main() {
-    let Some((dir, maps)) = common::map::maps_to_bench() else {
+    let Some((dir, maps)) = common::testmaps::maps_to_bench() else {
         return;
     };
     let qbsp_bin = std::env::var("QBSP").ok().map(PathBuf::from);
@@ -90,12 +107,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|");
     for name in maps {
         let path = Path::new(&dir).join(&name);
-        let text = std::fs::read_to_string(&path).expect("the map reads");
-        let brushes: usize = common::map::parse(&text)
-            .unwrap()
-            .iter()
-            .map(|e| e.brushes.len())
-            .sum();
+        let brushes = brush_count(&path);
         let (med, slow, cells, portals, leak) = ours(&path);
         let verdict = if leak { "LEAK" } else { "sealed" };
         let (q_time, q_counts, q_verdict) = match &qbsp_bin {

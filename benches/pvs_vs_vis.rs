@@ -12,19 +12,26 @@
 //! `PVS_SEED` (1) set the points; `QBSP_ARGS` adds qbsp options (`-filltype outside`). The maps
 //! must be sealed: vis needs the portal file qbsp writes only then.
 //!
+//! The brushes are the library's own reading of the map (`portcullis::import`, src/import/map):
+//! each brush one closed convex mesh in metres (glTF's Y up), its role in its node's extras.
+//! Geometry is in metres throughout; sample points are drawn and printed in map units (qbsp's
+//! coordinates, to find them in the editor) and mapped to metres by the importer's own axes.
+//!
 //! Choices: a point is air when it is in one of our cells, in a qbsp leaf that is not solid
 //! (leaf 0, `CONTENTS_SOLID`, `CONTENTS_SKY`), and inside no brush that blocks sight or is
 //! `func_detail*` (qbsp makes detail solid leafs, we put it in cells; either way not a point to
-//! see from). Sight is blocked by what qbsp seals with: worldspawn and `func_group` brushes that
-//! are not liquids (`*`, which vis sees through by default: `-transwater`), tool brushes (all
-//! faces clip, hint, hintskip, origin) or in a `trigger_*`; sky and skip block. `func_detail`
-//! and other brush entities (doors, walls: their own models to qbsp, detail to us) block nothing,
-//! as neither PVS is meant to be blocked by them; but vis is, where detail fills a whole
-//! structural leaf (qbsp writes no portal into a cluster whose contents are all solid), so the
-//! pairs whose sightline also misses every `func_detail` brush are counted apart. A pair is
-//! visible to a tool when either point's cell (leaf) lists the other's (the OR: a line of sight
-//! runs both ways); pairs listed one way only are counted apart. Two points in one cell or one
-//! leaf (convex air) always see each other, which checks the sight test.
+//! see from). Sight is blocked by what qbsp seals with, the brushes the importer marks `solid`:
+//! worldspawn and `func_group` brushes that are not liquids (`*`, which vis sees through by
+//! default: `-transwater`), tool brushes (all faces clip, hint, hintskip, origin) or in a
+//! `trigger_*`; sky and skip block. `func_detail` (extras `classname` `func_detail*`, tools
+//! among them aside) and other brush entities (doors, walls: their own models to qbsp, detail
+//! to us) block nothing, as neither PVS is meant to be blocked by them; but vis is, where
+//! detail fills a whole structural leaf (qbsp writes no portal into a cluster whose contents
+//! are all solid), so the pairs whose sightline also misses every `func_detail` brush are
+//! counted apart. A pair is visible to a tool when either point's cell (leaf) lists the other's
+//! (the OR: a line of sight runs both ways); pairs listed one way only are counted apart. Two
+//! points in one cell or one leaf (convex air) always see each other, which checks the sight
+//! test.
 
 use std::path::Path;
 use std::process::Command;
@@ -33,27 +40,36 @@ use std::time::Instant;
 use glam::DVec3;
 use rayon::prelude::*;
 
+/// The testmaps folder and the maps named on the command line.
 #[allow(dead_code)]
-#[path = "../tests/common/map.rs"]
-mod map;
+#[path = "../tests/common/testmaps.rs"]
+mod testmaps;
 
 /// The crate's own generator, so a seed gives the same points everywhere.
 #[allow(dead_code, unused_imports)]
 #[path = "../src/rng.rs"]
 mod rng;
 
+use portcullis::import::{import_bytes, ImportOptions};
 use portcullis::pipeline::{load, pvs, LoadOptions};
+use portcullis::scene::{Format, Scene};
 use portcullis::vis::Method;
 
-/// Brushes shrink by this much (map units) for sight, so a segment that only grazes a face or
-/// runs along a seam between two brushes is not blocked (touching is not blocking).
-const GRAZE: f64 = 0.01;
+/// Brushes shrink by this much (metres: a hundredth of a map unit, Quake's inch) for sight, so
+/// a segment that only grazes a face or runs along a seam between two brushes is not blocked
+/// (touching is not blocking).
+const GRAZE: f64 = 0.01 * 0.0254;
+/// A triangle's plane bounds its brush when no corner of the brush is in front of it by more
+/// than this (metres: the importer welds corners within 1e-5 map units, 2.5e-7 m).
+const FACE_EPS: f64 = 1e-6;
+/// Two triangles' planes are one when their normals and distances (metres) agree this closely.
+const SAME_EPS: f64 = 1e-9;
 /// Our cells contain a point within this distance (metres) of their planes.
 const CELL_EPS: f64 = 1e-7;
 /// How many example pairs or points to print per kind.
 const EXAMPLES: usize = 4;
 
-/// A brush as half-spaces `n · p <= d` (map units), with its box for a quick reject.
+/// A brush as half-spaces `n · p <= d` (metres, Y up), with its box for a quick reject.
 struct Solid {
     planes: Vec<(DVec3, f64)>,
     lo: DVec3,
@@ -61,14 +77,30 @@ struct Solid {
 }
 
 impl Solid {
-    /// `None` for a brush that encloses no volume (the parser leaves it without triangles).
-    fn new(b: &map::Brush) -> Option<Solid> {
-        let pts = b.triangles.iter().flatten();
-        let lo = pts.clone().fold(DVec3::INFINITY, |a, p| a.min(*p));
-        let hi = pts.fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
-        let planes = b.faces.iter().filter(|f| f.normal != DVec3::ZERO);
-        let planes = planes.map(|f| (f.normal, f.dist)).collect();
-        (!b.triangles.is_empty()).then_some(Solid { planes, lo, hi })
+    /// The brush of scene node `node`: the importer's closed convex mesh, each triangle's plane
+    /// with its outward normal (counter-clockwise seen from outside), equal planes once. A
+    /// sliver triangle's plane that some corner is in front of bounds nothing and is left out.
+    /// `None` for a node without a mesh (a point entity, a room) or without four planes.
+    fn new(scene: &Scene, node: usize) -> Option<Solid> {
+        let m = &scene.meshes[scene.nodes[node].mesh?];
+        let pts = scene.world_positions(node);
+        let lo = pts.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
+        let hi = pts.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
+        let mut planes: Vec<(DVec3, f64)> = Vec::new();
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|i| pts[i as usize]);
+            let Some(n) = (b - a).cross(c - a).try_normalize() else {
+                continue;
+            };
+            let d = n.dot(a).max(n.dot(b)).max(n.dot(c));
+            let face = pts.iter().all(|p| n.dot(*p) <= d + FACE_EPS);
+            let seen = (planes.iter())
+                .any(|(q, e)| q.dot(n) > 1.0 - SAME_EPS && (e - d).abs() <= SAME_EPS);
+            if face && !seen {
+                planes.push((n, d));
+            }
+        }
+        (planes.len() >= 4).then_some(Solid { planes, lo, hi })
     }
 
     fn contains(&self, p: DVec3) -> bool {
@@ -100,21 +132,21 @@ impl Solid {
     }
 }
 
-/// What a brush is here (see the module's "Choices"): `Some(true)` blocks sight,
-/// `Some(false)` is `func_detail*` (its points are dropped), `None` is neither (tools, liquids,
-/// triggers, other brush entities).
-fn classify(class: &str, b: &map::Brush) -> Option<bool> {
-    let name = |f: &map::Face| {
-        let t = f.texture.to_ascii_lowercase();
-        t.rsplit('/').next().unwrap_or("").to_string()
-    };
-    let tool = (b.faces.iter())
-        .all(|f| ["origin", "hint", "hintskip", "clip"].contains(&name(f).as_str()));
-    let liquid = b.faces.iter().any(|f| name(f).starts_with('*'));
-    match class {
-        _ if tool || liquid || class.starts_with("trigger_") => None,
-        "worldspawn" | "func_group" => Some(true),
-        _ => class.starts_with("func_detail").then_some(false),
+/// What a brush node is here (see the module's "Choices"), read from the extras the importer
+/// wrote (src/import/map, `role`): `Some(true)` blocks sight (`solid`), `Some(false)` is
+/// `func_detail*` and not an `ignore`d tool (its points are dropped), `None` is neither
+/// (liquids, tools, triggers, doors, other brush entities).
+fn classify(extras: Option<&serde_json::Value>) -> Option<bool> {
+    let flag = |k: &str| extras.and_then(|e| e.get(k)).and_then(|v| v.as_bool()) == Some(true);
+    let class = extras
+        .and_then(|e| e.get("classname"))
+        .and_then(|v| v.as_str());
+    if flag("solid") {
+        Some(true)
+    } else if class.is_some_and(|c| c.starts_with("func_detail")) && !flag("ignore") {
+        Some(false)
+    } else {
+        None
     }
 }
 
@@ -222,9 +254,10 @@ fn run(bin: &Path, args: &[&Path]) -> Result<f64, String> {
         .ok_or(format!("{} failed: {tail:?}", bin.display()))
 }
 
-/// One kept point (map units), its cell and its leaf.
+/// One kept point (map units, and metres), its cell and its leaf.
 struct Pt {
     p: DVec3,
+    m: DVec3,
     cell: usize,
     leaf: usize,
 }
@@ -292,19 +325,28 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
     let env = |k: &str| std::env::var(k).ok().and_then(|s| s.parse::<u64>().ok());
     let samples = env("PVS_SAMPLES").unwrap_or(4000);
     let seed = env("PVS_SEED").unwrap_or(1);
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let opts = ImportOptions::default();
+    let scene = (import_bytes(&bytes, path, Format::Map, base, &opts))
+        .map_err(|d| d.message.clone())?
+        .scene;
+    // Metres (the scene's) to map units and back, as the importer maps them.
+    let to_map = scene.to_file.ok_or("the importer gave no map axes")?;
+    let to_metres = to_map.inverse();
     let (mut blocking, mut detail) = (Vec::new(), Vec::new());
-    for e in &map::parse(&text)? {
-        for b in &e.brushes {
-            match (classify(e.classname(), b), Solid::new(b)) {
-                (Some(true), Some(s)) => blocking.push(s),
-                (Some(false), Some(s)) => detail.push(s),
-                _ => {}
-            }
+    for (i, n) in scene.nodes.iter().enumerate() {
+        match (classify(n.extras.as_ref()), Solid::new(&scene, i)) {
+            (Some(true), Some(s)) => blocking.push(s),
+            (Some(false), Some(s)) => detail.push(s),
+            _ => {}
         }
     }
-    let lo = (blocking.iter()).fold(DVec3::INFINITY, |a, s| a.min(s.lo));
-    let hi = (blocking.iter()).fold(DVec3::NEG_INFINITY, |a, s| a.max(s.hi));
+    // The sampled box, in map units: the blocking brushes' box in metres, mapped back.
+    let lo_m = (blocking.iter()).fold(DVec3::INFINITY, |a, s| a.min(s.lo));
+    let hi_m = (blocking.iter()).fold(DVec3::NEG_INFINITY, |a, s| a.max(s.hi));
+    let (a, b) = (to_map.transform_point3(lo_m), to_map.transform_point3(hi_m));
+    let (lo, hi) = (a.min(b), a.max(b));
 
     // Ours: the whole job up to the PVS, as `portcullis convert` runs it.
     let start = Instant::now();
@@ -333,15 +375,15 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
     let mut kinds = std::collections::BTreeMap::<&str, (usize, Vec<String>)>::new();
     for _ in 0..samples {
         let q = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
-        let m = map::to_y_up_metres(q);
+        let m = to_metres.transform_point3(q);
         let cell = c.cells.iter().position(|k| {
             m.cmpge(k.bounds.min - CELL_EPS).all()
                 && m.cmple(k.bounds.max + CELL_EPS).all()
                 && k.poly.contains(m, CELL_EPS)
         });
         let leaf = bsp.leaf_at(q);
-        let world = blocking.iter().any(|s| s.contains(q));
-        let det = detail.iter().any(|s| s.contains(q));
+        let world = blocking.iter().any(|s| s.contains(m));
+        let det = detail.iter().any(|s| s.contains(m));
         let k = kind(world, det, cell.is_some(), bsp.air(leaf));
         let e = kinds.entry(k).or_default();
         e.0 += 1;
@@ -353,7 +395,12 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
             ));
         }
         if let (Some(cell), "kept") = (cell, k) {
-            kept.push(Pt { p: q, cell, leaf });
+            kept.push(Pt {
+                p: q,
+                m,
+                cell,
+                leaf,
+            });
         }
     }
 
@@ -370,8 +417,8 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
             let mut t = Tally::default();
             for j in i + 1..kept.len() {
                 let (a, b) = (&kept[i], &kept[j]);
-                let los = !blocking.iter().any(|s| s.blocks(a.p, b.p));
-                let clear = los && !detail.iter().any(|s| s.blocks(a.p, b.p));
+                let los = !blocking.iter().any(|s| s.blocks(a.m, b.m));
+                let clear = los && !detail.iter().any(|s| s.blocks(a.m, b.m));
                 let ours = [pvs.sees(a.cell, b.cell), pvs.sees(b.cell, a.cell)];
                 let theirs = [vis_sees(a.leaf, b.leaf), vis_sees(b.leaf, a.leaf)];
                 let (o, v) = (ours[0] || ours[1], theirs[0] || theirs[1]);
@@ -423,7 +470,7 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
 }
 
 fn main() {
-    let Some((dir, maps)) = map::maps_to_bench() else {
+    let Some((dir, maps)) = testmaps::maps_to_bench() else {
         return;
     };
     let (Ok(qbsp), Ok(vis)) = (std::env::var("QBSP"), std::env::var("VIS")) else {

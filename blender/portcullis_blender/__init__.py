@@ -69,7 +69,8 @@ class PortcullisFound(bpy.types.PropertyGroup):
 class PortcullisState(bpy.types.PropertyGroup):
     mode: EnumProperty(name="Write tags as", items=[
         ("EXTRAS", "Custom properties", "Exported as glTF node extras"),
-        ("NAMES", "Name suffixes", "Godot's -room, -portal, -bound, -detail, -ignore")])
+        ("NAMES", "Name suffixes",
+         "Godot's -room, -portal, -bound, -detail, -ignore; -occupant")])
     value: StringProperty(name="Room / target",
                           description="A room's name, a portal's target room, a footprint's room")
     filepath: StringProperty(name="glTF file", subtype="FILE_PATH",

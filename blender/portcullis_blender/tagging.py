@@ -1,5 +1,5 @@
 """How a tag is written on an object: as custom properties (exported as glTF node `extras`,
-the default) or as the name suffixes of Godot's Rooms & Portals, where one exists."""
+the default) or as name suffixes (Godot's Rooms & Portals', and `-occupant`), where one exists."""
 
 KINDS = [
     ("ROOM", "Room", "A room: its meshes are the room's geometry"),
@@ -9,13 +9,16 @@ KINDS = [
     ("DETAIL", "Detail", "Rendered by its cell but neither seals nor shapes cells"),
     ("IGNORE", "Ignore", "Left out entirely"),
     ("PLAYER_START", "Player start", "Where leak searches start"),
+    ("OCCUPANT", "Occupant",
+     "A monster, an item, any place a player reaches: marks a block room's air, seeds leak searches"),
 ]
 
 # The extras keys the tags schema knows, per kind.
 KEYS = {"ROOM": "room", "PORTAL": "portal", "BOUND": "bound", "FOOTPRINT": "footprint",
-        "DETAIL": "detail", "IGNORE": "ignore", "PLAYER_START": "player_start"}
+        "DETAIL": "detail", "IGNORE": "ignore", "PLAYER_START": "player_start",
+        "OCCUPANT": "occupant"}
 SUFFIXES = {"ROOM": "-room", "PORTAL": "-portal", "BOUND": "-bound", "DETAIL": "-detail",
-            "IGNORE": "-ignore"}
+            "IGNORE": "-ignore", "OCCUPANT": "-occupant"}
 
 
 def clear(obj):

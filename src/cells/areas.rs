@@ -8,7 +8,7 @@
 //! gates that touch a gate are the areas; a gate's own cells join the area they touch first
 //! (by cell number), and a part that touches no gate (a pocket cut off by a crack, which qbsp
 //! would make an area of its own) stays with the first area. With one area nothing changes;
-//! with more, the first (by first cell) keeps the room and each other one becomes a room
+//! with more, the largest keeps the room and each other one, by volume, becomes a room
 //! `NAME_areaK` (K from 1), declared by the same node and owning no nodes (the cells keep the
 //! nodes they render).
 
@@ -99,13 +99,25 @@ pub fn split(tagging: &mut Tagging, cells: &mut CellSet) {
                 break;
             }
         }
+        // The largest area keeps the room (volumes in millionths of the room's, so the order
+        // of the cells settles only near-equal ones), the others are numbered after it.
+        let mut volume = vec![0.0f64; roots.len()];
+        for (k, &c) in members.iter().enumerate() {
+            volume[area_of[k].unwrap_or(0)] += cells.cells[c].volume;
+        }
+        let total: f64 = volume.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+        let mut rank: Vec<usize> = (0..roots.len()).collect();
+        rank.sort_by_key(|&a| {
+            (
+                std::cmp::Reverse((volume[a] / total * 1e6).round() as i64),
+                a,
+            )
+        });
         let name = tagging.rooms[r].name.clone();
-        let ids: Vec<RoomId> = (0..roots.len())
-            .map(|a| match a {
-                0 => r,
-                _ => tagging.add_area(r, format!("{name}_area{a}")),
-            })
-            .collect();
+        let mut ids: Vec<RoomId> = vec![r; roots.len()];
+        for (k, &a) in rank.iter().enumerate().skip(1) {
+            ids[a] = tagging.add_area(r, format!("{name}_area{k}"));
+        }
         cells.room_cells.resize(tagging.rooms.len(), Vec::new());
         cells.room_cells[r].clear();
         for (k, &c) in members.iter().enumerate() {

@@ -77,20 +77,18 @@ impl RoomBuilder<'_> {
         let occupants: Vec<(NodeId, DVec3)> = tagging
             .all_occupants()
             .map(|o| {
-                let at = self.scene.nodes[o.node].world.w_axis.truncate() - self.origin;
+                let at = self.scene.place(o.node) - self.origin;
                 (o.node, at)
             })
             .collect();
         let points: Vec<DVec3> = occupants.iter().map(|(_, p)| *p).collect();
-        let reading = blocks::read(
-            &rooms,
-            &others,
-            self.cfg.detect_props,
-            &gates,
-            &points,
-            self.crack,
-            self.eps,
-        );
+        let how = blocks::How {
+            loose: self.cfg.detect_props,
+            crack: self.crack,
+            eps: self.eps,
+            up: self.frame.up,
+        };
+        let reading = blocks::read(&rooms, &others, &gates, &points, &how);
         let mut out: Vec<Option<BlockCells>> = (0..preps.len()).map(|_| None).collect();
         for (k, &r) in read.iter().enumerate() {
             let Some(p) = &preps[r] else { continue };
@@ -132,7 +130,7 @@ impl RoomBuilder<'_> {
                         "occupant `{}` stands inside a solid block: it marks no air and seeds no leak search",
                         self.scene.node_label(n)
                     ),
-                    self.loc(n).with_position(self.scene.nodes[n].world.w_axis.truncate().to_array()),
+                    self.loc(n).with_position(self.scene.place(n).to_array()),
                 )
                 .hint("move it into the room's air if it should mark it (qbsp skips such entities too)"),
             );

@@ -43,6 +43,15 @@ pub(super) struct BlockRoom {
     pub prop_candidates: Vec<NodeId>,
 }
 
+/// How to read: whether `others` may be props, the crack width, the tolerance and up.
+#[derive(Clone, Copy)]
+pub(super) struct How {
+    pub loose: bool,
+    pub crack: f64,
+    pub eps: f64,
+    pub up: DVec3,
+}
+
 /// What the reading found, room by room (in the order of the rooms given).
 #[derive(Default)]
 pub(super) struct Reading {
@@ -59,17 +68,19 @@ pub(super) struct Reading {
 }
 
 /// Reads the air of the block rooms (see the module docs). `others` are solids of the level
-/// outside these rooms, which carve them too unless they are props (`loose`: they may be); `gates` the level's gates (convex volumes);
-/// `occupants` where the occupants stand; gaps narrower than `crack` are closed.
+/// outside these rooms, which carve them too unless they are props (`how.loose`: they may
+/// be); `gates` the level's gates (convex volumes); `occupants` where the occupants stand;
+/// gaps narrower than `how.crack` are closed.
 pub(super) fn read(
     rooms: &[BlockRoom],
     others: &[Solid],
-    loose: bool,
     gates: &[(Gate, ConvexPolyhedron)],
     occupants: &[DVec3],
-    crack: f64,
-    eps: f64,
+    how: &How,
 ) -> Reading {
+    let How {
+        loose, crack, eps, ..
+    } = *how;
     let mut out = Reading {
         cells: vec![Vec::new(); rooms.len()],
         props: vec![Vec::new(); rooms.len()],
@@ -93,7 +104,7 @@ pub(super) fn read(
     if loose {
         candidates.extend(others.iter().map(|s| s.node));
     }
-    let gone = find_props(rooms, &solids, &room_of, &candidates, crack, eps);
+    let gone = find_props(rooms, &solids, &room_of, &candidates, how);
     for (r, room) in rooms.iter().enumerate() {
         let mut p: Vec<NodeId> = room
             .prop_candidates
@@ -207,13 +218,13 @@ fn find_props(
     solids: &[Solid],
     room_of: &[Option<usize>],
     candidates: &BTreeSet<NodeId>,
-    crack: f64,
-    eps: f64,
+    how: &How,
 ) -> BTreeSet<NodeId> {
+    let (crack, eps, up) = (how.crack, how.eps, how.up);
     if candidates.is_empty() {
         return BTreeSet::new();
     }
-    let contacts = Contacts::new(solids, crack.max(2.0 * eps));
+    let contacts = Contacts::new(solids, crack.max(2.0 * eps), up);
     let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
     nodes.sort_unstable();
     nodes.dedup();
@@ -367,12 +378,23 @@ impl<'a> Level<'a> {
                 hull(&pts, eps).ok()
             })
             .collect();
-        let corners: Vec<DVec3> = hulls
+        // The hull of the rooms' blocks' own vertices (as each room's hull is taken), not of
+        // the rooms' hulls' corners, which carry the rounding of their clipping.
+        let corners: Vec<DVec3> = solids
             .iter()
-            .flatten()
-            .flat_map(|h| h.faces.iter().flat_map(|f| f.points.iter().copied()))
+            .zip(room_of)
+            .filter(|(_, r)| r.is_some_and(|r| hulls[r].is_some()))
+            .flat_map(|(s, _)| s.tris.iter().flatten().copied())
             .collect();
-        let world = hull(&corners, eps).ok()?;
+        // Should the hull fail on points that near-coincide, the rooms' box does as well: the
+        // world only needs to hold every room's hull.
+        let world = hull(&corners, eps).ok().or_else(|| {
+            let b = hulls
+                .iter()
+                .flatten()
+                .fold(crate::geom::aabb::Aabb::EMPTY, |a, h| a.union(&h.bounds()));
+            (!b.is_empty()).then(|| ConvexPolyhedron::from_aabb(&b.grown(eps)))
+        })?;
         let world_box = world.bounds();
         let mut faces = Faces::new(&world, eps);
         let mut world_surfaces: Vec<Frag> = Vec::new();

@@ -315,10 +315,11 @@ impl<'a> Space<'a> {
     }
 
     /// The plane to split by, among the planes nearest the middle of the node's faces and
-    /// the planes carrying the most face area: the one the node's faces cover most of its
-    /// section through the node (a wall, not the side of a door jamb carried across the
-    /// room), then the one cutting fewest faces and dividing them most evenly; ties by plane
-    /// order. Coverage is compared in steps of a thousandth, so float noise ties.
+    /// the planes carrying the most face area: one whose faces cover at least half of its
+    /// section through the node first (a wall, not the side of a door jamb carried across
+    /// the room), then the one cutting fewest faces and dividing them most evenly; ties by
+    /// plane order. (Preferring the most covered plane outright cut E1M1 into cells whose
+    /// PVS was 5% looser.)
     fn splitter(&self, region: &ConvexPolyhedron, active: &[Frag]) -> Option<u32> {
         let mut area: Vec<(u32, f64)> = active.iter().map(|f| (f.plane, f.area)).collect();
         area.sort_unstable_by_key(|(p, _)| *p);
@@ -354,6 +355,11 @@ impl<'a> Space<'a> {
         } else {
             candidates = by_plane.iter().map(|(p, _)| *p).collect();
         }
+        let total: f64 = by_plane
+            .iter()
+            .map(|(_, a)| a)
+            .sum::<f64>()
+            .max(f64::MIN_POSITIVE);
         let face_area = |p: u32| {
             by_plane
                 .binary_search_by_key(&p, |(q, _)| *q)
@@ -378,11 +384,10 @@ impl<'a> Space<'a> {
                     front += 1;
                 }
             }
-            (
-                -((cover * 1000.0).round() as i64),
-                5 * cuts + (back - front).abs(),
-                p,
-            )
+            // Ties go to the plane carrying more face area (steps of a millionth of the
+            // node's), which the input's order does not change, then to plane order.
+            let area = (face_area(p) / total * 1e6).round() as i64;
+            (cover < 0.5, 5 * cuts + (back - front).abs(), -area, p)
         })
     }
 }

@@ -3,8 +3,10 @@
 //! block, a stack of crates or a shelf elsewhere changes no wall.
 //!
 //! A node's blocks are structure when one of them lies on two faces of the hull of its room's
-//! blocks (a floor, a ceiling, an outer wall: its side and its top in a roofless yard), or
-//! when they are **held**: pressed between two structural
+//! blocks (a floor, a ceiling, an outer wall: its side and its top in a roofless yard), when
+//! they are **mounted** flush on structure beside or above them (a shelf, a panel, a lamp:
+//! only what rests on the block below it, along `[cells] up`, or is pushed into another, can
+//! be loose), or when they are **held**: pressed between two structural
 //! blocks from opposite sides (a wall between floor and ceiling, a jamb between floor and
 //! lintel, a lintel between two jambs, a pillar), or spanning two structural blocks that do not
 //! touch each other from the same side (a ceiling or a floor across the walls, a beam on two
@@ -33,18 +35,22 @@ use crate::scene::NodeId;
 struct Contact {
     other: NodeId,
     dir: DVec3,
+    /// Face to face, a crack apart at most (not one pushed into the other).
+    flush: bool,
 }
 
 /// The contacts between the blocks of different nodes.
 pub(super) struct Contacts {
     by_node: BTreeMap<NodeId, Vec<Contact>>,
     touching: BTreeSet<(NodeId, NodeId)>,
+    /// The level's up (`[cells] up`): what a block rests on lies that way down.
+    up: DVec3,
 }
 
 impl Contacts {
     /// Blocks closer than `gap` (the crack width, or the tolerance if wider) touch: a crack
     /// between two blocks is closed.
-    pub fn new(solids: &[Solid], gap: f64) -> Contacts {
+    pub fn new(solids: &[Solid], gap: f64, up: DVec3) -> Contacts {
         let eps = gap;
         let grid = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
         let mut by_node: BTreeMap<NodeId, Vec<Contact>> = BTreeMap::new();
@@ -57,19 +63,26 @@ impl Contacts {
             let (Some(ha), Some(hb)) = (&a.hull, &b.hull) else {
                 continue;
             };
-            if let Some(d) = contact(ha, hb, eps) {
+            if let Some((d, depth)) = contact(ha, hb, eps) {
+                let flush = depth <= eps;
                 by_node.entry(a.node).or_default().push(Contact {
                     other: b.node,
                     dir: d,
+                    flush,
                 });
                 by_node.entry(b.node).or_default().push(Contact {
                     other: a.node,
                     dir: -d,
+                    flush,
                 });
                 touching.insert((a.node.min(b.node), a.node.max(b.node)));
             }
         }
-        Contacts { by_node, touching }
+        Contacts {
+            by_node,
+            touching,
+            up: up.try_normalize().unwrap_or(DVec3::Y),
+        }
     }
 
     fn touch(&self, a: NodeId, b: NodeId) -> bool {
@@ -85,6 +98,11 @@ impl Contacts {
             .iter()
             .filter(|c| c.other != n && structure(c.other))
             .collect();
+        // Mounted: flush against a block beside or above it (a shelf, a lamp, a panel on a
+        // wall); a crate only rests on what is below it, or is pushed into a wall.
+        if list.iter().any(|c| c.flush && c.dir.dot(self.up) > -0.7) {
+            return true;
+        }
         for (k, c) in list.iter().enumerate() {
             for d in &list[k + 1..] {
                 let dot = c.dir.dot(d.dir);
@@ -179,8 +197,9 @@ impl Contacts {
 }
 
 /// Where `b` touches or overlaps `a`: the unit direction from `a` towards `b` along the face
-/// normal (of either hull) on which they overlap least; `None` when a face plane separates them.
-fn contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<DVec3> {
+/// normal (of either hull) on which they overlap least, and how deep they overlap along it;
+/// `None` when a face plane separates them.
+fn contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<(DVec3, f64)> {
     let reach = |p: &ConvexPolyhedron, n: DVec3| {
         p.faces
             .iter()
@@ -205,5 +224,5 @@ fn contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<DVec3
             best = Some((overlap, n));
         }
     }
-    best.map(|(_, n)| n)
+    best.map(|(o, n)| (n, o))
 }

@@ -247,7 +247,7 @@ pub fn starts(tagged: &Tagged, buried: &[crate::scene::NodeId]) -> Vec<Start> {
                 "occupant"
             };
             Start {
-                point: n.world.transform_point3(DVec3::ZERO),
+                point: scene.place(s.node),
                 label: format!("{what} `{}`", scene.node_label(s.node)),
                 player: k < starts,
                 at: Location::file(&scene.path)

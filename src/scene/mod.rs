@@ -650,6 +650,20 @@ impl Scene {
             .map(move |(p, _)| world.transform_point3(*p))
     }
 
+    /// Where a marker node stands (a player start, an occupant): the centre of its mesh's box
+    /// when it has a mesh (an OBJ object, a spawn pad), else its origin.
+    pub fn place(&self, node: NodeId) -> DVec3 {
+        let mut b = crate::geom::aabb::Aabb::EMPTY;
+        for p in self.world_positions_used_iter(node) {
+            b.add(p);
+        }
+        if b.is_empty() {
+            self.nodes[node].world.transform_point3(DVec3::ZERO)
+        } else {
+            (b.min + b.max) * 0.5
+        }
+    }
+
     /// Triangles drawn by the scene, counting each instance of a mesh.
     pub fn triangle_count(&self) -> usize {
         self.walk()

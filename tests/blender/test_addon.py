@@ -95,6 +95,23 @@ assert door.name == "Door", door.name
 state.mode = "EXTRAS"
 bpy.ops.portcullis.tag(kind="PORTAL")
 
+# An occupant (a monster, an item): the `occupant` custom property, or the `-occupant` suffix;
+# clearing restores the object. (Removed after: the level below is the two rooms and the door.)
+guard = bpy.data.objects.new("Guard", None)
+bpy.context.scene.collection.objects.link(guard)
+select_only(guard)
+bpy.ops.portcullis.tag(kind="OCCUPANT")
+assert guard["occupant"] is True and guard.name == "Guard", (guard.name, guard.keys())
+bpy.ops.portcullis.untag()
+assert "occupant" not in guard.keys(), guard.keys()
+state.mode = "NAMES"
+bpy.ops.portcullis.tag(kind="OCCUPANT")
+assert guard.name == "Guard-occupant" and "occupant" not in guard.keys(), guard.name
+bpy.ops.portcullis.untag()
+assert guard.name == "Guard", guard.name
+state.mode = "EXTRAS"
+bpy.data.objects.remove(guard)
+
 state.filepath = str(scratch / "level.glb")
 assert bpy.ops.portcullis.export() == {"FINISHED"}, state.status
 doc = glb_json(state.output)

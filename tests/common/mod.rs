@@ -2,12 +2,11 @@
 //! exactly which names, extras and materials it is about.
 #![allow(dead_code)]
 
-pub mod brush_level;
-pub mod map;
 pub mod rays;
 /// The crate's own generator (crate-private there), so seeded cases repeat its sequences.
 #[path = "../../src/rng.rs"]
 pub mod rng;
+pub mod testmaps;
 
 use std::path::{Path, PathBuf};
 
@@ -24,20 +23,6 @@ pub fn fixture(name: &str) -> PathBuf {
 
 pub fn sample(name: &str) -> PathBuf {
     root().join("samples").join(name)
-}
-
-/// ericw-tools' `testmaps/` folder for the explicit-run brush-map tests: `ERICW_TESTMAPS`, or
-/// the copy beside the project in `../shared/levels/ericw-tools/testmaps` (the maps are
-/// ericw-tools', GPL, and not shipped here). Panics when neither exists, so an explicit run
-/// never passes without checking anything.
-pub fn ericw_testmaps() -> PathBuf {
-    let dir = map::testmaps_dir();
-    assert!(
-        dir.join("E1M1-edited-ents.map").is_file(),
-        "ericw-tools' testmaps are not at {} (set ERICW_TESTMAPS)",
-        dir.display()
-    );
-    dir
 }
 
 /// One node of a test level.
