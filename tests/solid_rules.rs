@@ -19,12 +19,12 @@
 
 mod common;
 
+use common::blocks::{box_tris, Builder};
 use common::rng::SplitMix64;
 use glam::{DMat4, DQuat, DVec3};
 use portcullis::diag::Code;
-use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
+use portcullis::scene::Scene;
 use rayon::prelude::*;
-use serde_json::{json, Value};
 
 /// How many levels are judged (each as built and turned; a share also as a brush map).
 const LEVELS: u64 = 2000;
@@ -287,121 +287,22 @@ fn generate(seed: u64, crack: f64, map: bool) -> Spec {
     s
 }
 
-/// The outward triangles of a box.
-fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
-    let c = |i: usize| {
-        DVec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        )
-    };
-    // Each face's corners counter-clockwise seen from outside.
-    let quads = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    quads
-        .iter()
-        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
-        .collect()
-}
-
 /// The level as a scene, every node placed by `world` (what a glTF exporter gives).
 fn scene(s: &Spec, world: DMat4) -> Scene {
-    let mut scene = Scene::new("level.obj".into(), Format::Obj);
-    let add = |scene: &mut Scene,
-               name: String,
-               parent: Option<usize>,
-               tris: Vec<[DVec3; 3]>,
-               extras: Option<Value>,
-               at: DVec3| {
-        let mesh = (!tris.is_empty()).then(|| {
-            scene.meshes.push(Mesh {
-                name: None,
-                positions: tris.iter().flatten().copied().collect(),
-                triangles: (0..tris.len() as u32)
-                    .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                    .collect(),
-                primitives: vec![Primitive {
-                    material: None,
-                    first_triangle: 0,
-                    triangle_count: tris.len(),
-                    source: SourceRef::default(),
-                }],
-                extras: None,
-                source: SourceRef::default(),
-            });
-            scene.meshes.len() - 1
-        });
-        scene.add_node(Node {
-            name: Some(name),
-            parent,
-            children: vec![],
-            world: world * DMat4::from_translation(at),
-            mesh,
-            extras,
-            source: SourceRef::default(),
-        })
-    };
+    let mut b = Builder::new(world);
     let rooms = if s.one_node { 1 } else { s.rooms };
-    let nodes: Vec<usize> = (0..rooms)
-        .map(|i| {
-            add(
-                &mut scene,
-                format!("r{i}"),
-                None,
-                vec![],
-                Some(json!({"room": format!("r{i}")})),
-                DVec3::ZERO,
-            )
-        })
-        .collect();
+    let nodes: Vec<usize> = (0..rooms).map(|i| b.room(&format!("r{i}"))).collect();
     let room = |i: usize| nodes[if s.one_node { 0 } else { i }];
-    for (k, b) in s.blocks.iter().enumerate() {
-        // Mesh-local about the block's corner, as exporters write a block.
-        let tris = box_tris(DVec3::ZERO, b.hi - b.lo);
-        add(
-            &mut scene,
-            format!("b{k}"),
-            Some(room(b.room)),
-            tris,
-            None,
-            b.lo,
-        );
+    for (k, bl) in s.blocks.iter().enumerate() {
+        b.block(room(bl.room), &format!("b{k}"), bl.lo, bl.hi);
     }
     if let Some((i, y, half)) = s.ground {
-        let (a, b, c, d) = (
-            DVec3::new(-half, y, -half),
-            DVec3::new(-half, y, half),
-            DVec3::new(half, y, half),
-            DVec3::new(half, y, -half),
-        );
-        add(
-            &mut scene,
-            "ground".into(),
-            Some(room(i)),
-            vec![[a, b, c], [a, c, d]],
-            None,
-            DVec3::ZERO,
-        );
+        b.ground(room(i), "ground", [-half, half], [-half, half], y);
     }
     for (k, (start, p)) in s.occupants.iter().enumerate() {
-        let key = if *start { "player_start" } else { "occupant" };
-        add(
-            &mut scene,
-            format!("o{k}"),
-            None,
-            vec![],
-            Some(json!({ key: true })),
-            *p,
-        );
+        b.occupant(&format!("o{k}"), *start, *p);
     }
-    scene
+    b.scene
 }
 
 /// The level as a brush map (Quake format, Z up, units): every block a box brush of the

@@ -2,6 +2,7 @@
 //! exactly which names, extras and materials it is about.
 #![allow(dead_code)]
 
+pub mod blocks;
 pub mod rays;
 /// The crate's own generator (crate-private there), so seeded cases repeat its sequences.
 #[path = "../../src/rng.rs"]

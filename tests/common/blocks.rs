@@ -1,0 +1,124 @@
+//! Block levels built in code, node by node, as a glTF exporter writes them: every block a
+//! closed box mesh local to its corner, placed by the node's transform (so a level moved far
+//! away keeps f64 positions, as a glTF node's translation does).
+
+use glam::{DMat4, DVec3};
+use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
+use serde_json::{json, Value};
+
+/// The outward triangles of a box, min and max corners.
+pub fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
+    let c = |i: usize| {
+        DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    // Each face's corners counter-clockwise seen from outside.
+    let quads = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    quads
+        .iter()
+        .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
+        .collect()
+}
+
+/// A scene under construction; every node is placed by `world` after its own offset.
+pub struct Builder {
+    pub scene: Scene,
+    world: DMat4,
+}
+
+impl Builder {
+    pub fn new(world: DMat4) -> Builder {
+        Builder {
+            scene: Scene::new("level.obj".into(), Format::Obj),
+            world,
+        }
+    }
+
+    /// A node at `at` (before `world`) with mesh-local triangles, if any.
+    pub fn node(
+        &mut self,
+        name: &str,
+        parent: Option<usize>,
+        tris: Vec<[DVec3; 3]>,
+        extras: Option<Value>,
+        at: DVec3,
+    ) -> usize {
+        let scene = &mut self.scene;
+        let mesh = (!tris.is_empty()).then(|| {
+            scene.meshes.push(Mesh {
+                name: None,
+                positions: tris.iter().flatten().copied().collect(),
+                triangles: (0..tris.len() as u32)
+                    .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                    .collect(),
+                primitives: vec![Primitive {
+                    material: None,
+                    first_triangle: 0,
+                    triangle_count: tris.len(),
+                    source: SourceRef::default(),
+                }],
+                extras: None,
+                source: SourceRef::default(),
+            });
+            scene.meshes.len() - 1
+        });
+        scene.add_node(Node {
+            name: Some(name.into()),
+            parent,
+            children: vec![],
+            world: self.world * DMat4::from_translation(at),
+            mesh,
+            extras,
+            source: SourceRef::default(),
+        })
+    }
+
+    /// A room node (tagged by extras) to hang blocks under.
+    pub fn room(&mut self, name: &str) -> usize {
+        self.node(
+            name,
+            None,
+            vec![],
+            Some(json!({ "room": name })),
+            DVec3::ZERO,
+        )
+    }
+
+    /// A box block in `room`, its mesh local to its min corner.
+    pub fn block(&mut self, room: usize, name: &str, lo: DVec3, hi: DVec3) -> usize {
+        self.node(name, Some(room), box_tris(DVec3::ZERO, hi - lo), None, lo)
+    }
+
+    /// An upward quad at height `y` over x in `x`, z in `z` (a ground plane).
+    pub fn ground(&mut self, room: usize, name: &str, x: [f64; 2], z: [f64; 2], y: f64) {
+        let (a, b, c, d) = (
+            DVec3::new(x[0], y, z[0]),
+            DVec3::new(x[0], y, z[1]),
+            DVec3::new(x[1], y, z[1]),
+            DVec3::new(x[1], y, z[0]),
+        );
+        self.node(
+            name,
+            Some(room),
+            vec![[a, b, c], [a, c, d]],
+            None,
+            DVec3::ZERO,
+        );
+    }
+
+    /// A player start (`player`) or another occupant, by extras.
+    pub fn occupant(&mut self, name: &str, player: bool, at: DVec3) -> usize {
+        let key = if player { "player_start" } else { "occupant" };
+        self.node(name, None, vec![], Some(json!({ key: true })), at)
+    }
+}
