@@ -5,7 +5,9 @@
 //! --sealed MAP.map` does: read the map (src/import/map), tag it, build cells and portals, check;
 //! five times, the median and the slowest. With `QBSP=<path to qbsp>` qbsp is run five times on
 //! the same map (`qbsp -noverbose MAP OUT.bsp`) and its median printed beside, with its leaf and
-//! portal counts from the .prt it writes. docs/performance.md keeps the numbers.
+//! portal counts from the .prt it writes. Each map is also written as glTF (one room of closed
+//! meshes, its entities as occupants: tests/common/testmaps.rs) and timed the same way, for
+//! "the same level, the same answer" (issue 51). docs/performance.md keeps the numbers.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -103,13 +105,18 @@ fn main() {
         return;
     };
     let qbsp_bin = std::env::var("QBSP").ok().map(PathBuf::from);
-    println!("| map | brushes | ours: cells, portals | ours: median (slowest) of 5 | verdict | qbsp: leafs, portals | qbsp: median of 5 | qbsp verdict |");
-    println!("|---|---|---|---|---|---|---|---|");
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    println!("| map | brushes | ours: cells, portals | ours: median (slowest) of 5 | verdict | as glTF: cells, median, verdict | qbsp: leafs, portals | qbsp: median of 5 | qbsp verdict |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for name in maps {
         let path = Path::new(&dir).join(&name);
         let brushes = brush_count(&path);
         let (med, slow, cells, portals, leak) = ours(&path);
-        let verdict = if leak { "LEAK" } else { "sealed" };
+        let verdict = |leak: bool| if leak { "LEAK" } else { "sealed" };
+        let gltf = common::testmaps::as_plain_gltf(&path, tmp.path());
+        let (g_med, _, g_cells, _, g_leak) = ours(&gltf);
+        let g_verdict = verdict(g_leak);
+        let verdict = verdict(leak);
         let (q_time, q_counts, q_verdict) = match &qbsp_bin {
             Some(bin) => {
                 let (t, c) = qbsp(bin, &path);
@@ -120,7 +127,7 @@ fn main() {
             None => ("(QBSP unset)".into(), "—".into(), "—".into()),
         };
         println!(
-            "| {name} | {brushes} | {cells}, {portals} | {med:.3} s ({slow:.3} s) | {verdict} | {q_counts} | {q_time} | {q_verdict} |"
+            "| {name} | {brushes} | {cells}, {portals} | {med:.3} s ({slow:.3} s) | {verdict} | {g_cells}, {g_med:.3} s, {g_verdict} | {q_counts} | {q_time} | {q_verdict} |"
         );
     }
 }

@@ -30,8 +30,8 @@
 //! are all solid), so the pairs whose sightline also misses every `func_detail` brush are
 //! counted apart. A pair is visible to a tool when either point's cell (leaf) lists the other's
 //! (the OR: a line of sight runs both ways); pairs listed one way only are counted apart. Two
-//! points in one cell or one leaf (convex air) always see each other, which checks the sight
-//! test.
+//! points in one leaf (convex air) always see each other, and two in one of our cells unless a
+//! prop (a loose brush, inside the cell) stands between them, which checks the sight test.
 
 use std::path::Path;
 use std::process::Command;
@@ -277,12 +277,12 @@ fn at(p: DVec3) -> String {
 /// sightline also misses every func_detail brush).
 #[derive(Default)]
 struct Tally {
-    n: [u64; 11],
+    n: [u64; 12],
     ours_miss: Vec<(usize, usize, bool)>,
     vis_miss: Vec<(usize, usize, bool)>,
 }
 
-const COUNTS: [&str; 11] = [
+const COUNTS: [&str; 12] = [
     "pairs",
     "LOS",
     "ours",
@@ -293,6 +293,7 @@ const COUNTS: [&str; 11] = [
     "LOS pairs vis lists one way only",
     "LOS pairs also clear of func_detail",
     "of which vis misses",
+    "pairs in one of our cells blocked only by a prop (props shape no cell)",
     "pairs in one cell or one leaf (convex air) with no LOS: must be 0",
 ];
 
@@ -334,10 +335,13 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
     // Metres (the scene's) to map units and back, as the importer maps them.
     let to_map = scene.to_file.ok_or("the importer gave no map axes")?;
     let to_metres = to_map.inverse();
-    let (mut blocking, mut detail) = (Vec::new(), Vec::new());
+    let (mut blocking, mut detail, mut blocking_nodes) = (Vec::new(), Vec::new(), Vec::new());
     for (i, n) in scene.nodes.iter().enumerate() {
         match (classify(n.extras.as_ref()), Solid::new(&scene, i)) {
-            (Some(true), Some(s)) => blocking.push(s),
+            (Some(true), Some(s)) => {
+                blocking.push(s);
+                blocking_nodes.push(i);
+            }
             (Some(false), Some(s)) => detail.push(s),
             _ => {}
         }
@@ -356,6 +360,12 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
     let pvs = pvs(&level, Method::Full);
     let ours_s = start.elapsed().as_secs_f64();
     let pvs_s = pvs_start.elapsed().as_secs_f64();
+    // The blocking brushes that shape our cells: props (loose brushes) lie inside cells.
+    let props: std::collections::BTreeSet<usize> = c.props.iter().copied().collect();
+    let structure: Vec<&Solid> = (blocking.iter().zip(&blocking_nodes))
+        .filter(|(_, n)| !props.contains(n))
+        .map(|(s, _)| s)
+        .collect();
 
     // Theirs, in a scratch folder: qbsp writes out.bsp and out.prt, vis the visdata into out.bsp.
     let dir = std::env::temp_dir().join(format!("portcullis-pvs-vs-vis-{}", std::process::id()));
@@ -423,9 +433,14 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
                 let theirs = [vis_sees(a.leaf, b.leaf), vis_sees(b.leaf, a.leaf)];
                 let (o, v) = (ours[0] || ours[1], theirs[0] || theirs[1]);
                 let (wo, wv) = (los && ours[0] != ours[1], los && theirs[0] != theirs[1]);
-                let odd = !los && (a.cell == b.cell || a.leaf == b.leaf);
+                // In one leaf or one cell with no LOS: only a prop inside our cell may block.
+                let one = !los && (a.cell == b.cell || a.leaf == b.leaf);
+                let past_props = one
+                    && a.leaf != b.leaf
+                    && !structure.iter().any(|s| s.blocks(a.m, b.m));
+                let odd = one && !past_props;
                 #[rustfmt::skip]
-                let n = [true, los, o, v, o && !v, v && !o, wo, wv, clear, clear && !v, odd];
+                let n = [true, los, o, v, o && !v, v && !o, wo, wv, clear, clear && !v, past_props, odd];
                 t.n.iter_mut().zip(n).for_each(|(c, x)| *c += x as u64);
                 if los && !o {
                     t.ours_miss.push((i, j, clear));

@@ -1,4 +1,4 @@
-//! Cracks: the parts of an opening narrower than the level's smallest feature.
+//! Cracks: the parts of an opening narrower than the crack width (`[cells] crack_width`).
 //!
 //! Modelling leaves hairline gaps where pieces should meet (a stair's side 1.4e-5 m short of a
 //! window's jamb, running 1.5 m down from its sill, on panda3d). Such a gap is a crack whether
@@ -8,8 +8,8 @@
 //! is right or sharp: a needle off an opening is cut off at its root, a notch into it filled,
 //! and a strip on its own comes down to nothing. A corner of a real opening whose sides are
 //! at least `e` long has a triangle `e·sin θ / (1 + sin θ/2)` wide or wider (0.59·`e` at a right
-//! angle, `e`/10 at 6 degrees), so with the width at a tenth of the shortest edge only the tips
-//! of corners sharper than 6 degrees are touched. Corners wider than a right angle never are: a
+//! angle, `e`/10 at 6 degrees), so a corner whose sides are ten crack widths long or more loses
+//! only its tip, and only if it is sharper than 6 degrees. Corners wider than a right angle never are: a
 //! round window's 64 sides bend, they are not cracks. No tolerance enters: the same corners go
 //! whatever the tolerance.
 

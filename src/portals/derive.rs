@@ -8,8 +8,8 @@
 //! and projected) are merged and subtracted (`geom/boolean2.rs`, on the face's own grid, 2^-24 of
 //! its size) unless `geom/cover.rs` shows them covered (most shared walls, floors and ceilings; an
 //! opening the boolean would keep leaves at least 28·eps² uncovered, so skipping changes no
-//! portal). Cracks narrower than a tenth of the level's shortest blocking edge (or `[portals]
-//! min_opening_width`) are cut from what is left (`geom/crack.rs`: a stair 1.4e-5 m short of a
+//! portal). Cracks narrower than the crack width (`[cells] crack_width`, the cell stage's, one
+//! absolute width) are cut from what is left (`geom/crack.rs`: a stair 1.4e-5 m short of a
 //! jamb), and openings thinner on average than that or ten tolerances are dropped; each
 //! opening is partitioned into convex pieces (or hulled), and the pieces (and the claims) get the
 //! exact input coordinates back, a corner where two input edges cross on their crossing
@@ -465,16 +465,15 @@ fn face_exterior(
 /// The most cell pairs (or cells) one job of a parallel loop takes.
 const JOB: usize = 64;
 
-/// The distances derivation works with: all from the one tolerance but the crack width, which
-/// comes from the level (its shortest blocking edge) so that it does not move with the tolerance.
+/// The distances derivation works with: all from the one tolerance but the crack width, an
+/// absolute length (the cell stage's) so that it does not move with the tolerance.
 struct Limits {
     eps: f64,
     /// Openings thinner than this on average are float noise (ten tolerances) or cracks,
     /// whichever is wider.
     min_width: f64,
-    /// Parts of an opening narrower than this are cracks (`geom/crack.rs`): `[portals]
-    /// min_opening_width`, else a tenth of the shortest edge of what blocks, an order of
-    /// magnitude below anything the level models.
+    /// Parts of an opening narrower than this are cracks (`geom/crack.rs`): the cell stage's
+    /// crack width, so a gap the solid-block reading closed is no portal either.
     crack: f64,
     /// Faces this far apart face each other across a wall.
     reach: f64,
@@ -970,8 +969,8 @@ fn cells_between(
 mod tests {
     use super::*;
 
-    /// A 5 cm x 3 m region where the crack width is 0.3 m (a tenth of a level's 3 m shortest
-    /// edge): between blockers it is a crack and goes; as a face two cells of the same air
+    /// A 5 cm x 3 m region where the crack width is 0.3 m (set coarse for the
+    /// test): between blockers it is a crack and goes; as a face two cells of the same air
     /// share with nothing on it, it is kept whole.
     #[test]
     fn a_narrow_region_is_a_crack_only_between_blockers() {
