@@ -102,6 +102,12 @@ fn room_map(t: f64, slit: Option<f64>, detail: bool, entities: &[(&str, [f64; 3]
 
 const START: (&str, [f64; 3]) = ("info_player_start", [128.0, 128.0, 64.0]);
 
+/// The level's first `LEAK` finding.
+fn first_leak(level: &portcullis::pipeline::Level) -> &portcullis::diag::Diagnostic {
+    let leak = level.diagnostics.iter().find(|d| d.code == Code::LEAK);
+    leak.expect("a LEAK finding")
+}
+
 #[test]
 fn a_sealed_brush_room_is_one_cell_with_no_leak() {
     let (level, leak) = build(&room_map(16.0, None, false, &[START]));
@@ -115,11 +121,7 @@ fn a_sealed_brush_room_is_one_cell_with_no_leak() {
 fn a_slot_through_a_brush_wall_leaks_from_the_player_start() {
     let (level, leak) = build(&room_map(16.0, Some(16.0), false, &[START]));
     assert!(leak, "{:?}", level.diagnostics);
-    let d = level
-        .diagnostics
-        .iter()
-        .find(|d| d.code == Code::LEAK)
-        .unwrap();
+    let d = first_leak(&level);
     assert!(d.message.contains("from player start"), "{}", d.message);
 }
 
@@ -159,11 +161,7 @@ fn a_monster_alone_in_a_leaking_room_is_a_leak_from_the_monster() {
     let text = map_text(&brushes, &[START, ("monster_army", [640.0, 128.0, 32.0])]);
     let (level, leak) = build(&text);
     assert!(leak, "{:?}", level.diagnostics);
-    let d = level
-        .diagnostics
-        .iter()
-        .find(|d| d.code == Code::LEAK)
-        .unwrap();
+    let d = first_leak(&level);
     assert!(
         d.message.contains("from occupant `monster_army`"),
         "{}",

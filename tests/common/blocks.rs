@@ -30,7 +30,8 @@ pub fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
         .collect()
 }
 
-/// A scene under construction; every node is placed by `world` after its own offset.
+/// A scene under construction; every node is placed by `world` after its own offset. Its path
+/// says OBJ, so positions count as exact decimal input, not f32.
 pub struct Builder {
     pub scene: Scene,
     world: DMat4,
@@ -39,7 +40,7 @@ pub struct Builder {
 impl Builder {
     pub fn new(world: DMat4) -> Builder {
         Builder {
-            scene: Scene::new("level.obj".into(), Format::Obj),
+            scene: Scene::new("built.obj".into(), Format::Obj),
             world,
         }
     }
@@ -56,7 +57,7 @@ impl Builder {
         let scene = &mut self.scene;
         let mesh = (!tris.is_empty()).then(|| {
             scene.meshes.push(Mesh {
-                name: None,
+                name: Some(name.into()),
                 positions: tris.iter().flatten().copied().collect(),
                 triangles: (0..tris.len() as u32)
                     .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])

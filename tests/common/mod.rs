@@ -261,38 +261,11 @@ pub type Part<'a> = (&'a str, Option<usize>, Vec<[glam::DVec3; 3]>, Option<Value
 /// A scene built in code, every node placed by `world` (its triangles are mesh-local); the
 /// path says OBJ so positions count as exact decimal input, not f32.
 pub fn scene_of(parts: Vec<Part>, world: glam::DMat4) -> portcullis::scene::Scene {
-    use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
-    let mut scene = Scene::new("built.obj".into(), Format::Obj);
+    let mut b = blocks::Builder::new(world);
     for (name, parent, tris, extras) in parts {
-        let mesh = (!tris.is_empty()).then(|| {
-            scene.meshes.push(Mesh {
-                name: Some(name.into()),
-                positions: tris.iter().flatten().copied().collect(),
-                triangles: (0..tris.len() as u32)
-                    .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-                    .collect(),
-                primitives: vec![Primitive {
-                    material: None,
-                    first_triangle: 0,
-                    triangle_count: tris.len(),
-                    source: SourceRef::default(),
-                }],
-                extras: None,
-                source: SourceRef::default(),
-            });
-            scene.meshes.len() - 1
-        });
-        scene.add_node(Node {
-            name: Some(name.into()),
-            parent,
-            children: vec![],
-            world,
-            mesh,
-            extras,
-            source: SourceRef::default(),
-        });
+        b.node(name, parent, tris, extras, glam::DVec3::ZERO);
     }
-    scene
+    b.scene
 }
 
 /// Every triangle that blocks sight (not authored portals, footprints or bounds), in world
