@@ -439,6 +439,14 @@ fn ericw_testmaps_give_the_verdicts_of_ericw_tools_tests() {
             if rooms == *want { "yes" } else { "**no**" }
         );
     }
+    eprintln!(
+        "{} verdicts of ericw-tools' tests judged through the importer: {} agree, {} disagree ({disagree:?}); {} area counts, {} wrong",
+        CASES.len(),
+        CASES.len() - disagree.len(),
+        disagree.len(),
+        AREAS.len(),
+        area_errors.len()
+    );
     let path = common::root().join("docs/brush_maps.md");
     let doc = std::fs::read_to_string(&path).unwrap();
     let fresh = replace_block(&replace_block(&doc, "verdicts", &table), "areas", &areas);
