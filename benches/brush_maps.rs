@@ -7,7 +7,9 @@
 //! the same map (`qbsp -noverbose MAP OUT.bsp`) and its median printed beside, with its leaf and
 //! portal counts from the .prt it writes. Each map is also written as glTF (one room of closed
 //! meshes, its entities as occupants: tests/common/testmaps.rs) and timed the same way, for
-//! "the same level, the same answer" (issue 51). docs/performance.md keeps the numbers.
+//! "the same level, the same answer" (issue 51). `cargo bench --bench brush_maps -- grid 1000
+//! 3000` runs the grid of rooms instead (issue 52, see `grid`). docs/performance.md keeps the
+//! numbers.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -100,7 +102,86 @@ fn qbsp(bin: &Path, map: &Path) -> (f64, Option<(usize, usize)>) {
     (median(times), counts)
 }
 
+/// One run of the binary on `file` (`args` before it): seconds, peak resident MB (when
+/// `/usr/bin/time` is there) and standard output.
+fn run(args: &[&str], file: &Path, extra: &[&str]) -> (f64, Option<f64>, String) {
+    let bin = env!("CARGO_BIN_EXE_portcullis");
+    let timer = Path::new("/usr/bin/time");
+    let mut cmd = if timer.exists() {
+        let mut c = Command::new(timer);
+        c.args(["-f", "%M", bin]);
+        c
+    } else {
+        Command::new(bin)
+    };
+    cmd.args(args).arg(file).args(extra);
+    let start = Instant::now();
+    let out = cmd.output().expect("portcullis runs");
+    let secs = start.elapsed().as_secs_f64();
+    let err = String::from_utf8_lossy(&out.stderr);
+    let kb = timer
+        .exists()
+        .then(|| err.lines().last()?.trim().parse::<f64>().ok())
+        .flatten();
+    (
+        secs,
+        kb.map(|k| k / 1024.0),
+        String::from_utf8_lossy(&out.stdout).into(),
+    )
+}
+
+/// Cells and portals of a level, as `check` counts them.
+fn counts(path: &Path) -> (usize, usize) {
+    let level = load(path, &LoadOptions::default()).expect("the level reads");
+    (level.cells.cells.len(), level.portals.portals.len())
+}
+
+/// `grid N...`: the grid of N rooms (tests/common/grid.rs) as one brush map and as glTF with
+/// one room node per room, open and with a door in every doorway: cells, directed portals, the
+/// wall time of `check --sealed` and of the whole `convert` (full PVS), and its peak memory.
+fn grid(sizes: &[usize]) {
+    let tmp = tempfile::tempdir().expect("a temporary folder");
+    println!("| rooms | doors | cells, map / glTF | portals, map / glTF | `check --sealed`, map / glTF | `convert`, map / glTF |");
+    println!("|---|---|---|---|---|---|");
+    let mb = |m: Option<f64>| m.map_or(String::new(), |m| format!(", {m:.0} MB"));
+    for &n in sizes {
+        let g = common::grid::Grid::new(n);
+        for doors in [false, true] {
+            let map = tmp.path().join(format!("grid{n}_{doors}.map"));
+            let gltf = tmp.path().join(format!("grid{n}_{doors}.gltf"));
+            std::fs::write(&map, g.to_map(doors)).unwrap();
+            std::fs::write(&gltf, g.to_gltf(doors)).unwrap();
+            let (mc, mp) = counts(&map);
+            let (gc, gp) = counts(&gltf);
+            let (mcheck, _, _) = run(&["check", "--sealed"], &map, &[]);
+            let (gcheck, _, _) = run(&["check", "--sealed"], &gltf, &[]);
+            let out = tmp.path().join("out.glb");
+            let (mconv, mmem, _) = run(&["convert"], &map, &["-o", out.to_str().unwrap()]);
+            let (gconv, gmem, _) = run(&["convert"], &gltf, &["-o", out.to_str().unwrap()]);
+            println!(
+                "| {n} | {} | {mc} / {gc} | {mp} / {gp} | {mcheck:.2} s / {gcheck:.2} s | {mconv:.2} s{} / {gconv:.2} s{} |",
+                if doors { "yes" } else { "no" },
+                mb(mmem),
+                mb(gmem)
+            );
+        }
+    }
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    if args.first().map(String::as_str) == Some("grid") {
+        let sizes: Vec<usize> = args[1..].iter().filter_map(|a| a.parse().ok()).collect();
+        grid(if sizes.is_empty() {
+            &[1000, 3000]
+        } else {
+            &sizes
+        });
+        return;
+    }
     let Some((dir, maps)) = common::testmaps::maps_to_bench() else {
         return;
     };

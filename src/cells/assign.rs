@@ -8,8 +8,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{node_triangles, CellSet};
+use super::{node_triangles, Cell, CellSet};
 use crate::diag::{Code, Diagnostic, Location};
+use crate::geom::aabb::Aabb;
+use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
 use crate::scene::{NodeId, Scene};
 use crate::tags::Tagging;
@@ -64,14 +66,19 @@ fn triangle_in_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
     polygon_area(&poly, normal) > 1e-3 * area
 }
 
-fn node_in_cell(tris: &[[DVec3; 3]], cell: &ConvexPolyhedron, eps: f64) -> bool {
-    let b = cell.bounds();
+fn node_in_cell(tris: &[[DVec3; 3]], cell: &Cell, eps: f64) -> bool {
+    let b = &cell.bounds;
     tris.iter().any(|t| {
         let outside = (0..3).any(|k| {
             t.iter().all(|p| p[k] < b.min[k] - eps) || t.iter().all(|p| p[k] > b.max[k] + eps)
         });
-        !outside && triangle_in_cell(t, cell, eps)
+        !outside && triangle_in_cell(t, &cell.poly, eps)
     })
+}
+
+/// The box of a node's triangles.
+fn tris_bounds(tris: &[[DVec3; 3]]) -> Aabb {
+    Aabb::from_points(tris.iter().flatten())
 }
 
 /// A room's structure lying farther than `reach` (the thickest wall) from every cell of its
@@ -145,12 +152,17 @@ pub(crate) fn find(
     reach: f64,
 ) -> (Vec<Vec<NodeId>>, Vec<Diagnostic>) {
     let eps = set.tolerance.distance;
+    // The cells by box, so a node is tested against the cells near it, not against all.
+    let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
+    let near = |b: &Aabb| grid.query(b, eps);
     let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
+        let inside = |c: &usize| set.cells[*c].poly.contains(p, eps);
+        let point = Aabb { min: p, max: p };
         prefer
             .iter()
             .copied()
-            .find(|&c| set.cells[c].poly.contains(p, eps))
-            .or_else(|| (0..set.cells.len()).find(|&c| set.cells[c].poly.contains(p, eps)))
+            .find(inside)
+            .or_else(|| near(&point).into_iter().find(inside))
     };
     // (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
     type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
@@ -171,10 +183,13 @@ pub(crate) fn find(
         // Its middle is in a wall (a trim, a pillar or a door half in the wall): every cell
         // it reaches into renders it, as for structure; only what reaches none is outside.
         let tris = node_triangles(scene, &[n], DVec3::ZERO);
-        let within = |c: &usize| node_in_cell(&tris, &set.cells[*c].poly, eps);
+        let within = |c: &usize| node_in_cell(&tris, &set.cells[*c], eps);
         let mut hit: Vec<usize> = prefer.iter().copied().filter(within).collect();
         if hit.is_empty() {
-            hit = (0..set.cells.len()).filter(within).collect();
+            hit = near(&tris_bounds(&tris))
+                .into_iter()
+                .filter(within)
+                .collect();
         }
         if hit.is_empty() {
             hit = facing_cells(&tris, set, reach, eps);
@@ -192,16 +207,17 @@ pub(crate) fn find(
         .map(|(ri, room)| {
             let mut out: Placed = Default::default();
             let mine = &set.room_cells[ri];
+            let own: std::collections::HashSet<usize> =
+                mine.iter().chain(&took[ri]).copied().collect();
             for &n in &room.structure {
                 if props.contains(&n) {
                     continue;
                 }
                 let tris = node_triangles(scene, &[n], DVec3::ZERO);
-                let hit: Vec<usize> = mine
-                    .iter()
-                    .chain(&took[ri])
-                    .copied()
-                    .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
+                let hit: Vec<usize> = near(&tris_bounds(&tris))
+                    .into_iter()
+                    .filter(|c| own.contains(c))
+                    .filter(|&c| node_in_cell(&tris, &set.cells[c], eps))
                     .collect();
                 match (hit.is_empty(), mine.first()) {
                     (false, _) => out.0.extend(hit.into_iter().map(|c| (c, n))),
@@ -232,8 +248,9 @@ pub(crate) fn find(
     if !set.cells.is_empty() {
         for u in &tagging.unassigned {
             let tris = node_triangles(scene, &[u.node], DVec3::ZERO);
-            let mut hit: Vec<usize> = (0..set.cells.len())
-                .filter(|&c| node_in_cell(&tris, &set.cells[c].poly, eps))
+            let mut hit: Vec<usize> = near(&tris_bounds(&tris))
+                .into_iter()
+                .filter(|&c| node_in_cell(&tris, &set.cells[c], eps))
                 .collect();
             if hit.is_empty() {
                 hit = facing_cells(&tris, set, reach, eps);

@@ -609,7 +609,12 @@ impl<'a> Recognition<'a> {
     fn place_untagged(&mut self, n: NodeId, has_mesh: bool) {
         let scene = self.scene;
         if has_mesh {
+            // A door's or an area portal's block (extras `door`, `area_portal`) is air that
+            // something closes: the room's detail, rendered and never sealing, as a brush
+            // map's door is; the cell stage makes its volume a gate.
+            let flag = |k: &str| extras::read_bool(scene.nodes[n].extras.as_ref(), k) == Some(true);
             match self.room_of_node[n] {
+                Some(r) if flag("door") || flag("area_portal") => self.t.rooms[r].detail.push(n),
                 Some(r) => self.t.rooms[r].structure.push(n),
                 None => self.t.unassigned.push(NodeRef {
                     node: n,

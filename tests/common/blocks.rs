@@ -123,3 +123,26 @@ impl Builder {
         self.node(name, None, vec![], Some(json!({ key: true })), at)
     }
 }
+
+/// A box brush in the Quake format (three points a face, the normal out of the brush).
+pub fn box_brush(lo: [f64; 3], hi: [f64; 3]) -> String {
+    let mut out = String::from("{\n");
+    let axes = [DVec3::X, DVec3::Y, DVec3::Z];
+    for k in 0..3 {
+        for (sign, at) in [(1.0, hi), (-1.0, lo)] {
+            let n = axes[k] * sign;
+            let (a, b) = (axes[(k + 1) % 3], axes[(k + 2) % 3]);
+            // a × b = axes[k]: swap for the negative face so the cross points out.
+            let (a, b) = if sign > 0.0 { (a, b) } else { (b, a) };
+            let q =
+                DVec3::from_array(lo) * (DVec3::ONE - axes[k]) + DVec3::from_array(at) * axes[k];
+            let (p0, p1, p2) = (q + a * 16.0, q, q + b * 16.0);
+            debug_assert!((p0 - p1).cross(p2 - p1).dot(n) > 0.0);
+            out += &format!(
+                "( {} {} {} ) ( {} {} {} ) ( {} {} {} ) stone 0 0 0 1 1\n",
+                p0.x, p0.y, p0.z, p1.x, p1.y, p1.z, p2.x, p2.y, p2.z
+            );
+        }
+    }
+    out + "}\n"
+}

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod blocks;
+pub mod grid;
 pub mod rays;
 /// The crate's own generator (crate-private there), so seeded cases repeat its sequences.
 #[path = "../../src/rng.rs"]
