@@ -481,3 +481,34 @@ fn a_brush_map_as_gltf_gives_the_same_answer() {
         }
     }
 }
+
+/// A double door: one `func_door` of two brushes side by side filling a doorway is one gate.
+/// Its air is one cell (the two halves' union is the doorway), and every portal it closes
+/// carries the same node, so an engine closes the door as one.
+#[test]
+fn a_door_of_two_brushes_is_one_gate() {
+    let g = common::grid::Grid::new(2);
+    let (_, (lo, hi)) = g.doors[0];
+    // The doorway's width runs along y (the wall between the rooms is at constant x).
+    let mid = (lo[1] + hi[1]) / 2.0;
+    let mut text = g.to_map(false);
+    text += "{\n\"classname\" \"func_door\"\n";
+    text += &box_brush(lo, [hi[0], mid, hi[2]]);
+    text += &box_brush([lo[0], mid, lo[2]], hi);
+    text += "}\n";
+    let (level, leak) = build(&text);
+    assert!(!leak, "{:?}", level.diagnostics);
+    let gated: Vec<usize> = (0..level.cells.cells.len())
+        .filter(|&c| !level.cells.cells[c].gates.is_empty())
+        .collect();
+    assert_eq!(gated.len(), 1, "the door's air is one cell: {gated:?}");
+    let nodes: std::collections::BTreeSet<_> = (level.portals.portals.iter())
+        .filter(|p| p.door)
+        .map(|p| p.authored)
+        .collect();
+    assert_eq!(nodes.len(), 1, "one node closes the door: {nodes:?}");
+    assert!(
+        level.portals.portals.iter().filter(|p| p.door).count() == 4,
+        "the door's two faces, each way"
+    );
+}

@@ -157,7 +157,9 @@ impl RoomBuilder<'_> {
         if solids.is_empty() {
             return None;
         }
-        let has_surface = |n: NodeId| surfaces.iter().any(|(m, _)| *m == n);
+        let with_surface: std::collections::HashSet<NodeId> =
+            surfaces.iter().map(|(m, _)| *m).collect();
+        let has_surface = |n: NodeId| with_surface.contains(&n);
         let detect = self.cfg.detect_props && room.structure.len() >= 2;
         let mut boxed: Vec<(NodeId, PropReason)> = Vec::new();
         if detect {
@@ -182,26 +184,29 @@ impl RoomBuilder<'_> {
                 .copied()
                 .collect();
             let hull = crate::geom::hull::hull(&pts, eps).ok();
-            let bounding = |n: NodeId| {
-                hull.as_ref().is_some_and(|h| {
-                    solids
-                        .iter()
-                        .filter(|s| s.node == n)
-                        .any(|s| solids::on_hull_faces(s, h, eps) >= 2)
+            // Nodes with a solid on two faces of the hull (each solid looked at once).
+            let bounding: std::collections::HashSet<NodeId> = hull
+                .as_ref()
+                .map(|h| {
+                    (solids.iter())
+                        .filter(|s| solids::on_hull_faces(s, h, eps) >= 2)
+                        .map(|s| s.node)
+                        .collect()
                 })
-            };
+                .unwrap_or_default();
             let mut c: Vec<NodeId> = solids
                 .iter()
                 .map(|s| s.node)
                 .filter(|&n| !has_surface(n) && !extras_flag(scene, n, "structure"))
-                .filter(|&n| !bounding(n))
+                .filter(|n| !bounding.contains(n))
                 .collect();
             c.dedup();
             c
         } else {
             Vec::new()
         };
-        let boxed_out = |n: &NodeId| boxed.iter().any(|(m, _)| m == n);
+        let boxed_set: std::collections::HashSet<NodeId> = boxed.iter().map(|(m, _)| *m).collect();
+        let boxed_out = |n: &NodeId| boxed_set.contains(n);
         surfaces.retain(|(n, _)| !boxed_out(n));
         solids.retain(|s| !boxed_out(&s.node));
         let tagged = solids.iter().any(|s| extras_flag(scene, s.node, "solid"));

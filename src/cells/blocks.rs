@@ -19,6 +19,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::air::{least_width, shared_faces, touching, Air};
 use super::bsp::{Faces, Frag, Leaf, Owner, Space};
@@ -367,17 +368,15 @@ impl<'a> Level<'a> {
         crack: f64,
         eps: f64,
     ) -> Option<Level<'a>> {
-        let hulls: Vec<Option<ConvexPolyhedron>> = (0..rooms.len())
-            .map(|r| {
-                let pts: Vec<DVec3> = solids
-                    .iter()
-                    .zip(room_of)
-                    .filter(|(_, o)| **o == Some(r))
-                    .flat_map(|(s, _)| s.tris.iter().flatten().copied())
-                    .collect();
-                hull(&pts, eps).ok()
-            })
-            .collect();
+        // Each room's solids' vertices, gathered in one pass (not one pass per room).
+        let mut points: Vec<Vec<DVec3>> = vec![Vec::new(); rooms.len()];
+        for (s, o) in solids.iter().zip(room_of) {
+            if let Some(r) = *o {
+                points[r].extend(s.tris.iter().flatten().copied());
+            }
+        }
+        let hulls: Vec<Option<ConvexPolyhedron>> =
+            points.par_iter().map(|pts| hull(pts, eps).ok()).collect();
         // The hull of the rooms' blocks' own vertices (as each room's hull is taken), not of
         // the rooms' hulls' corners, which carry the rounding of their clipping.
         let corners: Vec<DVec3> = solids
@@ -499,9 +498,13 @@ impl<'a> Level<'a> {
         for &i in kept {
             let region = &self.air.leaves[i].region;
             let p = region.interior_point();
-            let inside: Vec<usize> = (0..gates.len())
+            // One index per gate (a door of several blocks is one gate: its first block's).
+            let mut inside: Vec<usize> = (0..gates.len())
                 .filter(|&g| gates[g].1.contains(p, eps))
+                .map(|g| (0..=g).find(|&k| gates[k].0 == gates[g].0).unwrap_or(g))
                 .collect();
+            inside.sort_unstable();
+            inside.dedup();
             groups.entry(inside).or_default().push(region.clone());
         }
         let mut out: Vec<(ConvexPolyhedron, Vec<usize>)> = groups

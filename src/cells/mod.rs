@@ -39,7 +39,7 @@
 //! theorem); a cell never carries a plane its shape does not need. A thick wall is bridged only
 //! where no other cell lies in the gap (a reveal cell already joins the two sides).
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -110,7 +110,9 @@ pub enum GateKind {
 /// A gate a cell lies in: the node that closes it and what it is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Gate {
-    /// The gate's node (the door's brush, the area portal's).
+    /// The gate's node: the door's (or area portal's) block, or for a door of several blocks
+    /// (a brush entity's brushes, which share extras `entity`) the first of them, so the air
+    /// of one door is one gate whose cells merge across its blocks.
     pub node: NodeId,
     /// Door or area portal.
     pub kind: GateKind,
@@ -735,6 +737,8 @@ impl RoomBuilder<'_> {
         nodes.sort_unstable();
         nodes.dedup();
         let mut out = (Vec::new(), Vec::new());
+        // The first node of each entity (extras `entity`, a brush map's entity number).
+        let mut first: BTreeMap<String, NodeId> = BTreeMap::new();
         for n in nodes {
             let kind = if extras_flag(scene, n, "door") {
                 GateKind::Door
@@ -748,7 +752,12 @@ impl RoomBuilder<'_> {
                 .flatten()
                 .collect();
             if let Ok(h) = hull(&pts, self.eps) {
-                out.0.push(Gate { node: n, kind });
+                let entity = scene.nodes[n].extras.as_ref().and_then(|e| e.get("entity"));
+                let node = match entity {
+                    Some(e) => *first.entry(format!("{kind:?} {e}")).or_insert(n),
+                    None => n,
+                };
+                out.0.push(Gate { node, kind });
                 out.1.push(h);
             }
         }
@@ -840,13 +849,17 @@ fn detect_props(
         })
         .collect();
     let touch = 1e-4 * extent.max(1e-3);
+    // The union of every box but one, from the unions before and after it (linear, not all
+    // pairs: a brush map's one room has thousands of nodes).
+    let mut after = vec![Aabb::EMPTY; boxes.len() + 1];
+    for i in (0..boxes.len()).rev() {
+        after[i] = after[i + 1].union(&boxes[i]);
+    }
+    let mut before = Aabb::EMPTY;
     let mut props = Vec::new();
     for (i, &n) in structure.iter().enumerate() {
-        let others = boxes
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != i)
-            .fold(Aabb::EMPTY, |a, (_, b)| a.union(b));
+        let others = before.union(&after[i + 1]);
+        before = before.union(&boxes[i]);
         let b = &boxes[i];
         if others.is_empty() || b.is_empty() {
             continue;

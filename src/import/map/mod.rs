@@ -225,12 +225,16 @@ impl<'a> Builder<'a> {
                 Role::Structure => extras.insert("solid".into(), Value::Bool(true)),
                 Role::Detail => extras.insert("detail".into(), Value::Bool(true)),
                 Role::Ignored => extras.insert("ignore".into(), Value::Bool(true)),
+                // A door's brushes are one door (its entity number says which): the cell
+                // stage makes them one gate.
                 Role::Door => {
                     extras.insert("door".into(), Value::Bool(true));
+                    extras.insert("entity".into(), Value::from(ei));
                     extras.insert("detail".into(), Value::Bool(true))
                 }
                 Role::AreaPortal => {
                     extras.insert("area_portal".into(), Value::Bool(true));
+                    extras.insert("entity".into(), Value::from(ei));
                     extras.insert("ignore".into(), Value::Bool(true))
                 }
             };
