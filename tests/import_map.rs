@@ -217,6 +217,12 @@ fn malformed_maps_give_a_code_a_line_and_exit_2() {
             "MAP_SYNTAX",
             Some(3),
         ),
+        (
+            "a brush of 1,025 faces (the most is 1,024)",
+            format!("{{\n\"classname\" \"worldspawn\"\n{{\n{}}}\n}}\n", face.repeat(1025)),
+            "MAP_BRUSH_INVALID",
+            Some(3),
+        ),
         ("0 bytes", String::new(), "INPUT_EMPTY", None),
         ("not text", String::new(), "MAP_SYNTAX", None),
     ];
@@ -236,6 +242,9 @@ fn malformed_maps_give_a_code_a_line_and_exit_2() {
             );
         }
         assert!(!out.contains("panicked"), "{what}: {out}");
+        if what.contains("1,025") {
+            assert!(out.contains("has 1025 faces, more than the 1024"), "{out}");
+        }
     }
 }
 

@@ -18,6 +18,11 @@ const WORLD: f64 = 1_048_576.0;
 /// ignores planes nearer than that).
 const WELD: f64 = 1e-5;
 
+/// The most faces a brush may have. Building a brush clips a box by each plane, which costs
+/// the planes times the faces so far (quadratic): 1,024 planes take about 0.3 s, 8,000 would
+/// take 20. Editors write a few dozen at most; ericw-tools' test maps at most 362.
+pub(super) const MAX_BRUSH_FACES: usize = 1024;
+
 /// A brush as polygons (map units), each with the index of its face; `None` when the planes
 /// enclose no volume (fewer than four that matter, open, or flat).
 pub(super) fn polygons(faces: &[Face]) -> Option<Vec<(Vec<DVec3>, usize)>> {

@@ -206,6 +206,18 @@ impl<'a> Builder<'a> {
                 b
             };
             let role = role(&class, b);
+            if b.faces.len() > brush::MAX_BRUSH_FACES {
+                return Err(Diagnostic::new(
+                    Code::MAP_BRUSH_INVALID,
+                    format!(
+                        "brush {bi} of entity {ei} (`{class}`) has {} faces, more than the {} a brush may have",
+                        b.faces.len(),
+                        brush::MAX_BRUSH_FACES
+                    ),
+                    Location::file(self.path).with_line(b.line),
+                )
+                .hint("split it into brushes of fewer faces (a round shape of many sides is usually several brushes)"));
+            }
             let rings = brush::polygons(&b.faces).ok_or_else(|| {
                 Diagnostic::new(
                     Code::MAP_BRUSH_INVALID,
