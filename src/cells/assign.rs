@@ -139,6 +139,79 @@ fn outside_diagnostic(scene: &Scene, n: NodeId) -> Diagnostic {
     .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
 }
 
+/// (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
+type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
+
+/// Places nodes in cells, finding the cells near a node through a grid of their boxes (not
+/// every cell for every node: a brush map's one room has thousands of both).
+struct Placer<'a> {
+    scene: &'a Scene,
+    set: &'a CellSet,
+    grid: BoxGrid,
+    reach: f64,
+    eps: f64,
+}
+
+impl<'a> Placer<'a> {
+    fn new(scene: &'a Scene, set: &'a CellSet, reach: f64) -> Placer<'a> {
+        let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
+        let eps = set.tolerance.distance;
+        Placer {
+            scene,
+            set,
+            grid,
+            reach,
+            eps,
+        }
+    }
+
+    /// The cells whose boxes meet `b` (ascending).
+    fn near(&self, b: &Aabb) -> Vec<usize> {
+        self.grid.query(b, self.eps)
+    }
+
+    /// The cell containing `p`: one of `prefer` first, else the lowest-numbered.
+    fn containing(&self, p: DVec3, prefer: &[usize]) -> Option<usize> {
+        let inside = |c: &usize| self.set.cells[*c].poly.contains(p, self.eps);
+        let point = Aabb { min: p, max: p };
+        (prefer.iter().copied().find(inside)).or_else(|| self.near(&point).into_iter().find(inside))
+    }
+
+    /// A prop or detail node: the cell containing its middle (of `prefer` first), else every
+    /// cell it reaches into or faces, else outside.
+    fn prop(&self, n: NodeId, prefer: &[usize], out: &mut Placed) {
+        let (scene, set, eps) = (self.scene, self.set, self.eps);
+        let mut b = Aabb::EMPTY;
+        scene.world_positions_used_iter(n).for_each(|p| b.add(p));
+        if b.is_empty() {
+            return;
+        }
+        if let Some(c) = self.containing((b.min + b.max) * 0.5, prefer) {
+            out.0.push((c, n));
+            return;
+        }
+        // Its middle is in a wall (a trim, a pillar or a door half in the wall): every cell
+        // it reaches into renders it, as for structure; only what reaches none is outside.
+        let tris = node_triangles(scene, &[n], DVec3::ZERO);
+        let within = |c: &usize| node_in_cell(&tris, &set.cells[*c], eps);
+        let mut hit: Vec<usize> = prefer.iter().copied().filter(within).collect();
+        if hit.is_empty() {
+            hit = self
+                .near(&tris_bounds(&tris))
+                .into_iter()
+                .filter(within)
+                .collect();
+        }
+        if hit.is_empty() {
+            hit = facing_cells(&tris, set, self.reach, eps);
+        }
+        match hit.is_empty() {
+            true => out.1.push(n),
+            false => out.0.extend(hit.into_iter().map(|c| (c, n))),
+        }
+    }
+}
+
 /// Per cell, the nodes it renders (ascending), and a diagnostic for each node in no cell.
 /// `took[r]` lists the cells of other rooms that took part of room `r`'s space where they
 /// overlapped (`overlap.rs`): they render the room's structure they reach into too. Rooms
@@ -152,53 +225,9 @@ pub(crate) fn find(
     reach: f64,
 ) -> (Vec<Vec<NodeId>>, Vec<Diagnostic>) {
     let eps = set.tolerance.distance;
-    // The cells by box, so a node is tested against the cells near it, not against all.
-    let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
-    let near = |b: &Aabb| grid.query(b, eps);
-    let containing = |p: DVec3, prefer: &[usize]| -> Option<usize> {
-        let inside = |c: &usize| set.cells[*c].poly.contains(p, eps);
-        let point = Aabb { min: p, max: p };
-        prefer
-            .iter()
-            .copied()
-            .find(inside)
-            .or_else(|| near(&point).into_iter().find(inside))
-    };
-    // (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
-    type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
-    let place_prop = |n: NodeId, prefer: &[usize], out: &mut Placed| {
-        let mut b = crate::geom::aabb::Aabb::EMPTY;
-        let mut any = false;
-        for p in scene.world_positions_used_iter(n) {
-            b.add(p);
-            any = true;
-        }
-        if !any {
-            return;
-        }
-        if let Some(c) = containing((b.min + b.max) * 0.5, prefer) {
-            out.0.push((c, n));
-            return;
-        }
-        // Its middle is in a wall (a trim, a pillar or a door half in the wall): every cell
-        // it reaches into renders it, as for structure; only what reaches none is outside.
-        let tris = node_triangles(scene, &[n], DVec3::ZERO);
-        let within = |c: &usize| node_in_cell(&tris, &set.cells[*c], eps);
-        let mut hit: Vec<usize> = prefer.iter().copied().filter(within).collect();
-        if hit.is_empty() {
-            hit = near(&tris_bounds(&tris))
-                .into_iter()
-                .filter(within)
-                .collect();
-        }
-        if hit.is_empty() {
-            hit = facing_cells(&tris, set, reach, eps);
-        }
-        match hit.is_empty() {
-            true => out.1.push(n),
-            false => out.0.extend(hit.into_iter().map(|c| (c, n))),
-        }
-    };
+    let placer = Placer::new(scene, set, reach);
+    let near = |b: &Aabb| placer.near(b);
+    let place_prop = |n: NodeId, prefer: &[usize], out: &mut Placed| placer.prop(n, prefer, out);
     let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();
     let rooms: Vec<Placed> = tagging
         .rooms
@@ -209,21 +238,19 @@ pub(crate) fn find(
             let mine = &set.room_cells[ri];
             let own: std::collections::HashSet<usize> =
                 mine.iter().chain(&took[ri]).copied().collect();
-            for &n in &room.structure {
-                if props.contains(&n) {
-                    continue;
-                }
+            for &n in room.structure.iter().filter(|n| !props.contains(n)) {
                 let tris = node_triangles(scene, &[n], DVec3::ZERO);
                 let hit: Vec<usize> = near(&tris_bounds(&tris))
                     .into_iter()
-                    .filter(|c| own.contains(c))
-                    .filter(|&c| node_in_cell(&tris, &set.cells[c], eps))
+                    .filter(|c| own.contains(c) && node_in_cell(&tris, &set.cells[*c], eps))
                     .collect();
-                match (hit.is_empty(), mine.first()) {
-                    (false, _) => out.0.extend(hit.into_iter().map(|c| (c, n))),
-                    (true, Some(&c)) => out.0.push((c, n)),
-                    (true, None) => {}
-                }
+                // Structure in none of its room's cells is still the room's: its first cell's.
+                let hit = if hit.is_empty() {
+                    mine.first().map(|&c| vec![c]).unwrap_or_default()
+                } else {
+                    hit
+                };
+                out.0.extend(hit.into_iter().map(|c| (c, n)));
             }
             for &n in room
                 .detail
