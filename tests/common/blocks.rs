@@ -6,6 +6,17 @@ use glam::{DMat4, DVec3};
 use portcullis::scene::{Format, Mesh, Node, Primitive, Scene, SourceRef};
 use serde_json::{json, Value};
 
+/// A box's faces by corner (corner i has x from bit 0, y from bit 1, z from bit 2), each
+/// counter-clockwise seen from outside.
+pub const BOX_QUADS: [[usize; 4]; 6] = [
+    [0, 4, 6, 2],
+    [1, 3, 7, 5],
+    [0, 1, 5, 4],
+    [2, 6, 7, 3],
+    [0, 2, 3, 1],
+    [4, 5, 7, 6],
+];
+
 /// The outward triangles of a box, min and max corners.
 pub fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
     let c = |i: usize| {
@@ -15,16 +26,7 @@ pub fn box_tris(lo: DVec3, hi: DVec3) -> Vec<[DVec3; 3]> {
             if i & 4 == 0 { lo.z } else { hi.z },
         )
     };
-    // Each face's corners counter-clockwise seen from outside.
-    let quads = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    quads
+    BOX_QUADS
         .iter()
         .flat_map(|q| [[c(q[0]), c(q[1]), c(q[2])], [c(q[0]), c(q[2]), c(q[3])]])
         .collect()

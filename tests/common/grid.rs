@@ -197,18 +197,9 @@ fn unit_cube_uri() -> String {
             bytes.extend_from_slice(&(((i >> k) & 1) as f32).to_le_bytes());
         }
     }
-    // Corner i has x = bit 0, y = bit 1, z = bit 2; each face counter-clockwise from outside.
-    let quads: [[u16; 4]; 6] = [
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-    ];
-    for q in quads {
+    for q in super::blocks::BOX_QUADS {
         for i in [q[0], q[1], q[2], q[0], q[2], q[3]] {
-            bytes.extend_from_slice(&i.to_le_bytes());
+            bytes.extend_from_slice(&(i as u16).to_le_bytes());
         }
     }
     use base64::Engine;
