@@ -136,13 +136,47 @@ fn counts(path: &Path) -> (usize, usize) {
     (level.cells.cells.len(), level.portals.portals.len())
 }
 
+/// qbsp then vis (when given) once on `map`: qbsp's seconds, its leafs and portals from the
+/// .prt (PRT1 or PRT2), and vis's seconds.
+fn qbsp_vis_once(qbsp: &Path, vis: Option<&Path>, map: &Path) -> String {
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let bsp = dir.path().join("out.bsp");
+    let start = Instant::now();
+    let ok = Command::new(qbsp)
+        .arg("-noverbose")
+        .arg(map)
+        .arg(&bsp)
+        .output();
+    let q = start.elapsed().as_secs_f64();
+    let prt = std::fs::read_to_string(dir.path().join("out.prt")).unwrap_or_default();
+    let lines: Vec<&str> = prt.lines().collect();
+    let n = |i: usize| lines.get(i).map_or("?", |l| l.trim());
+    let (leafs, portals) = if n(0) == "PRT2" {
+        (n(1), n(3))
+    } else {
+        (n(1), n(2))
+    };
+    let v = match (vis, ok.is_ok() && !prt.is_empty()) {
+        (Some(vis), true) => {
+            let start = Instant::now();
+            let _ = Command::new(vis).arg(&bsp).output();
+            format!("{:.2} s", start.elapsed().as_secs_f64())
+        }
+        _ => "—".into(),
+    };
+    format!("{leafs}, {portals}, {q:.2} s | {v}")
+}
+
 /// `grid N...`: the grid of N rooms (tests/common/grid.rs) as one brush map and as glTF with
 /// one room node per room, open and with a door in every doorway: cells, directed portals, the
-/// wall time of `check --sealed` and of the whole `convert` (full PVS), and its peak memory.
+/// wall time of `check --sealed` and of the whole `convert` (full PVS), and its peak memory;
+/// with `QBSP` (and `VIS`) set, qbsp (and vis) once on the same map beside them.
 fn grid(sizes: &[usize]) {
     let tmp = tempfile::tempdir().expect("a temporary folder");
-    println!("| rooms | doors | cells, map / glTF | portals, map / glTF | `check --sealed`, map / glTF | `convert`, map / glTF |");
-    println!("|---|---|---|---|---|---|");
+    let qbsp = std::env::var("QBSP").ok().map(PathBuf::from);
+    let vis = std::env::var("VIS").ok().map(PathBuf::from);
+    println!("| rooms | doors | cells, map / glTF | portals, map / glTF | `check --sealed`, map / glTF | `convert`, map / glTF | qbsp: leafs, portals, time | vis |");
+    println!("|---|---|---|---|---|---|---|---|");
     let mb = |m: Option<f64>| m.map_or(String::new(), |m| format!(", {m:.0} MB"));
     for &n in sizes {
         let g = common::grid::Grid::new(n);
@@ -158,8 +192,12 @@ fn grid(sizes: &[usize]) {
             let out = tmp.path().join("out.glb");
             let (mconv, mmem, _) = run(&["convert"], &map, &["-o", out.to_str().unwrap()]);
             let (gconv, gmem, _) = run(&["convert"], &gltf, &["-o", out.to_str().unwrap()]);
+            let theirs = match &qbsp {
+                Some(q) => qbsp_vis_once(q, vis.as_deref(), &map),
+                None => "(QBSP unset) | —".into(),
+            };
             println!(
-                "| {n} | {} | {mc} / {gc} | {mp} / {gp} | {mcheck:.2} s / {gcheck:.2} s | {mconv:.2} s{} / {gconv:.2} s{} |",
+                "| {n} | {} | {mc} / {gc} | {mp} / {gp} | {mcheck:.2} s / {gcheck:.2} s | {mconv:.2} s{} / {gconv:.2} s{} | {theirs} |",
                 if doors { "yes" } else { "no" },
                 mb(mmem),
                 mb(gmem)
