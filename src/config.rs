@@ -20,6 +20,12 @@ use crate::tags::rules::{RuleSet, RuleSetSpec, RuleSpec};
 /// 5 mm on the shared Panda3D level), narrow enough that a 2 cm slit is an opening.
 pub const DEFAULT_CRACK_WIDTH: f64 = 0.008;
 
+/// `[cells] max_cell_width` when unset (m): 630 Quake units, about qbsp's `-maxnodesize` of
+/// 1,024 units once halving is counted (a cell of up to this width in place of a leaf of up to
+/// 1,024 cut at its middle). On E1M1, e3m4 and retrojam1 it keeps the PVS over the ray bound
+/// tighter than vis's with fewer cell pairs than qbsp's portals (docs/performance.md).
+pub const DEFAULT_MAX_CELL_WIDTH: f64 = 16.0;
+
 /// The configuration file looked for next to a level.
 pub(crate) const FILE_NAME: &str = "portcullis.toml";
 
@@ -98,6 +104,12 @@ pub struct CellsConfig {
     // key existed are not all reported stale.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub crack_width: Option<f64>,
+    /// No cell of a room built of solid blocks is wider than this (m) across any of its
+    /// faces' directions: wider ones are halved until none is. A cell-to-cell PVS is as loose
+    /// as its widest cells (qbsp caps its leafs the same way, `-maxnodesize`, 1,024 units).
+    // Left out of the input hash's settings at its default, as `crack_width` when unset.
+    #[serde(skip_serializing_if = "is_default_cell_width")]
+    pub max_cell_width: f64,
     /// The distance tolerance is the policy's times this (1 in every run of the tool; not a
     /// configuration key). For tests that check a result does not hang on the exact value
     /// the policy picks.
@@ -107,6 +119,10 @@ pub struct CellsConfig {
 
 fn one() -> f64 {
     1.0
+}
+
+fn is_default_cell_width(w: &f64) -> bool {
+    *w == DEFAULT_MAX_CELL_WIDTH
 }
 
 impl Default for CellsConfig {
@@ -120,6 +136,7 @@ impl Default for CellsConfig {
             detect_props: true,
             up: [0.0, 1.0, 0.0],
             crack_width: None,
+            max_cell_width: DEFAULT_MAX_CELL_WIDTH,
             tolerance_factor: 1.0,
         }
     }

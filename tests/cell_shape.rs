@@ -103,3 +103,110 @@ fn a_grid_as_one_brush_map_is_cut_as_its_rooms() {
     assert!(dc * 2 <= mc * 3, "{dc} cells with doors, {mc} open");
     assert_eq!(dc, gdc, "doors: the map's cells and the glTF's");
 }
+
+/// A block tagged `door` (extras) in `room`.
+fn door_block(b: &mut Builder, room: usize, name: &str, lo: DVec3, hi: DVec3) -> usize {
+    b.node(
+        name,
+        Some(room),
+        common::blocks::box_tris(DVec3::ZERO, hi - lo),
+        Some(serde_json::json!({ "door": true })),
+        lo,
+    )
+}
+
+/// A door block that fills its doorway is cells of its own whose portals the door closes; door
+/// blocks that leave the air around them joined (bars with gaps, a block standing in a room)
+/// close nothing and cut no cell, however their planes run through the room.
+#[test]
+fn a_door_cuts_only_where_it_closes_an_opening() {
+    for (way, world) in [("as built", DMat4::IDENTITY), ("turned", turned())] {
+        let open = build(jamb_door(world));
+        let mut b = jamb_door(world);
+        let r = 0;
+        door_block(&mut b, r, "door", v(4.05, 0.0, 1.5), v(4.25, 2.1, 2.5));
+        let level = build(b);
+        let doors: Vec<f64> = (level.portals.portals.iter())
+            .filter(|p| p.door)
+            .map(|p| p.area)
+            .collect();
+        assert!(
+            doors.len() >= 2
+                && (doors.iter().sum::<f64>() - 4.2 * doors.len() as f64 / 2.0).abs() < 1e-3,
+            "{way}: the door closes the 2.1 m² opening both ways ({doors:?})"
+        );
+        assert!(
+            level.cells.cells.len() <= open.cells.cells.len() + 2,
+            "{way}: the door adds at most its own cell and the reveal's other half"
+        );
+        // Two bars 0.1 m square in the doorway (0.4 m gaps), and a block standing in a room.
+        let mut b = jamb_door(world);
+        door_block(&mut b, r, "bar1", v(4.1, 0.0, 1.8), v(4.2, 2.1, 1.9));
+        door_block(&mut b, r, "bar2", v(4.1, 0.0, 2.1), v(4.2, 2.1, 2.2));
+        door_block(&mut b, r, "lift", v(1.5, 0.0, 1.5), v(2.5, 0.5, 2.5));
+        let level = build(b);
+        assert!(
+            level.portals.portals.iter().all(|p| !p.door),
+            "{way}: bars with gaps and a lift in a room close nothing"
+        );
+        assert_eq!(
+            level.cells.cells.len(),
+            open.cells.cells.len(),
+            "{way}: and cut no cell"
+        );
+    }
+}
+
+/// Two 40 x 3 x 6 m halls through a doorway: with `[cells] max_cell_width` at its 16 m default
+/// some hall cells are halved (each half 20 m long, no longer), never more than half as many
+/// cells again; with the width raised past the halls, none is.
+#[test]
+fn wide_cells_are_halved_within_a_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut map = String::from("{\n\"classname\" \"worldspawn\"\n");
+    // Units: 40 m = 1575 units; two halls side by side along y, a 64-unit doorway between.
+    let (l, w, h, t) = (1575.0, 236.0, 118.0, 16.0);
+    let boxes = [
+        ([-t, -t, -t], [l + t, 2.0 * w + 2.0 * t, 0.0]),
+        ([-t, -t, h], [l + t, 2.0 * w + 2.0 * t, h + t]),
+        ([-t, -t, 0.0], [0.0, 2.0 * w + 2.0 * t, h]),
+        ([l, -t, 0.0], [l + t, 2.0 * w + 2.0 * t, h]),
+        ([0.0, -t, 0.0], [l, 0.0, h]),
+        ([0.0, 2.0 * w + t, 0.0], [l, 2.0 * w + 2.0 * t, h]),
+        ([0.0, w, 0.0], [l / 2.0 - 32.0, w + t, h]),
+        ([l / 2.0 + 32.0, w, 0.0], [l, w + t, h]),
+        ([l / 2.0 - 32.0, w, 96.0], [l / 2.0 + 32.0, w + t, h]),
+    ];
+    for (lo, hi) in boxes {
+        map += &common::blocks::box_brush(lo, hi);
+    }
+    map += "}\n{\n\"classname\" \"info_player_start\"\n\"origin\" \"64 64 24\"\n}\n";
+    let path = dir.path().join("halls.map");
+    std::fs::write(&path, &map).unwrap();
+    let level = common::built(&path, None);
+    let widths: Vec<f64> = level
+        .cells
+        .cells
+        .iter()
+        .map(|c| {
+            let b = c.bounds;
+            (b.max - b.min).max_element()
+        })
+        .collect();
+    std::fs::write(
+        dir.path().join("portcullis.toml"),
+        "[cells]\nmax_cell_width = 100.0\n",
+    )
+    .unwrap();
+    let whole = common::built(&path, None).cells.cells.len();
+    let n = widths.len();
+    assert!(n > whole, "{n} cells halved, {whole} whole");
+    assert!(
+        2 * n <= 3 * whole + 1,
+        "{n} cells, at most half again of {whole}"
+    );
+    assert!(
+        widths.iter().all(|w| *w <= 20.01 || *w >= 39.0),
+        "halves are 20 m long: {widths:?}"
+    );
+}

@@ -386,13 +386,18 @@ fn doors_and_area_portals_in_a_brush_map_own_the_portals_they_fill() {
     assert_eq!(p.portals.iter().filter(|q| q.door).count(), 4);
     assert_eq!(p.portals.len(), 12);
     // The area portal cuts the map into two areas, two rooms: A and B (the door between
-    // them), the larger, keep `world`; C is `world_area1`, and the area portal's cell joins
-    // it. The one portal pair between the rooms is the area portal's near face.
+    // them), the larger, keep `world`; C is `world_area1`; the area portal's cell joins one
+    // of them (the area it touches first by cell number: its two neighbours are equal slabs,
+    // so either). The one portal pair between the rooms is on one face of the area portal.
     let names: Vec<&str> = t.tagging.rooms.iter().map(|r| r.name.as_str()).collect();
     assert_eq!(names, ["world", "world_area1"]);
     assert_eq!(t.tagging.rooms[1].area_of, Some(0));
     let between: Vec<_> = p.portals.iter().filter(|q| !q.internal).collect();
-    assert_eq!(xs(&|q| !q.internal), [534.0, 534.0]);
+    let face = xs(&|q| !q.internal);
+    assert!(
+        face == [534.0, 534.0] || face == [538.0, 538.0],
+        "one pair of portals on a face of the area portal: {face:?}"
+    );
     assert!(between.iter().all(|q| q.authored == Some(gate)));
     let start = t.tagging.player_starts[0].node;
     let at = t.scene.nodes[start].world.w_axis.truncate();

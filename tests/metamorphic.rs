@@ -11,9 +11,9 @@
 //! perimeter), the same room adjacency,
 //! the same PVS pairs of matched cells and the same diagnostics.
 //!
-//! Lengths in the configuration (`max_tolerance`, `max_wall_thickness`, heights, the overlap
-//! volume) are scaled with the level: a level modelled in millimetres is configured in
-//! millimetres. The up axis is turned with the level.
+//! Lengths in the configuration (`max_tolerance`, `max_wall_thickness`, heights, the crack and
+//! widest-cell widths, the overlap volume) are scaled with the level: a level modelled in
+//! millimetres is configured in millimetres. The up axis is turned with the level.
 
 mod common;
 
@@ -174,6 +174,7 @@ fn run_with(scene: Scene, base: &Tagged, m: DMat4, factor: f64) -> Outcome {
         .to_array();
     config.cells.max_tolerance *= s;
     config.cells.overlap_volume *= s * s * s;
+    config.cells.max_cell_width *= s;
     config.cells.default_height = config.cells.default_height.map(|h| h * s);
     config.cells.footprint_height = config.cells.footprint_height.map(|h| h * s);
     config.portals.max_wall_thickness *= s;

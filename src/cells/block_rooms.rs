@@ -85,6 +85,7 @@ impl RoomBuilder<'_> {
         let how = blocks::How {
             loose: self.cfg.detect_props,
             crack: self.crack,
+            max_width: self.cfg.max_cell_width,
             eps: self.eps,
             up: self.frame.up,
         };

@@ -4,17 +4,19 @@
 //!
 //! 1. **Props** (`props.rs`): blocks nothing holds and that separate no air are set aside.
 //! 2. **Leaves** (`bsp.rs`): the hull of every room's solids (the world) is cut by the planes
-//!    of the solids' faces, the rooms' surfaces, the rooms' hulls and the gates.
+//!    of the solids' faces, the rooms' surfaces and the rooms' hulls.
 //! 3. **Air** (`air.rs`): the leaves in no solid, joined through faces wider than the crack
 //!    width; whose they are and which are air, by the occupants and the rules there.
-//! 4. **Cells**: each room's air leaves are merged into maximal convex unions, within the
-//!    gates they lie in only.
+//! 4. **Cells**: each room's air leaves, cut by the gates that close them, are merged into
+//!    maximal convex unions within the gates they lie in only, and halved while wider than
+//!    `[cells] max_cell_width`.
 //!
 //! **Gates** (a door's brush, an area portal's or visportal's brush) are volumes of air that
-//! something can close: their faces split the BSP like any face but bound nothing, and leaves
-//! are merged only with leaves inside the same gates, so each gate's air is cells of its own
-//! whose portals the gate can close (qbsp keeps doors out of the world BSP; an engine that
-//! closes a door must know which openings it fills).
+//! something can close. A gate cuts a leaf only where its blocks, made solid, would part the
+//! leaf's air (a door in its doorway, not bars with gaps or a lift standing in a room), and
+//! only that leaf: the BSP never sees a gate's planes (qbsp keeps doors out of the world BSP
+//! too). Each gate's air is then cells of its own whose portals the gate can close; a gate
+//! that parts nothing closes nothing, and the PVS sees through it as through open air.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -30,6 +32,7 @@ use super::Gate;
 use crate::disjoint::DisjointSets;
 use crate::geom::grid::BoxGrid;
 use crate::geom::hull::hull;
+use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
 use crate::scene::NodeId;
 
@@ -44,11 +47,15 @@ pub(super) struct BlockRoom {
     pub prop_candidates: Vec<NodeId>,
 }
 
-/// How to read: whether `others` may be props, the crack width, the tolerance and up.
+/// How to read: whether `others` may be props, the crack width, the widest cell, the
+/// tolerance and up.
 #[derive(Clone, Copy)]
 pub(super) struct How {
     pub loose: bool,
     pub crack: f64,
+    /// No cell is wider than this across any of its faces' directions (`[cells]
+    /// max_cell_width`).
+    pub max_width: f64,
     pub eps: f64,
     pub up: DVec3,
 }
@@ -136,7 +143,7 @@ pub(super) fn read(
         .filter(|(_, k)| *k)
         .map(|(x, _)| x)
         .unzip();
-    let Some(level) = Level::new(rooms, &solids, &room_of, gates, crack, eps) else {
+    let Some(level) = Level::new(rooms, &solids, &room_of, crack, eps) else {
         return out;
     };
     let air = &level.air;
@@ -165,7 +172,7 @@ pub(super) fn read(
     }
     for (r, leaves) in owned.iter().enumerate() {
         let kept = decide(air, leaves, &reached, open, r, &mut out);
-        out.cells[r] = level.cells(&kept, gates, eps);
+        out.cells[r] = level.cells(&kept, gates, how);
     }
     out
 }
@@ -231,8 +238,7 @@ fn find_props(
     nodes.dedup();
     let mut level: Option<Option<Level>> = None;
     let mut separates = |clusters: &[Vec<NodeId>]| -> Vec<bool> {
-        let level =
-            level.get_or_insert_with(|| Level::new(rooms, solids, room_of, &[], crack, eps));
+        let level = level.get_or_insert_with(|| Level::new(rooms, solids, room_of, crack, eps));
         match level {
             Some(level) => clusters
                 .iter()
@@ -364,7 +370,6 @@ impl<'a> Level<'a> {
         rooms: &[BlockRoom],
         solids: &'a [Solid],
         room_of: &[Option<usize>],
-        gates: &[(Gate, ConvexPolyhedron)],
         crack: f64,
         eps: f64,
     ) -> Option<Level<'a>> {
@@ -416,11 +421,6 @@ impl<'a> Level<'a> {
                 }
             }
             for f in &h.faces {
-                faces.cut(&f.points, f.plane.normal);
-            }
-        }
-        for (_, g) in gates {
-            for f in &g.faces {
                 faces.cut(&f.points, f.plane.normal);
             }
         }
@@ -492,25 +492,29 @@ impl<'a> Level<'a> {
         &self,
         kept: &[usize],
         gates: &[(Gate, ConvexPolyhedron)],
-        eps: f64,
+        how: &How,
     ) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
+        let eps = how.eps;
         let mut groups: BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> = BTreeMap::new();
+        let gate_grid = BoxGrid::new(gates.iter().map(|(_, g)| g.bounds()).collect());
         for &i in kept {
-            let region = &self.air.leaves[i].region;
-            let p = region.interior_point();
-            // One index per gate (a door of several blocks is one gate: its first block's).
-            let mut inside: Vec<usize> = (0..gates.len())
-                .filter(|&g| gates[g].1.contains(p, eps))
-                .map(|g| (0..=g).find(|&k| gates[k].0 == gates[g].0).unwrap_or(g))
-                .collect();
-            inside.sort_unstable();
-            inside.dedup();
-            groups.entry(inside).or_default().push(region.clone());
+            for region in carve(&self.air.leaves[i].region, gates, &gate_grid, how) {
+                let p = region.interior_point();
+                // One index per gate (a door of several blocks is one gate: its first block's).
+                let mut inside: Vec<usize> = (0..gates.len())
+                    .filter(|&g| gates[g].1.contains(p, eps))
+                    .map(|g| (0..=g).find(|&k| gates[k].0 == gates[g].0).unwrap_or(g))
+                    .collect();
+                inside.sort_unstable();
+                inside.dedup();
+                groups.entry(inside).or_default().push(region);
+            }
         }
-        let mut out: Vec<(ConvexPolyhedron, Vec<usize>)> = groups
+        let merged: Vec<(ConvexPolyhedron, Vec<usize>)> = groups
             .into_iter()
-            .flat_map(|(g, cells)| merge(cells, eps).into_iter().map(move |c| (c, g.clone())))
+            .flat_map(|(g, leaves)| merge(leaves, eps).into_iter().map(move |c| (c, g.clone())))
             .collect();
+        let mut out = halved(merged, how.max_width, eps);
         // The room's largest cell first (its main space before its door reveals), volumes
         // compared in millionths of the room's so near-equal ones keep the leaves' order.
         let total: f64 = out.iter().map(|(c, _)| c.volume()).sum();
@@ -518,4 +522,178 @@ impl<'a> Level<'a> {
         out.sort_by_key(|(c, _)| std::cmp::Reverse(key(c.volume())));
         out
     }
+}
+
+/// A leaf cut by the gates that close it: by each gate (a door of several blocks is one
+/// gate) whose blocks, made solid, would cut the leaf's air in two. A gate that does not
+/// (bars with gaps, a lift standing in a room, a door narrower than its hole) closes nothing
+/// here and leaves the leaf whole. Cutting only there, and only the leaf, keeps a door's planes
+/// out of the rest of the level: cut through the whole BSP they made LibreQuake e3m4 1,528
+/// cells where 900 hold the same air.
+fn carve(
+    leaf: &ConvexPolyhedron,
+    gates: &[(Gate, ConvexPolyhedron)],
+    grid: &BoxGrid,
+    how: &How,
+) -> Vec<ConvexPolyhedron> {
+    let (crack, eps) = (how.crack, how.eps);
+    let mut near = grid.query(&leaf.bounds(), eps);
+    near.sort_unstable();
+    // The gates near, each as its blocks (in gate order).
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for g in near {
+        match groups.iter_mut().find(|k| gates[k[0]].0 == gates[g].0) {
+            Some(k) => k.push(g),
+            None => groups.push(vec![g]),
+        }
+    }
+    let mut pieces = vec![leaf.clone()];
+    for group in groups {
+        let blocks: Vec<&ConvexPolyhedron> = group.iter().map(|&g| &gates[g].1).collect();
+        pieces = pieces
+            .into_iter()
+            .flat_map(|piece| closed_by(piece, &blocks, crack, eps))
+            .collect();
+    }
+    pieces
+}
+
+/// A convex region cut by the blocks of one gate when, made solid, they would part its air;
+/// else the region whole.
+fn closed_by(
+    region: ConvexPolyhedron,
+    blocks: &[&ConvexPolyhedron],
+    crack: f64,
+    eps: f64,
+) -> Vec<ConvexPolyhedron> {
+    let mut parts = vec![region.clone()];
+    for b in blocks {
+        parts = parts
+            .into_iter()
+            .flat_map(|p| carve_one(p, b, eps))
+            .collect();
+    }
+    if parts.len() == 1 {
+        return parts;
+    }
+    let (inside, outside): (Vec<_>, Vec<_>) = parts.into_iter().partition(|p| {
+        let c = p.interior_point();
+        blocks.iter().any(|b| b.contains(c, eps))
+    });
+    // The air left around the gate, joined through faces wider than a crack.
+    let mut sets = DisjointSets::new(outside.len());
+    for i in 0..outside.len() {
+        for k in i + 1..outside.len() {
+            if shared_faces(&outside[i], &outside[k], eps)
+                .any(|(pts, n)| least_width(&pts, n) > crack)
+            {
+                sets.union(i, k);
+            }
+        }
+    }
+    let parted = (0..outside.len())
+        .map(|i| sets.find(i))
+        .collect::<BTreeSet<_>>()
+        .len()
+        != 1;
+    if inside.is_empty() || !parted {
+        return vec![region];
+    }
+    inside.into_iter().chain(outside).collect()
+}
+
+/// A convex region cut by one convex block: the part inside it last, the parts outside it one
+/// face plane at a time before; the region whole unless they share a volume thicker than the
+/// tolerance.
+fn carve_one(region: ConvexPolyhedron, gate: &ConvexPolyhedron, eps: f64) -> Vec<ConvexPolyhedron> {
+    let solid = |p: &ConvexPolyhedron| thickness(p) > 2.0 * eps;
+    let mut inside = Some(region.clone());
+    for f in &gate.faces {
+        inside = inside.and_then(|r| r.clip(&f.plane, eps));
+    }
+    if !inside.as_ref().is_some_and(solid) {
+        return vec![region];
+    }
+    let mut out = Vec::new();
+    let mut rest = region;
+    for f in &gate.faces {
+        if let Some(outside) = rest.clip(&f.plane.flipped(), eps) {
+            if solid(&outside) {
+                out.push(outside);
+            }
+        }
+        match rest.clip(&f.plane, eps) {
+            Some(r) => rest = r,
+            None => return out,
+        }
+    }
+    out.push(rest);
+    out
+}
+
+/// The cells, the widest halved across its widest direction (of its faces') first, again
+/// until none is wider than `max` or they are half as many again as they were: a from-region
+/// PVS is as loose as its widest cells (qbsp caps its leafs the same way, `-maxnodesize`), but
+/// in open terrain, where every cell sees every other, narrower cells buy nothing and each
+/// costs the PVS (q1_mountain: 358 cells became 7,653 and the full PVS ran past ten minutes).
+fn halved<T: Clone>(
+    cells: Vec<(ConvexPolyhedron, T)>,
+    max: f64,
+    eps: f64,
+) -> Vec<(ConvexPolyhedron, T)> {
+    let budget = cells.len() + cells.len() / 2;
+    // The widest direction of a cell: its width, quantized to the tolerance, and the plane
+    // across its middle (ties to the first face).
+    let widest = |c: &ConvexPolyhedron| -> (i64, Plane) {
+        let corners: Vec<DVec3> = c
+            .faces
+            .iter()
+            .flat_map(|f| f.points.iter().copied())
+            .collect();
+        let mut best = (
+            i64::MIN,
+            Plane {
+                normal: DVec3::X,
+                d: 0.0,
+            },
+        );
+        for f in &c.faces {
+            let (lo, hi) = super::bsp::extent(&f.plane, &corners);
+            let w = ((hi - lo) / eps).round() as i64;
+            if w > best.0 {
+                let mid = Plane {
+                    normal: f.plane.normal,
+                    d: f.plane.d + (lo + hi) / 2.0,
+                };
+                best = (w, mid);
+            }
+        }
+        best
+    };
+    let limit = (max / eps).round() as i64;
+    let mut slots: Vec<Option<(ConvexPolyhedron, T)>> = Vec::new();
+    let mut heap = std::collections::BinaryHeap::new();
+    for c in cells {
+        heap.push((widest(&c.0).0, std::cmp::Reverse(slots.len())));
+        slots.push(Some(c));
+    }
+    let mut count = slots.len();
+    while let Some((w, std::cmp::Reverse(i))) = heap.pop() {
+        if w <= limit || count >= budget {
+            break;
+        }
+        let (c, tag) = slots[i].take().expect("each cell is popped once");
+        let mid = widest(&c).1;
+        match (c.clip(&mid, eps), c.clip(&mid.flipped(), eps)) {
+            (Some(a), Some(b)) => {
+                for half in [a, b] {
+                    heap.push((widest(&half).0, std::cmp::Reverse(slots.len())));
+                    slots.push(Some((half, tag.clone())));
+                }
+                count += 1;
+            }
+            _ => slots[i] = Some((c, tag)),
+        }
+    }
+    slots.into_iter().flatten().collect()
 }
