@@ -8,8 +8,8 @@
 //! portal counts from the .prt it writes. Each map is also written as glTF (one room of closed
 //! meshes, its entities as occupants: tests/common/testmaps.rs) and timed the same way, for
 //! "the same level, the same answer" (issue 51). `cargo bench --bench brush_maps -- grid 1000
-//! 3000` runs the grid of rooms instead (issue 52, see `grid`). docs/performance.md keeps the
-//! numbers.
+//! 3000` runs the grid of rooms instead (issue 52, see `grid`; `GRID_DIR=<folder>` keeps its
+//! files). docs/performance.md keeps the numbers.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -173,6 +173,9 @@ fn qbsp_vis_once(qbsp: &Path, vis: Option<&Path>, map: &Path) -> String {
 /// with `QBSP` (and `VIS`) set, qbsp (and vis) once on the same map beside them.
 fn grid(sizes: &[usize]) {
     let tmp = tempfile::tempdir().expect("a temporary folder");
+    // `GRID_DIR=<folder>` keeps the generated maps and glTF there, to run by hand.
+    let kept = std::env::var_os("GRID_DIR").map(PathBuf::from);
+    let dir = kept.as_deref().unwrap_or(tmp.path());
     let qbsp = std::env::var("QBSP").ok().map(PathBuf::from);
     let vis = std::env::var("VIS").ok().map(PathBuf::from);
     println!("| rooms | doors | cells, map / glTF | portals, map / glTF | `check --sealed`, map / glTF | `convert`, map / glTF | qbsp: leafs, portals, time | vis |");
@@ -181,8 +184,8 @@ fn grid(sizes: &[usize]) {
     for &n in sizes {
         let g = common::grid::Grid::new(n);
         for doors in [false, true] {
-            let map = tmp.path().join(format!("grid{n}_{doors}.map"));
-            let gltf = tmp.path().join(format!("grid{n}_{doors}.gltf"));
+            let map = dir.join(format!("grid{n}_{doors}.map"));
+            let gltf = dir.join(format!("grid{n}_{doors}.gltf"));
             std::fs::write(&map, g.to_map(doors)).unwrap();
             std::fs::write(&gltf, g.to_gltf(doors)).unwrap();
             let (mc, mp) = counts(&map);

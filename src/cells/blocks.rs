@@ -30,6 +30,7 @@ use super::props::Contacts;
 use super::solids::Solid;
 use super::Gate;
 use crate::disjoint::DisjointSets;
+use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
@@ -170,9 +171,10 @@ pub(super) fn read(
             owned[*r as usize].push(i);
         }
     }
+    let gate_index = GateIndex::new(gates);
     for (r, leaves) in owned.iter().enumerate() {
         let kept = decide(air, leaves, &reached, open, r, &mut out);
-        out.cells[r] = level.cells(&kept, gates, how);
+        out.cells[r] = level.cells(&kept, gates, &gate_index, how);
     }
     out
 }
@@ -345,6 +347,25 @@ fn separating(level: &Level, solids: &[Solid], cluster: &[NodeId], crack: f64, e
     regions.values().any(|r| r.len() >= 2)
 }
 
+/// The gates' blocks by box, and each block's gate as its first block's index (a door of
+/// several blocks is one gate), built once for every room.
+struct GateIndex {
+    grid: BoxGrid,
+    first: Vec<usize>,
+}
+
+impl GateIndex {
+    fn new(gates: &[(Gate, ConvexPolyhedron)]) -> GateIndex {
+        let mut seen: std::collections::HashMap<Gate, usize> = std::collections::HashMap::new();
+        GateIndex {
+            grid: BoxGrid::new(gates.iter().map(|(_, g)| g.bounds()).collect()),
+            first: (0..gates.len())
+                .map(|g| *seen.entry(gates[g].0).or_insert(g))
+                .collect(),
+        }
+    }
+}
+
 /// The region id the world's boundary stands for (the void around it).
 const VOID: usize = usize::MAX;
 
@@ -492,18 +513,24 @@ impl<'a> Level<'a> {
         &self,
         kept: &[usize],
         gates: &[(Gate, ConvexPolyhedron)],
+        index: &GateIndex,
         how: &How,
     ) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
+        let GateIndex {
+            grid: gate_grid,
+            first,
+        } = index;
         let eps = how.eps;
         let mut groups: BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> = BTreeMap::new();
-        let gate_grid = BoxGrid::new(gates.iter().map(|(_, g)| g.bounds()).collect());
         for &i in kept {
-            for region in carve(&self.air.leaves[i].region, gates, &gate_grid, how) {
+            for region in carve(&self.air.leaves[i].region, gates, gate_grid, how) {
                 let p = region.interior_point();
                 // One index per gate (a door of several blocks is one gate: its first block's).
-                let mut inside: Vec<usize> = (0..gates.len())
+                let mut inside: Vec<usize> = gate_grid
+                    .query(&Aabb { min: p, max: p }, eps)
+                    .into_iter()
                     .filter(|&g| gates[g].1.contains(p, eps))
-                    .map(|g| (0..=g).find(|&k| gates[k].0 == gates[g].0).unwrap_or(g))
+                    .map(|g| first[g])
                     .collect();
                 inside.sort_unstable();
                 inside.dedup();

@@ -96,7 +96,7 @@ pub enum CellSource {
 }
 
 /// What a gate is: a volume of air something can close (see `blocks`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum GateKind {
     /// A door's or a lift's brush (extras `"door": true`; a brush map's `func_door*`,
@@ -108,7 +108,7 @@ pub enum GateKind {
 }
 
 /// A gate a cell lies in: the node that closes it and what it is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 pub struct Gate {
     /// The gate's node: the door's (or area portal's) block, or for a door of several blocks
     /// (a brush entity's brushes, which share extras `entity`) the first of them, so the air

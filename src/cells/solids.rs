@@ -15,6 +15,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+use crate::disjoint::DisjointSets;
 use crate::geom::aabb::Aabb;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
@@ -99,14 +100,7 @@ pub(crate) fn split_node(
             }
         }
     }
-    let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
-    }
+    let mut parts = DisjointSets::new(tris.len());
     let mut keys: Vec<&(u32, u32)> = edges.keys().collect();
     keys.sort_unstable();
     for &(a, b) in keys {
@@ -115,16 +109,13 @@ pub(crate) fn split_node(
             all.extend_from_slice(r);
         }
         for w in all.windows(2) {
-            let (x, y) = (find(&mut parent, w[0]), find(&mut parent, w[1]));
-            if x != y {
-                parent[x.max(y) as usize] = x.min(y);
-            }
+            parts.union(w[0] as usize, w[1] as usize);
         }
     }
     let mut groups: Vec<Vec<u32>> = Vec::new();
     let mut group_of: HashMap<u32, usize> = HashMap::new();
     for k in 0..tris.len() as u32 {
-        let r = find(&mut parent, k);
+        let r = parts.find(k as usize) as u32;
         let g = *group_of.entry(r).or_insert_with(|| {
             groups.push(Vec::new());
             groups.len() - 1

@@ -30,7 +30,8 @@ pub enum CheckFormat {
 
 #[derive(Debug, Args)]
 pub struct CheckArgs {
-    /// Level files or glob patterns: .gltf, .glb, .obj (annotated files are checked through
+    /// Level files or glob patterns: .gltf, .glb, .obj, .map (Quake-family brush maps), and
+    /// .usd/.usda/.usdc/.usdz with the `usd` feature (annotated files are checked through
     /// their stored annotation); `-` reads standard input.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,

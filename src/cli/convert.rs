@@ -18,7 +18,8 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// Level files: .gltf, .glb, .obj (and .usd/.usda/.usdc/.usdz with the `usd` feature);
+    /// Level files: .gltf, .glb, .obj, .map (Quake-family brush maps), and
+    /// .usd/.usda/.usdc/.usdz with the `usd` feature;
     /// `-` reads standard input (glTF/GLB recognised by their first bytes, anything else read
     /// as OBJ).
     #[arg(required = true, value_name = "FILE")]

@@ -165,6 +165,16 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
     if let Err(d) = check_cameras(&a.cameras) {
         return fail(d, style);
     }
+    // An empty file is reported as every other command reports it, not as a parse failure.
+    if std::fs::metadata(&a.level).is_ok_and(|m| m.is_file() && m.len() == 0) {
+        let d = Diagnostic::new(
+            Code::INPUT_EMPTY,
+            format!("`{}` is empty (0 bytes)", a.level.display()),
+            At::file(&a.level),
+        )
+        .hint("the export may have failed; export the level again, then `portcullis convert` it");
+        return fail(d, style);
+    }
     let level = match Level::load(&a.level) {
         Ok(l) => l,
         Err(e) => {

@@ -17,7 +17,8 @@ use super::{Format, LevelArgs};
 
 #[derive(Debug, Args)]
 pub struct InspectArgs {
-    /// Level files: .gltf, .glb, .obj (and .usd/.usda/.usdc/.usdz with the `usd` feature).
+    /// Level files: .gltf, .glb, .obj, .map (Quake-family brush maps), and
+    /// .usd/.usda/.usdc/.usdz with the `usd` feature.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 

@@ -81,7 +81,7 @@ pub enum Format {
 /// Options every level-reading subcommand shares.
 #[derive(Debug, Clone, Args)]
 pub struct LevelArgs {
-    /// Tag preset: default, godot, lportal, panda3d, doom. Wins over the preset in
+    /// Tag preset: default, doom, godot, lportal, panda3d, quake. Wins over the preset in
     /// portcullis.toml.
     #[arg(long = "tags", value_name = "PRESET")]
     pub tags: Option<String>,

@@ -13,7 +13,8 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// The level: .gltf, .glb, .obj (and USD with the `usd` feature).
+    /// The level: .gltf, .glb, .obj, .map (Quake-family brush maps), and USD with the `usd`
+    /// feature.
     #[arg(value_name = "LEVEL")]
     pub file: PathBuf,
 
@@ -99,9 +100,12 @@ pub fn run(a: &ViewArgs, style: &Style) -> i32 {
         }
     }
     eprintln!("{}", totals.line());
-    // The page is for looking: the level's own findings do not fail it.
+    // The page is written whatever the level's findings (it is for looking at them), but the
+    // exit code is the documented one: 1 when the level has errors.
     if totals.failed > 0 {
         2
+    } else if totals.errors > 0 {
+        1
     } else {
         0
     }

@@ -16,7 +16,8 @@ use super::LevelArgs;
 
 #[derive(Debug, Args)]
 pub struct VisArgs {
-    /// Levels: .gltf, .glb, .obj, .usd*, or a Quake portal file .prt (PRT1, PRT2, PRT1-AM).
+    /// Levels: .gltf, .glb, .obj, .map (Quake-family brush maps), .usd*, or a Quake portal file
+    /// .prt (PRT1, PRT2, PRT1-AM).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 

@@ -365,11 +365,8 @@ impl<'a> Builder<'a> {
     fn point_entity(&mut self, e: &parse::Entity) {
         let class = e.classname();
         let origin = e.get("origin").and_then(parse_vec3);
+        // An entity with no place (worldspawn, a target list, a light style): nothing to stand.
         let Some(origin) = origin else {
-            if class != "worldspawn" {
-                // An entity with no place (a target list, a light style): nothing to stand.
-                return;
-            }
             return;
         };
         let yaw = e
