@@ -829,11 +829,14 @@ impl Level {
             }
         }
         // A view pinched to a line or a point sees nothing. Each clip keeps a hair (EPS) of
-        // slack, so a pinched view is a sliver a few hairs wide, not an empty one: an eye on
+        // slack, so a pinched view is a sliver some hairs wide, not an empty one: an eye on
         // the plane through aligned portal edges saw through a chain of 11 portals along it
-        // (Freedoom E1M2, cells the stored PVS rightly leaves out). A view no wider than four
-        // hairs on average is pinched; a pixel is 10^5 hairs wide.
-        if clip::area2(f) <= 4.0 * EPS * clip::perimeter2(f) {
+        // (Freedoom E1M2, cells the stored PVS rightly leaves out). The threshold sits far
+        // above what the slack can add up to (a hair per clip) and far below a pixel (10^6
+        // hairs), so rounding never decides it: at four hairs, turning the level and the
+        // camera together by 30 degrees showed or hid such slivers (Freedoom MAP01).
+        const PINCH: f64 = 1e-6;
+        if clip::area2(f) <= PINCH * clip::perimeter2(f) {
             return None;
         }
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
