@@ -4,6 +4,7 @@
 //!
 //! - the world's brushes (`worldspawn`, `func_group`) are closed solids of one room, `world`
 //!   (a `_portcullis_room` key on a `func_group` puts its brushes in a room of that name);
+//!   every other brush entity goes in the room it stands in (`rooms.rs`);
 //!   extras `solid` on each, so that even a map of one brush is read as solid, and
 //!   `structure`, so that no loose brush is taken for a prop (qbsp has none);
 //! - `func_detail*` brushes, liquids (a `*` texture, or Quake 2 liquid, mist or window
@@ -44,6 +45,9 @@ use crate::scene::{Format, Material, Mesh, Node, NodeId, Primitive, Scene, Sourc
 
 mod brush;
 mod parse;
+mod rooms;
+
+use rooms::Rooms;
 
 /// Metres per map unit (Quake's inch).
 pub(crate) const METRES_PER_UNIT: f64 = 0.0254;
@@ -97,8 +101,9 @@ pub fn import(bytes: &[u8], path: &Path, scale: Option<f64>) -> Result<Imported,
         )
     })?;
     let mut b = Builder::new(path, scale);
+    let rooms = Rooms::read(&entities);
     for (ei, e) in entities.iter().enumerate() {
-        b.entity(ei, e)?;
+        b.entity(ei, e, &rooms)?;
     }
     if skipped > 0 {
         b.diags.push(
@@ -173,7 +178,7 @@ impl<'a> Builder<'a> {
         n
     }
 
-    fn entity(&mut self, ei: usize, e: &parse::Entity) -> Result<(), Diagnostic> {
+    fn entity(&mut self, ei: usize, e: &parse::Entity, rooms: &Rooms) -> Result<(), Diagnostic> {
         let class = e.classname().to_string();
         if e.brushes.is_empty() {
             self.point_entity(e);
@@ -182,30 +187,9 @@ impl<'a> Builder<'a> {
         if class != "worldspawn" {
             self.brush_entity_occupant(e);
         }
-        let room_name = match class.as_str() {
-            "func_group" => e.get("_portcullis_room").unwrap_or("world"),
-            _ => "world",
-        }
-        .to_string();
-        let parent = self.room(&room_name, e.line);
-        // id Tech 4 writes an entity's brushes about its origin (not the world's).
-        let offset = (class != "worldspawn")
-            .then(|| e.get("origin").and_then(parse_vec3))
-            .flatten()
-            .unwrap_or(DVec3::ZERO);
+        let mut built = Vec::with_capacity(e.brushes.len());
         for (bi, b) in e.brushes.iter().enumerate() {
-            let moved;
-            let b = if b.relative && offset != DVec3::ZERO {
-                let mut m = b.clone();
-                for f in &mut m.faces {
-                    f.dist += DVec3::from_array(f.normal).dot(offset);
-                }
-                moved = m;
-                &moved
-            } else {
-                b
-            };
-            let role = role(&class, b);
+            let b = rooms::placed(e, b);
             if b.faces.len() > brush::MAX_BRUSH_FACES {
                 return Err(Diagnostic::new(
                     Code::MAP_BRUSH_INVALID,
@@ -228,7 +212,20 @@ impl<'a> Builder<'a> {
                 )
                 .hint("fix or delete the brush in the editor")
             })?;
-            let mesh = self.mesh(&b.faces, &rings, b.line);
+            built.push((b, rings));
+        }
+        let room_name = match rooms::made_by(e) {
+            Some(n) => n.to_string(),
+            None => {
+                let boxes = built.iter().filter_map(|(_, r)| rooms::bounds(r));
+                let at = boxes.reduce(|(a, b), (c, d)| (a.min(c), b.max(d)));
+                rooms.of(e, at)
+            }
+        };
+        let parent = self.room(&room_name, e.line);
+        for (bi, (b, rings)) in built.iter().enumerate() {
+            let role = role(&class, b);
+            let mesh = self.mesh(&b.faces, rings, b.line);
             let mut extras = Map::new();
             match role {
                 // A world brush is a solid block, judged as any level's blocks are: a loose
@@ -338,15 +335,8 @@ impl<'a> Builder<'a> {
                 .iter()
                 .find(|b| b.faces.iter().all(|f| texture_name(&f.texture) == "origin"))
                 .and_then(|b| brush::polygons(&b.faces))
-                .map(|rings| {
-                    let pts: Vec<DVec3> =
-                        rings.iter().flat_map(|(r, _)| r.iter().copied()).collect();
-                    let (lo, hi) = pts.iter().fold(
-                        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-                        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-                    );
-                    (lo + hi) * 0.5
-                })
+                .and_then(|rings| rooms::bounds(&rings))
+                .map(|(lo, hi)| (lo + hi) * 0.5)
         });
         let Some(origin) = origin.filter(|o| occupies(e, *o)) else {
             return;
