@@ -147,3 +147,116 @@ fn a_door_stays_a_gate_of_the_func_group_room_it_stands_in() {
         assert_eq!(p.portals.iter().filter(|q| q.door).count(), 4, "{name}");
     }
 }
+
+/// One worldspawn brush, a 64-unit cube from `o` (map units), as text.
+fn cube_map(o: [f64; 3]) -> String {
+    let (x0, y0, z0) = (o[0], o[1], o[2]);
+    let (x1, y1, z1) = (x0 + 64.0, y0 + 64.0, z0 + 64.0);
+    let faces = [
+        [[x1, y0, z0], [x1, y0, z1], [x1, y1, z0]],
+        [[x0, y0, z0], [x0, y1, z0], [x0, y0, z1]],
+        [[x0, y0, z0], [x0, y0, z1], [x1, y0, z0]],
+        [[x0, y1, z0], [x1, y1, z0], [x0, y1, z1]],
+        [[x0, y0, z0], [x1, y0, z0], [x0, y1, z0]],
+        [[x0, y0, z1], [x0, y1, z1], [x1, y0, z1]],
+    ];
+    let mut t = String::from("{\n\"classname\" \"worldspawn\"\n{\n");
+    for f in faces {
+        for p in f {
+            t += &format!("( {:?} {:?} {:?} ) ", p[0], p[1], p[2]);
+        }
+        t += "a 0 0 0 1 1\n";
+    }
+    t + "}\n}\n"
+}
+
+/// Item 9: a brush at 1e300 is too far out (not "collinear"), a brush past ±1,048,576 lies
+/// beyond the map (not "encloses no volume"); a cube missing a face is open.
+#[test]
+fn a_brush_too_far_out_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let open = cube_map([0.0; 3]).replacen(
+        "( 0.0 0.0 0.0 ) ( 64.0 0.0 0.0 ) ( 0.0 64.0 0.0 ) a 0 0 0 1 1\n",
+        "",
+        1,
+    );
+    for (name, text, says, not) in [
+        (
+            "e300.map",
+            cube_map([1e300; 3]),
+            "1e300 units from the origin",
+            "collinear",
+        ),
+        (
+            "far.map",
+            cube_map([2e6, 0.0, 0.0]),
+            "lies beyond ±1048576 units",
+            "encloses no volume",
+        ),
+        (
+            "open.map",
+            open,
+            "is open: its planes do not close it",
+            "encloses no volume",
+        ),
+    ] {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let o = portcullis().arg("check").arg(&path).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.contains("MAP_BRUSH_INVALID") && err.contains(says),
+            "{name}: {err}"
+        );
+        assert!(!err.contains(not), "{name}: {err}");
+    }
+}
+
+/// Item 10: a leak in a brush map is placed in map units too (what the editor shows), in the
+/// text and in the JSON report; a glTF level, already in metres, gets no second position.
+#[test]
+fn a_leak_in_a_brush_map_is_placed_in_map_units() {
+    let text = std::fs::read_to_string(sample("brush_doors.map")).unwrap();
+    // The first brush is room A's floor (map z -16..0 under x, y 0..256): without it, room A
+    // leaks through a hole whose middle is map (128, 128, 0).
+    let i = text.find("{\n(").unwrap();
+    let j = i + text[i..].find("}\n").unwrap() + 2;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("floorless.map");
+    std::fs::write(&path, format!("{}{}", &text[..i], &text[j..])).unwrap();
+    let o = portcullis()
+        .args(["check", "--sealed"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(
+        out.contains("at (3.2512, 0.0000, -3.2512), (128.0, 128.0, 0.0) in the file's units"),
+        "{out}"
+    );
+    let o = portcullis()
+        .args(["check", "--sealed", "--format", "json"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let leak = &r["files"][0]["diagnostics"][0];
+    assert_eq!(leak["code"], "LEAK");
+    assert_eq!(
+        leak["location"]["file_position"],
+        serde_json::json!([128.0, 128.0, 0.0])
+    );
+    let o = portcullis()
+        .args(["check", "--sealed", "--format", "json"])
+        .arg(common::root().join("samples/broken/LEAK/level.gltf"))
+        .output()
+        .unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let leak = &r["files"][0]["diagnostics"][0];
+    assert!(
+        leak["location"]["position"].is_array() && leak["location"].get("file_position").is_none(),
+        "{leak}"
+    );
+}

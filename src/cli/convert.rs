@@ -150,6 +150,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
         level.diagnostics.extend(d);
         (path, text)
     });
+    level.diagnostics.in_file_units(level.tagged.scene.to_file);
     let diagnostics = policy.apply(level.diagnostics.0.clone());
     // The outputs that show the problem are written whatever the verdict; the products only
     // when the run will exit 0, so a failed run never leaves one for the next step to take.
@@ -322,6 +323,7 @@ fn convert_to_prt(a: &ConvertArgs, input: &Path, out: &Path) -> Result<Outcome, 
     let mut level = pipeline::build(tagged);
     let (text, d) = portcullis::prt::write(level.cells.cells.len(), &level.portals, out);
     level.diagnostics.extend(d);
+    level.diagnostics.in_file_units(level.tagged.scene.to_file);
     let fails = level.diagnostics.0.iter().any(|d| {
         d.severity == Severity::Error || (a.deny.is_some() && d.severity == Severity::Warning)
     });

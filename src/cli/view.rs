@@ -51,6 +51,7 @@ pub fn build_page(
         built.diagnostics.extend(audit.diagnostics);
         sightlines = audit.lines;
     }
+    built.diagnostics.in_file_units(built.tagged.scene.to_file);
     let diagnostics = built.diagnostics.0.clone();
     let title = input.file_name().map_or_else(
         || input.display().to_string(),

@@ -62,7 +62,7 @@ codes! {
     OBJ_BAD_STATEMENT = Error, "an OBJ statement cannot be parsed";
     OBJ_BAD_INDEX = Error, "an OBJ face refers to a vertex that does not exist";
     MAP_SYNTAX = Error, "the brush map's text cannot be parsed";
-    MAP_BRUSH_INVALID = Error, "a brush of the map is no closed solid (collinear face points, fewer than four planes, open or flat)";
+    MAP_BRUSH_INVALID = Error, "a brush of the map is no closed solid (collinear face points, fewer than four planes, open, flat, or beyond ±1,048,576 units)";
     CONFIG_INVALID = Error, "the configuration file does not parse or does not follow its schema";
     CONFIG_NOT_FOUND = Error, "the configuration file given with --config does not exist";
     TAGS_PRESET_UNKNOWN = Error, "the tag preset named does not exist";

@@ -88,6 +88,10 @@ pub struct Location {
     /// A world point (m) the problem is at, for the debug outputs and viewer.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub position: Option<[f64; 3]>,
+    /// The same point in the file's own units, when they are not the scene's metres with Y
+    /// up (a brush map's units, Z up): what the editor shows. See [`Diagnostics::in_file_units`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file_position: Option<[f64; 3]>,
 }
 
 impl Location {
@@ -155,6 +159,9 @@ impl fmt::Display for Location {
                 if wrote { " " } else { "" }
             )?;
         }
+        if let Some([x, y, z]) = self.file_position {
+            write!(f, ", ({x:.1}, {y:.1}, {z:.1}) in the file's units")?;
+        }
         Ok(())
     }
 }
@@ -219,6 +226,19 @@ impl std::error::Error for Diagnostic {}
 pub struct Diagnostics(pub Vec<Diagnostic>);
 
 impl Diagnostics {
+    /// Gives every position its point in the file's own units (`to_file`: the scene's
+    /// `to_file`; `None` for a file in metres, Y up, which needs none), so that a leak in a
+    /// brush map is found where the editor shows it.
+    pub fn in_file_units(&mut self, to_file: Option<glam::DMat4>) {
+        let Some(m) = to_file else { return };
+        for d in &mut self.0 {
+            if let Some(p) = d.location.position {
+                let q = m.transform_point3(glam::DVec3::from_array(p));
+                d.location.file_position = Some(q.to_array());
+            }
+        }
+    }
+
     /// Adds one, after those already there.
     pub fn push(&mut self, d: Diagnostic) {
         self.0.push(d);

@@ -44,6 +44,7 @@ pub fn check_file(mut t: Tagged, opts: &GateOptions) -> Checked {
             let audit = super::audit(&level, &pvs, opts.rays);
             level.diagnostics.extend(audit.diagnostics);
         }
+        level.diagnostics.in_file_units(level.tagged.scene.to_file);
         return Checked {
             counts: Some((level.cells.cells.len(), level.portals.portals.len())),
             diagnostics: level.diagnostics,
@@ -71,6 +72,7 @@ pub fn check_file(mut t: Tagged, opts: &GateOptions) -> Checked {
             t.diagnostics.extend(audit.diagnostics);
         }
     }
+    t.diagnostics.in_file_units(t.scene.to_file);
     checked.diagnostics = t.diagnostics;
     checked
 }

@@ -12,7 +12,7 @@ use crate::geom::polyhedron::ConvexPolyhedron;
 
 /// Map coordinates reach ±32768 in every engine of the family; a brush is clipped out of a box
 /// well beyond that.
-const WORLD: f64 = 1_048_576.0;
+pub(super) const WORLD: f64 = 1_048_576.0;
 
 /// Map units within which two corners of one brush are one point (qbsp welds at 1e-4 and
 /// ignores planes nearer than that).
@@ -23,9 +23,40 @@ const WELD: f64 = 1e-5;
 /// take 20. Editors write a few dozen at most; ericw-tools' test maps at most 362.
 pub(super) const MAX_BRUSH_FACES: usize = 1024;
 
-/// A brush as polygons (map units), each with the index of its face; `None` when the planes
-/// enclose no volume (fewer than four that matter, open, or flat).
-pub(super) fn polygons(faces: &[Face]) -> Option<Vec<(Vec<DVec3>, usize)>> {
+/// Why a brush's planes make no closed solid: each says what the mapper sees in the editor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum NotSolid {
+    /// Fewer than four distinct planes (the count).
+    FewPlanes(usize),
+    /// A plane lies beyond `WORLD`, where no engine of the family reaches.
+    Beyond,
+    /// Nothing lies behind every plane (inverted or contradictory faces, or a flat brush).
+    Empty,
+    /// The planes leave it open on some side.
+    Open,
+}
+
+impl NotSolid {
+    /// What is wrong, to follow "brush N of entity M (`class`)".
+    pub fn message(self) -> String {
+        match self {
+            NotSolid::FewPlanes(n) => format!(
+                "has {n} distinct plane(s): a closed brush needs at least four"
+            ),
+            NotSolid::Beyond => format!(
+                "lies beyond ±{WORLD} units of the map's origin, farther than any engine of the Quake family reaches (±32768)"
+            ),
+            NotSolid::Empty => {
+                "encloses no volume: no point lies behind all its planes (it is flat, or a face points inwards)".into()
+            }
+            NotSolid::Open => "is open: its planes do not close it on every side".into(),
+        }
+    }
+}
+
+/// A brush as polygons (map units), each with the index of its face, or why its planes make
+/// no closed solid.
+pub(super) fn polygons(faces: &[Face]) -> Result<Vec<(Vec<DVec3>, usize)>, NotSolid> {
     let mut planes: Vec<(Plane, usize)> = Vec::new();
     for (k, f) in faces.iter().enumerate() {
         let p = Plane {
@@ -38,22 +69,31 @@ pub(super) fn polygons(faces: &[Face]) -> Option<Vec<(Vec<DVec3>, usize)>> {
         }
     }
     if planes.len() < 4 {
-        return None;
+        return Err(NotSolid::FewPlanes(planes.len()));
     }
+    // Past the box a brush is clipped out of, it is empty or open there for that reason.
+    let beyond = |e: NotSolid| match planes
+        .iter()
+        .any(|(p, _)| p.d.is_nan() || p.d.abs() >= WORLD)
+    {
+        true => NotSolid::Beyond,
+        false => e,
+    };
     let bounds = Aabb {
         min: DVec3::splat(-WORLD),
         max: DVec3::splat(WORLD),
     };
     let mut poly = ConvexPolyhedron::from_aabb(&bounds);
     for (p, _) in &planes {
-        poly = poly.clip(p, WELD)?;
+        poly = poly.clip(p, WELD).ok_or_else(|| beyond(NotSolid::Empty))?;
     }
     // A face of the starting box that survived: the planes do not close the brush.
     let mut out = Vec::new();
     for f in &poly.faces {
         let (_, k) = planes
             .iter()
-            .find(|(p, _)| p.same_as(&f.plane, 1e-3, 1e-6))?;
+            .find(|(p, _)| p.same_as(&f.plane, 1e-3, 1e-6))
+            .ok_or_else(|| beyond(NotSolid::Open))?;
         out.push((f.points.clone(), *k));
     }
     weld(&mut out);
@@ -64,7 +104,10 @@ pub(super) fn polygons(faces: &[Face]) -> Option<Vec<(Vec<DVec3>, usize)>> {
         }
     }
     out.retain(|(ring, _)| ring.len() >= 3);
-    (out.len() >= 4).then_some(out)
+    match out.len() >= 4 {
+        true => Ok(out),
+        false => Err(NotSolid::Empty),
+    }
 }
 
 /// Corners closer than `WELD` become the first of them, and a ring drops a corner that
@@ -139,7 +182,7 @@ mod tests {
             face([0.0, -1.0, 0.0], 0.0),
             face([0.0, 0.0, 1.0], 16.0),
         ];
-        assert!(polygons(&open).is_none());
-        assert!(polygons(&open[..3]).is_none());
+        assert_eq!(polygons(&open), Err(NotSolid::Open));
+        assert_eq!(polygons(&open[..3]), Err(NotSolid::FewPlanes(3)));
     }
 }

@@ -94,7 +94,7 @@ pub fn import(bytes: &[u8], path: &Path, scale: Option<f64>) -> Result<Imported,
         };
         Diagnostic::new(code, e.message, Location::file(path).with_line(e.line)).hint(
             if e.brush {
-                "fix or delete the brush in the editor (three points of a face must not lie on one line)"
+                "fix or delete the brush in the editor (the three points of a face must lie within the map and not on one line)"
             } else {
                 "the file is not a brush map the Quake-family editors write; open and save it again in the editor"
             },
@@ -202,15 +202,17 @@ impl<'a> Builder<'a> {
                 )
                 .hint("split it into brushes of fewer faces (a round shape of many sides is usually several brushes)"));
             }
-            let rings = brush::polygons(&b.faces).ok_or_else(|| {
+            let rings = brush::polygons(&b.faces).map_err(|why| {
+                let hint = match why {
+                    brush::NotSolid::Beyond => "move the brush into the map, or delete it",
+                    _ => "fix or delete the brush in the editor",
+                };
                 Diagnostic::new(
                     Code::MAP_BRUSH_INVALID,
-                    format!(
-                        "brush {bi} of entity {ei} (`{class}`) encloses no volume: its planes are fewer than four, leave it open or flatten it"
-                    ),
+                    format!("brush {bi} of entity {ei} (`{class}`) {}", why.message()),
                     Location::file(self.path).with_line(b.line),
                 )
-                .hint("fix or delete the brush in the editor")
+                .hint(hint)
             })?;
             built.push((b, rings));
         }
@@ -334,7 +336,7 @@ impl<'a> Builder<'a> {
             e.brushes
                 .iter()
                 .find(|b| b.faces.iter().all(|f| texture_name(&f.texture) == "origin"))
-                .and_then(|b| brush::polygons(&b.faces))
+                .and_then(|b| brush::polygons(&b.faces).ok())
                 .and_then(|rings| rooms::bounds(&rings))
                 .map(|(lo, hi)| (lo + hi) * 0.5)
         });

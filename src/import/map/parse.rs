@@ -429,7 +429,23 @@ fn face_through(
     let n = cross(u, v);
     let len = dot(n, n).sqrt();
     let scale = dot(u, u).sqrt() * dot(v, v).sqrt();
-    if len <= 1e-12 * scale.max(1e-300) || len == 0.0 {
+    let flat = !len.is_finite() || len <= 1e-12 * scale.max(1e-300) || len == 0.0;
+    let far = [a, b, c]
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    if flat && (far.is_nan() || far >= super::brush::WORLD) {
+        // Points so far out that their differences round away: the distance is the fault.
+        return Err(Error {
+            line,
+            message: format!(
+                "a point of the face lies {far:e} units from the origin, beyond ±{}: too far out to give a plane (the engines of the Quake family reach ±32768)",
+                super::brush::WORLD
+            ),
+            brush: true,
+        });
+    }
+    if flat {
         return Err(Error {
             line,
             message: "the face's three points are collinear: they give no plane".into(),

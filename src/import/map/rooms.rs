@@ -83,7 +83,9 @@ impl Rooms {
                         continue;
                     }
                     let b = placed(e, b);
-                    if let Some((lo, hi)) = brush::polygons(&b.faces).as_deref().and_then(bounds) {
+                    if let Some((lo, hi)) =
+                        brush::polygons(&b.faces).ok().as_deref().and_then(bounds)
+                    {
                         boxes[i] = (boxes[i].0.min(lo), boxes[i].1.max(hi));
                     }
                 }
