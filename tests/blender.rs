@@ -74,11 +74,12 @@ fn run_addon_script(test: &str, extra: &[&str]) -> Option<String> {
 
 /// Two rooms through a doorway, built and tagged through the add-on's operators, exported
 /// through the add-on: 2 cells and a portal pair in the written file; the debug glTF in its
-/// collection (each of its meshes an object, replaced on the next run); the doorway's portal
-/// moved onto a wall is named by a diagnostic, whose object the add-on selects; the viewer's
-/// page is written for the browser; with the preference on, the glTF exporter's own export is
-/// converted (its post-export hook); a missing binary is the tool's failure, not the level's
-/// errors.
+/// collection (each of its meshes an object, replaced on the next run); the viewer's page is
+/// written for the browser; a script's `export(filepath=...)` writes there, and File > Export
+/// lists the operator (its browser on the panel's path); the doorway's portal moved onto a
+/// wall is named by a diagnostic, whose object the add-on selects; with the preference on, the
+/// glTF exporter's own export is converted (its post-export hook); a missing binary is the
+/// tool's failure, not the level's errors.
 #[test]
 fn the_addon_tags_exports_checks_and_shows_in_blender() {
     let Some(text) = run_addon_script("the_addon_tags_exports_checks_and_shows_in_blender", &[])
@@ -89,6 +90,7 @@ fn the_addon_tags_exports_checks_and_shows_in_blender() {
         "exported: 2 cells, 2 portals in the doorway",
         "debug collection: 4 objects",
         "viewer page: level.html",
+        "export(filepath=...): 2 cells in chosen/by_script.glb; in File > Export as portcullis.export",
         "broken: ['PORTAL_AUTHORED_UNMATCHED', 'TAG_PORTAL_NO_SOURCE'] on `Door`, selected by the add-on",
         "the exporter's hook converted hooked.glb",
         "all add-on checks passed",
