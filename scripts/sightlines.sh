@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's sightline table: `check --sightlines N` (default 5000 rays from each cell) on
+# The sightline table of docs/sightlines.md: `check --sightlines N` (default 5000 rays from each cell) on
 # every bundled sample, every shared level (../shared/levels, the Doom maps under --tags doom)
 # and a generated 300-room building, as one Markdown table: cells, the PVS's pairs of
 # different cells, the share some ray confirmed, and the sightlines the PVS misses (must be 0).

@@ -1004,3 +1004,172 @@ fn the_map_readers_see_lists_and_type_names() {
         vec!["CellSet", "Pvs", "Scene"]
     );
 }
+
+/// Longest the README may be, in lines: the front page says what the tool is, how to run it
+/// and where the rest is; tables and long sections live in docs/ (issue 53).
+const README_MAX_LINES: usize = 200;
+
+/// Largest ARCHITECTURE.md may be, in bytes: a map of the code and its invariants, not a diary.
+const ARCHITECTURE_MAX_BYTES: usize = 15_000;
+
+#[test]
+fn the_readme_and_the_architecture_map_stay_short() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut over = Vec::new();
+    let lines = std::fs::read_to_string(root.join("README.md"))
+        .unwrap()
+        .lines()
+        .count();
+    if lines > README_MAX_LINES {
+        over.push(format!(
+            "README.md is {lines} lines, over {README_MAX_LINES}: move detail into docs/ and link it"
+        ));
+    }
+    let bytes = std::fs::metadata(root.join("ARCHITECTURE.md"))
+        .unwrap()
+        .len() as usize;
+    if bytes > ARCHITECTURE_MAX_BYTES {
+        over.push(format!(
+            "ARCHITECTURE.md is {bytes} bytes, over {ARCHITECTURE_MAX_BYTES}: tighten it"
+        ));
+    }
+    assert!(over.is_empty(), "{}", over.join("\n"));
+}
+
+/// Each `pub` function of `text` (not `pub(crate)` or `pub(super)`) whose return type is
+/// `Result<_, String>`, with its name and line. The signature is read from `pub` through its
+/// body's `{` (or its `;`), across lines, code only.
+fn pub_fns_returning_string_errors(text: &str) -> Vec<(String, usize)> {
+    let lines = code_lines(&without_test_items(text));
+    let mut out = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        let t = line.trim_start();
+        let Some(rest) = t.strip_prefix("pub ") else {
+            continue;
+        };
+        let rest = ["const ", "async ", "unsafe ", "extern \"\" "]
+            .iter()
+            .fold(rest, |r, q| r.strip_prefix(q).unwrap_or(r));
+        let Some(rest) = rest.strip_prefix("fn ") else {
+            continue;
+        };
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let mut signature = String::new();
+        for l in &lines[i..] {
+            let end = l.find(['{', ';']);
+            signature.push_str(&l[..end.unwrap_or(l.len())]);
+            signature.push(' ');
+            if end.is_some() {
+                break;
+            }
+        }
+        // The return type follows the parameter list's closing parenthesis, after any generics
+        // (a parameter or a bound may be a closure with an arrow of its own).
+        let signature = signature.replace("->", "→");
+        let after_name =
+            &signature[signature.find(&format!("fn {name}")).unwrap() + 3 + name.len()..];
+        let Some(ret) = after_generics_and_parameters(after_name)
+            .and_then(|r| r.trim_start().strip_prefix('→'))
+        else {
+            continue;
+        };
+        let ret: String = ret
+            .split(" where ")
+            .next()
+            .unwrap()
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect::<String>()
+            .replace(",>", ">");
+        let string_error = ret
+            .strip_suffix(",String>")
+            .or_else(|| ret.strip_suffix(",std::string::String>"))
+            .is_some_and(|r| {
+                ["Result<", "std::result::Result<", "core::result::Result<"]
+                    .iter()
+                    .any(|p| r.starts_with(p))
+            });
+        if string_error {
+            out.push((name, i + 1));
+        }
+    }
+    out
+}
+
+/// What follows a function's generics (`<..>`, if any) and parameter list (`(..)`), in a
+/// signature whose arrows are written `→` (so `>` only closes generics).
+fn after_generics_and_parameters(sig: &str) -> Option<&str> {
+    let mut depth = 0;
+    let mut rest = sig.trim_start();
+    if rest.starts_with('<') {
+        let end = rest.char_indices().find_map(|(k, c)| {
+            match c {
+                '<' => depth += 1,
+                '>' => depth -= 1,
+                _ => return None,
+            }
+            (depth == 0).then_some(k)
+        })?;
+        rest = &rest[end + 1..];
+    }
+    let rest = rest.trim_start();
+    if !rest.starts_with('(') {
+        return None;
+    }
+    let end = rest.char_indices().find_map(|(k, c)| {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            _ => return None,
+        }
+        (depth == 0).then_some(k)
+    })?;
+    Some(&rest[end + 1..])
+}
+
+#[test]
+fn no_public_function_returns_a_string_error() {
+    let mut found = Vec::new();
+    for (rel, text) in production_sources() {
+        for (name, line) in pub_fns_returning_string_errors(&text) {
+            found.push(format!("src/{}:{line}: `{name}`", rel.display()));
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "public functions returning `Result<_, String>` (give the error a type the caller can \
+         match on, with Display for the message):\n{}",
+        found.join("\n")
+    );
+}
+
+#[test]
+fn the_string_error_finder_reads_signatures_across_lines() {
+    let text = "pub fn a(x: &str) -> Result<(), String> {\n}\n\
+                pub fn b(\n    x: &str,\n) -> Result<\n    Vec<u8>,\n    String,\n> {\n}\n\
+                pub(crate) fn c() -> Result<(), String> {\n}\n\
+                fn d() -> Result<(), String> {\n}\n\
+                pub fn e() -> Result<String, Error> {\n}\n\
+                pub fn f() -> Result<Option<String>, E> {\n}\n\
+                pub fn g() -> std::result::Result<u8, String>;\n\
+                pub fn h() -> Result<(), String> where T: Copy {\n}\n\
+                #[cfg(test)]\npub fn i() -> Result<(), String> {\n}\n\
+                pub fn j() -> u8 { let s: Result<(), String> = Ok(()); 0 }\n\
+                pub fn k(f: impl Fn() -> u8) -> Result<u8, String> {\n}\n\
+                pub fn l(f: impl Fn() -> Result<(), String>) -> u8 {\n}\n\
+                pub fn m<F: Fn(u8) -> u8, T: Into<Vec<u8>>>(f: F) -> Result<T, String> {\n}\n";
+    assert_eq!(
+        pub_fns_returning_string_errors(text),
+        vec![
+            ("a".to_string(), 1),
+            ("b".to_string(), 3),
+            ("g".to_string(), 18),
+            ("h".to_string(), 19),
+            ("k".to_string(), 25),
+            ("m".to_string(), 29)
+        ]
+    );
+}

@@ -7,7 +7,7 @@ bl_info = {
     "author": "portcullis developers",
     "version": (0, 1, 0),
     "blender": (4, 2, 0),
-    "location": "3D Viewport > Sidebar > portcullis",
+    "location": "3D Viewport > Sidebar > portcullis; File > Export",
     "description": "Cells and portals for game levels: tag, export, check and see",
     "category": "Import-Export",
 }
@@ -20,6 +20,7 @@ from pathlib import Path
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, IntProperty,
                        StringProperty)
+from bpy_extras.io_utils import ExportHelper
 
 from . import cli, tagging
 
@@ -167,14 +168,30 @@ def run_portcullis(context, exported):
     return True
 
 
-class PORTCULLIS_OT_export(bpy.types.Operator):
+class PORTCULLIS_OT_export(bpy.types.Operator, ExportHelper):
     """Export the scene as glTF, then convert and check it with portcullis"""
     bl_idname = "portcullis.export"
     bl_label = "Export glTF with portals"
 
+    # Blender's exporters' convention (ExportHelper): `filepath`, which a script passes
+    # (`bpy.ops.portcullis.export(filepath=...)`) and File > Export's browser fills. Not
+    # remembered between runs: without it, the export goes to the panel's glTF file.
+    filepath: StringProperty(name="File Path", subtype="FILE_PATH", maxlen=1024,
+                             options={"SKIP_SAVE"})
+    filename_ext = ".glb"
+    filter_glob: StringProperty(default="*.glb", options={"HIDDEN"})
+
+    def invoke(self, context, event):
+        # The file browser opens on the panel's glTF file.
+        state = context.scene.portcullis
+        if not self.filepath and state.filepath:
+            self.filepath = bpy.path.abspath(state.filepath)
+        return ExportHelper.invoke(self, context, event)
+
     def execute(self, context):
         state = context.scene.portcullis
-        path = Path(bpy.path.abspath(state.filepath)) if state.filepath else \
+        chosen = self.filepath or state.filepath
+        path = Path(bpy.path.abspath(chosen)) if chosen else \
             Path(tempfile.mkdtemp(prefix="portcullis-")) / "level.glb"
         path.parent.mkdir(parents=True, exist_ok=True)
         global _EXPORTING
@@ -188,6 +205,12 @@ class PORTCULLIS_OT_export(bpy.types.Operator):
         ok = run_portcullis(context, path)
         self.report({"INFO" if ok and state.exit_code == 0 else "WARNING"}, state.status)
         return {"FINISHED"} if ok else {"CANCELLED"}
+
+
+def menu_export(self, context):
+    """File > Export's entry: the file browser, on the panel's glTF file."""
+    self.layout.operator(PORTCULLIS_OT_export.bl_idname,
+                         text="glTF with cells and portals (portcullis) (.glb)")
 
 
 class PORTCULLIS_OT_select(bpy.types.Operator):
@@ -296,7 +319,10 @@ class PORTCULLIS_PT_panel(bpy.types.Panel):
         col.prop(state, "filepath")
         col.prop(state, "preset")
         col.prop(state, "sealed")
+        # One click: the panel's button exports to the glTF file above, with no file browser.
+        col.operator_context = "EXEC_DEFAULT"
         col.operator("portcullis.export", icon="EXPORT")
+        col.operator_context = "INVOKE_DEFAULT"
         if state.status:
             col.label(text=state.status)
         for f in state.found:
@@ -343,9 +369,11 @@ def register():
     for c in CLASSES:
         bpy.utils.register_class(c)
     bpy.types.Scene.portcullis = bpy.props.PointerProperty(type=PortcullisState)
+    bpy.types.TOPBAR_MT_file_export.append(menu_export)
 
 
 def unregister():
+    bpy.types.TOPBAR_MT_file_export.remove(menu_export)
     del bpy.types.Scene.portcullis
     for c in reversed(CLASSES):
         bpy.utils.unregister_class(c)

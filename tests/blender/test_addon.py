@@ -2,8 +2,9 @@
 with PORTCULLIS_BIN set to the binary under test and a scratch folder as the first argument.
 
 Builds two rooms through a doorway, tags them through the add-on's operators, exports through
-the add-on, and reads the written file's extension; breaks the level and selects the object a
-diagnostic names; imports the debug glTF into its collection and counts its objects. With a
+the add-on, and reads the written file's extension; exports with `filepath=` as a script does
+and finds the operator in File > Export; breaks the level and selects the object a diagnostic
+names; imports the debug glTF into its collection and counts its objects. With a
 second argument, also renders the level with its cells and portals to that PNG (the add-on's
 README screenshot)."""
 import json
@@ -171,10 +172,39 @@ if screenshot:
     bpy.ops.render.render(write_still=True)
     print(f"rendered {screenshot}")
 
+# As Blender's exporters: a script passes `filepath` (the panel's path stays as it is, and the
+# next export without one goes there again); File > Export lists the operator, whose file
+# browser opens on the panel's path; disabling the add-on takes the menu entry away.
+chosen = scratch / "chosen" / "by_script.glb"
+assert bpy.ops.portcullis.export(filepath=str(chosen)) == {"FINISHED"}, state.status
+assert chosen.exists() and state.exported == str(chosen), state.exported
+assert Path(state.output) == chosen.with_name("by_script.portals.glb"), state.output
+chosen_cells = len(glb_json(state.output)["extensions"]["PORTCULLIS_portals"]["cells"])
+assert chosen_cells == 2, chosen_cells
+assert state.filepath == str(scratch / "level.glb"), state.filepath
+import types
+menu_entries = []
+for draw in bpy.types.TOPBAR_MT_file_export._dyn_ui_initialize():
+    if draw.__module__.startswith("portcullis_blender"):
+        layout = types.SimpleNamespace(operator=lambda idname, **kw: menu_entries.append(idname))
+        draw(types.SimpleNamespace(layout=layout), bpy.context)
+assert menu_entries == ["portcullis.export"], menu_entries
+import portcullis_blender
+browsed = []
+fake_op = types.SimpleNamespace(filepath="", filename_ext=".glb")
+fake_context = types.SimpleNamespace(
+    scene=bpy.context.scene, blend_data=bpy.data,
+    window_manager=types.SimpleNamespace(fileselect_add=browsed.append))
+assert portcullis_blender.PORTCULLIS_OT_export.invoke(fake_op, fake_context, None) == {"RUNNING_MODAL"}
+assert browsed == [fake_op] and fake_op.filepath == str(scratch / "level.glb"), fake_op.filepath
+print(f"export(filepath=...): {chosen_cells} cells in chosen/{chosen.name}; "
+      f"in File > Export as {menu_entries[0]}")
+
 # Break it: the doorway's portal moved onto the lounge's end wall, where it covers no opening.
 door.location.x = 4.0
 door.location.x += 3.999
 assert bpy.ops.portcullis.export() == {"FINISHED"}, state.status
+assert Path(state.exported) == scratch / "level.glb", state.exported
 exported = [n.get("name") for n in glb_json(state.exported)["nodes"]]
 assert sorted(exported) == ["Door", "Kitchen", "Lounge"], exported
 named = [i for i, d in enumerate(state.diagnostics) if d.object_name == "Door"]
@@ -208,4 +238,8 @@ os.environ.pop("PORTCULLIS_BIN", None)
 os.environ["PATH"] = str(scratch)
 assert bpy.ops.portcullis.export() == {"CANCELLED"}
 assert state.exit_code == 2 and "not found" in state.status, state.status
+
+addon_utils.disable("portcullis_blender", default_set=True)
+assert not [f for f in bpy.types.TOPBAR_MT_file_export._dyn_ui_initialize()
+            if f.__module__.startswith("portcullis_blender")], "File > Export kept the entry"
 print("all add-on checks passed")
