@@ -260,3 +260,53 @@ fn a_leak_in_a_brush_map_is_placed_in_map_units() {
         "{leak}"
     );
 }
+
+/// A brush of `class` from `lo` to `hi` (map units), as an entity.
+fn brush_entity(class: &str, lo: [i64; 3], hi: [i64; 3]) -> String {
+    let (a, b) = (lo, hi);
+    format!(
+        "{{\n\"classname\" \"{class}\"\n{{\n( {0} {1} {2} ) ( {0} {4} {2} ) ( {0} {1} {5} ) d 0 0 0 1 1\n( {3} {1} {2} ) ( {3} {1} {5} ) ( {3} {4} {2} ) d 0 0 0 1 1\n( {0} {1} {2} ) ( {0} {1} {5} ) ( {3} {1} {2} ) d 0 0 0 1 1\n( {0} {4} {2} ) ( {3} {4} {2} ) ( {0} {4} {5} ) d 0 0 0 1 1\n( {0} {1} {2} ) ( {3} {1} {2} ) ( {0} {4} {2} ) d 0 0 0 1 1\n( {0} {1} {5} ) ( {0} {4} {5} ) ( {3} {1} {5} ) d 0 0 0 1 1\n}}\n}}\n",
+        a[0], a[1], a[2], b[0], b[1], b[2]
+    )
+}
+
+/// Item 6: in a brush map a detail brush buried wholly in a wall (1.5 m deep in a 2.4 m
+/// wall, past the half metre a wall may be thick and still show what lies in it) needs no
+/// cell and raises no `CELL_GEOMETRY_OUTSIDE` (qbsp draws it nowhere either); one flush with
+/// the wall's face is rendered by the cell it touches; geometry outside a glTF level's rooms
+/// is still reported.
+#[test]
+fn detail_buried_in_a_wall_is_no_noise_and_detail_on_a_face_is_rendered() {
+    let map = format!(
+        "{{\n\"classname\" \"worldspawn\"\n{}}}\n{}{}{{\n\"classname\" \"info_player_start\"\n\"origin\" \"64 64 32\"\n}}\n",
+        box_room([0, 0, 0], [128, 128, 128], 96),
+        brush_entity("func_detail", [-80, 32, 32], [-60, 64, 64]),
+        brush_entity("func_detail", [-16, 32, 32], [0, 64, 64]),
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("detail.map");
+    std::fs::write(&path, map).unwrap();
+    let o = portcullis().arg("check").arg(&path).output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(!out.contains("CELL_GEOMETRY_OUTSIDE"), "{out}");
+    let (t, c, _) = common::load_level(&path, None);
+    let node = |name: &str| {
+        (0..t.scene.nodes.len())
+            .find(|&n| t.scene.nodes[n].name.as_deref() == Some(name))
+            .unwrap()
+    };
+    let (buried, flush) = (node("func_detail 1 brush 0"), node("func_detail 2 brush 0"));
+    assert!(c.cells.iter().all(|c| !c.nodes.contains(&buried)));
+    assert!(
+        c.cells.iter().any(|c| c.nodes.contains(&flush)),
+        "the flush brush is drawn"
+    );
+    let o = portcullis()
+        .arg("check")
+        .arg(common::root().join("samples/broken/CELL_GEOMETRY_OUTSIDE.gltf"))
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert!(out.contains("CELL_GEOMETRY_OUTSIDE"), "{out}");
+}

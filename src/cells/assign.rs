@@ -3,7 +3,7 @@
 //! every cell they reach into; geometry outside every room goes to every cell it reaches
 //! into. What reaches into no cell but lies in a wall in front of a cell's face (the jambs
 //! of a door through a thick wall) goes to the cells it faces; geometry in no cell and
-//! facing none is reported.
+//! facing none is reported, except in a brush map, where it is buried in solid.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -117,8 +117,21 @@ pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, r
         c.nodes.retain(|n| !far.contains(n));
     }
     far.sort_unstable();
-    set.diagnostics
-        .extend(far.into_iter().map(|n| outside_diagnostic(scene, n)));
+    if !buried_in_solid(scene) {
+        set.diagnostics
+            .extend(far.into_iter().map(|n| outside_diagnostic(scene, n)));
+    }
+}
+
+/// Whether geometry in no cell, facing none, is buried in solid and needs no cell: in a brush
+/// map, as qbsp reads one, everything but the air the outside fill leaves is solid, so a
+/// detail brush in no cell lies wholly in a wall or in the filled void, and nothing can see
+/// it (e3m4 reported 240 such brushes, a qbsp user's noise). Detail touching a cell's face
+/// is in that cell, and detail in a wall facing a cell through an opening is that cell's, so
+/// neither comes here. In other formats the space outside the rooms is open, and geometry
+/// there (a crate left 30 m away) is reported.
+fn buried_in_solid(scene: &Scene) -> bool {
+    scene.format == crate::scene::Format::Map
 }
 
 /// `CELL_GEOMETRY_OUTSIDE` for node `n`, placed at the middle of its box.
@@ -290,10 +303,13 @@ pub(crate) fn find(
     }
     loose.0.into_iter().for_each(|(c, n)| lists[c].push(n));
     outside.extend(loose.1);
-    let diagnostics = outside
-        .into_iter()
-        .map(|n| outside_diagnostic(scene, n))
-        .collect();
+    let diagnostics = match buried_in_solid(scene) {
+        true => Vec::new(),
+        false => outside
+            .into_iter()
+            .map(|n| outside_diagnostic(scene, n))
+            .collect(),
+    };
     for l in &mut lists {
         l.sort_unstable();
         l.dedup();
