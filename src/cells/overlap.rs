@@ -96,6 +96,32 @@ fn minus(p: &ConvexPolyhedron, w: &ConvexPolyhedron, eps: f64) -> Vec<ConvexPoly
     out
 }
 
+/// The convex pieces of `loser` outside every one of `winners`, in turn. A piece a winner
+/// does not reach into is kept whole: cut by every winner's planes, the pieces of a large
+/// sector holding many small ones multiplied with each.
+fn cut_around(
+    loser: ConvexPolyhedron,
+    winners: &[ConvexPolyhedron],
+    eps: f64,
+) -> Vec<ConvexPolyhedron> {
+    let mut left = vec![loser];
+    for w in winners {
+        let wb = w.bounds();
+        left = left
+            .into_iter()
+            .flat_map(|p| {
+                let apart = !p.bounds().meets(&wb.grown(-eps))
+                    || p.intersection(w, eps).is_none_or(|x| !thick(&x, eps));
+                match apart {
+                    true => vec![p],
+                    false => minus(&p, w, eps),
+                }
+            })
+            .collect();
+    }
+    left
+}
+
 /// Whether a solid is thicker on average than `eps` (twice its volume over its surface).
 fn thick(p: &ConvexPolyhedron, eps: f64) -> bool {
     let area: f64 = p
@@ -165,11 +191,12 @@ pub(crate) fn resolve(
             continue;
         }
         ws.sort_by_key(|&w| key(w));
-        let mut left = vec![set.cells[l].poly.translated(-origin)];
-        for &w in ws.iter() {
-            let wp = set.cells[w].poly.translated(-origin);
-            left = left.iter().flat_map(|p| minus(p, &wp, eps)).collect();
-        }
+        let loser = set.cells[l].poly.translated(-origin);
+        let ws: Vec<ConvexPolyhedron> = ws
+            .iter()
+            .map(|&w| set.cells[w].poly.translated(-origin))
+            .collect();
+        let left = cut_around(loser, &ws, eps);
         pieces[l] = left.iter().map(|p| p.translated(origin)).collect();
     }
     // Renumber: a loser's pieces take its place, in order.
@@ -205,4 +232,72 @@ pub(crate) fn resolve(
         t.dedup();
     }
     took
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::aabb::Aabb;
+
+    fn cube(lo: [f64; 3], hi: [f64; 3]) -> ConvexPolyhedron {
+        ConvexPolyhedron::from_aabb(&Aabb {
+            min: DVec3::from_array(lo),
+            max: DVec3::from_array(hi),
+        })
+    }
+
+    /// The sectors' volume (they are placed apart: this asserts it).
+    fn overlap_free(ws: &[ConvexPolyhedron]) -> f64 {
+        for (i, a) in ws.iter().enumerate() {
+            for b in &ws[i + 1..] {
+                assert!(a.intersection(b, 1e-9).is_none_or(|x| x.volume() < 1e-9));
+            }
+        }
+        ws.iter().map(|w| w.volume()).sum()
+    }
+
+    /// Sixteen 1 m sectors inside a 10 m one: the large one is cut into the pieces around
+    /// them, its volume less theirs, each piece outside all of them, and each winner cuts
+    /// only the pieces it reaches into.
+    #[test]
+    fn a_large_cell_is_cut_only_where_its_winners_stand() {
+        let big = cube([0.0; 3], [10.0; 3]);
+        // Sixteen 1 m sectors, scattered (not on one grid, as a Doom map's are).
+        let mut ws = Vec::new();
+        for k in 0..16 {
+            let (x, y, z) = (
+                (k * 7 % 16) as f64 * 0.55 + 0.3,
+                (k * 5 % 16) as f64 * 0.55 + 0.3,
+                (k * 3 % 4) as f64 * 2.0 + 1.0,
+            );
+            ws.push(cube([x, y, z], [x + 1.0, y + 1.0, z + 1.0]));
+        }
+        let pieces = cut_around(big, &ws, 1e-9);
+        let v: f64 = pieces.iter().map(|p| p.volume()).sum();
+        assert!((v - (1000.0 - overlap_free(&ws))).abs() < 1e-6, "{v}");
+        // Cut by every winner's planes whether it reached in or not: 171 pieces.
+        assert!(pieces.len() <= 128, "{} pieces", pieces.len());
+        // Each winner leaves whole every piece it does not reach into.
+        for k in 1..ws.len() {
+            let before = cut_around(cube([0.0; 3], [10.0; 3]), &ws[..k], 1e-9);
+            let after = cut_around(cube([0.0; 3], [10.0; 3]), &ws[..=k], 1e-9);
+            for p in before
+                .iter()
+                .filter(|p| p.intersection(&ws[k], 1e-9).is_none())
+            {
+                let (b, v) = (p.bounds(), p.volume());
+                let kept = after.iter().any(|q| {
+                    (q.volume() - v).abs() < 1e-9
+                        && q.bounds().min.distance(b.min) < 1e-9
+                        && q.bounds().max.distance(b.max) < 1e-9
+                });
+                assert!(kept, "winner {k} cut a piece it does not reach: {b:?}");
+            }
+        }
+        for p in &pieces {
+            for w in &ws {
+                assert!(p.intersection(w, 1e-9).is_none_or(|x| x.volume() < 1e-9));
+            }
+        }
+    }
 }

@@ -356,9 +356,19 @@ pub(crate) fn clip_polygon(poly: &[DVec3], normal: DVec3, d: f64) -> Vec<DVec3> 
     out
 }
 
-/// The part of convex polygon `a` inside convex polygon `b` (both on one plane, `b` wound
-/// counter-clockwise about `normal`); fewer than three points when they do not overlap.
+/// The part of polygon `a` inside convex polygon `b` (both on one plane with `normal`, either
+/// winding); fewer than three points when they do not overlap. The one convex overlap: the
+/// block reading's shared faces and the authored portals' matching both use it.
 pub(crate) fn overlap(a: &[DVec3], b: &[DVec3], normal: DVec3) -> Vec<DVec3> {
+    let turn = b
+        .windows(2)
+        .skip(1)
+        .fold(DVec3::ZERO, |n, w| n + (w[0] - b[0]).cross(w[1] - b[0]));
+    let normal = if turn.dot(normal) < 0.0 {
+        -normal
+    } else {
+        normal
+    };
     let mut out = a.to_vec();
     for i in 0..b.len() {
         let (p, q) = (b[i], b[(i + 1) % b.len()]);
@@ -507,6 +517,34 @@ mod tests {
         assert_eq!(b.clip(&on_face, 1e-9).unwrap().faces.len(), 6);
         let away = Plane::from_point_normal(DVec3::new(1., 0., 0.), -DVec3::X).unwrap();
         assert!(b.clip(&away, 1e-9).is_none());
+    }
+
+    #[test]
+    fn overlap_is_the_shared_part_whichever_way_the_clip_polygon_turns() {
+        let sq = |x0: f64, y0: f64, s: f64| {
+            vec![
+                DVec3::new(x0, y0, 0.0),
+                DVec3::new(x0 + s, y0, 0.0),
+                DVec3::new(x0 + s, y0 + s, 0.0),
+                DVec3::new(x0, y0 + s, 0.0),
+            ]
+        };
+        let (a, b) = (sq(0.0, 0.0, 2.0), sq(1.0, 1.0, 2.0));
+        let mut b_cw = b.clone();
+        b_cw.reverse();
+        for (clip, normal) in [
+            (&b, DVec3::Z),
+            (&b_cw, DVec3::Z),
+            (&b, -DVec3::Z),
+            (&b_cw, -DVec3::Z),
+        ] {
+            let part = overlap(&a, clip, normal);
+            assert!(
+                (polygon_area(&part, normal) - 1.0).abs() < 1e-12,
+                "{part:?}"
+            );
+        }
+        assert!(overlap(&a, &sq(5.0, 5.0, 1.0), DVec3::Z).len() < 3);
     }
 
     #[test]

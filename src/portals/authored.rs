@@ -17,7 +17,6 @@ use crate::cells::CellSet;
 use crate::config::PortalsConfig;
 use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::aabb::Aabb;
-use crate::geom::boolean2::intersection;
 use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area, usable_polygon};
@@ -86,31 +85,19 @@ fn quad(scene: &Scene, node: NodeId, eps: f64) -> Option<Quad> {
     })
 }
 
-/// Overlap area of two coplanar-ish polygons, measured on `plane`.
-fn overlap(a: &[DVec3], b: &[DVec3], plane: &Plane, grid: f64) -> f64 {
-    let (u, v) = plane.basis();
-    let o = plane.normal * plane.d;
-    let to2 = |p: &DVec3| glam::DVec2::new((*p - o).dot(u), (*p - o).dot(v));
-    intersection(
-        &[a.iter().map(to2).collect()],
-        &[b.iter().map(to2).collect()],
-        grid,
-    )
-    .iter()
-    .map(|p| p.area())
-    .sum()
+/// Overlap area of an authored quad and a portal (both convex, near one plane), measured on
+/// `plane`: each projected onto it first, so a quad a hair off the portal's plane still meets it.
+fn overlap(a: &[DVec3], b: &[DVec3], plane: &Plane) -> f64 {
+    let onto = |p: &DVec3| *p - plane.normal * plane.distance(*p);
+    let (a, b): (Vec<DVec3>, Vec<DVec3>) =
+        (a.iter().map(onto).collect(), b.iter().map(onto).collect());
+    let part = crate::geom::polyhedron::overlap(&a, &b, plane.normal);
+    polygon_area(&part, plane.normal)
 }
 
 /// The derived two-way portals an authored quad lies on: parallel within `cos_tol`, within
 /// `reach` of its plane, and overlapping it by more than 1% of the smaller of the two.
-fn overlapping(
-    q: &Quad,
-    set: &PortalSet,
-    near: &BoxGrid,
-    reach: f64,
-    cos_tol: f64,
-    grid: f64,
-) -> Vec<usize> {
+fn overlapping(q: &Quad, set: &PortalSet, near: &BoxGrid, reach: f64, cos_tol: f64) -> Vec<usize> {
     let plane = Plane::from_point_normal(q.centre, q.normal).unwrap_or(Plane {
         normal: q.normal,
         d: 0.0,
@@ -126,7 +113,7 @@ fn overlapping(
         if dist > reach {
             continue;
         }
-        let a = overlap(&q.ring, &p.polygon, &plane, grid);
+        let a = overlap(&q.ring, &p.polygon, &plane);
         if a > 0.01 * p.area.min(polygon_area(&q.ring, q.normal)) {
             candidates.push(i);
         }
@@ -192,7 +179,6 @@ pub(crate) fn link(
     set: &mut PortalSet,
 ) {
     let eps = cells.tolerance.distance;
-    let grid = eps * 0.5;
     let probe = (cfg.max_wall_thickness * 0.5).max(100.0 * eps);
     let l = Linking {
         scene,
@@ -206,7 +192,7 @@ pub(crate) fn link(
         by: vec![None; set.portals.len()],
     };
     let mut transformed_done: Vec<NodeId> = Vec::new();
-    let prepared = prepare_quads(scene, tagging, cfg, set, eps, grid);
+    let prepared = prepare_quads(scene, tagging, cfg, set, eps);
     for (ap, (q, candidates)) in tagging.portals.iter().zip(prepared) {
         let Some(q) = q else {
             l.report_no_area(ap, set);
@@ -233,7 +219,6 @@ fn prepare_quads(
     cfg: &PortalsConfig,
     set: &PortalSet,
     eps: f64,
-    grid: f64,
 ) -> Vec<(Option<Quad>, Vec<usize>)> {
     // Authored portals are drawn by hand: a few degrees off the wall still means that wall.
     let cos_tol = (0.05f64).cos();
@@ -250,14 +235,9 @@ fn prepare_quads(
         .map(|ap| {
             let q = quad(scene, ap.node, eps);
             let candidates = match &q {
-                Some(q) if ap.kind == PortalKind::Plain => overlapping(
-                    q,
-                    set,
-                    &near,
-                    cfg.max_wall_thickness + 10.0 * eps,
-                    cos_tol,
-                    grid,
-                ),
+                Some(q) if ap.kind == PortalKind::Plain => {
+                    overlapping(q, set, &near, cfg.max_wall_thickness + 10.0 * eps, cos_tol)
+                }
                 _ => Vec::new(),
             };
             (q, candidates)
