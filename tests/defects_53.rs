@@ -310,3 +310,37 @@ fn detail_buried_in_a_wall_is_no_noise_and_detail_on_a_face_is_rendered() {
     let out = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
     assert!(out.contains("CELL_GEOMETRY_OUTSIDE"), "{out}");
 }
+
+/// Item 3: a wall slab missing one triangle (samples/broken/CELL_BLOCK_OPEN.gltf) is named,
+/// with its three open edges, beside the leak it causes; the closed closet raises nothing.
+#[test]
+fn an_open_block_is_named_with_its_open_edges() {
+    let o = portcullis()
+        .args(["check", "--sealed", "--format", "json"])
+        .arg(common::root().join("samples/broken/CELL_BLOCK_OPEN.gltf"))
+        .output()
+        .unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let diags = r["files"][0]["diagnostics"].as_array().unwrap();
+    let open: Vec<&serde_json::Value> = diags
+        .iter()
+        .filter(|d| d["code"] == "CELL_BLOCK_OPEN")
+        .collect();
+    assert_eq!(open.len(), 1, "{diags:?}");
+    assert_eq!(open[0]["severity"], "warning");
+    assert_eq!(open[0]["location"]["node"], "Level/closet-room/wall_east");
+    let message = open[0]["message"].as_str().unwrap();
+    assert!(message.contains("3 open edge(s)"), "{message}");
+    assert_eq!(message.matches(" - ").count(), 3, "{message}");
+    assert!(
+        diags.iter().any(|d| d["code"] == "LEAK"),
+        "the hole still leaks"
+    );
+    let closed = portcullis()
+        .arg("check")
+        .arg(common::root().join("samples/broken/CELL_OCCUPANT_IN_SOLID.gltf"))
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&closed.stdout) + String::from_utf8_lossy(&closed.stderr);
+    assert!(!out.contains("CELL_BLOCK_OPEN"), "{out}");
+}

@@ -36,6 +36,8 @@ struct Prep {
     candidates: Vec<NodeId>,
     tagged: bool,
     gates: Vec<(Gate, ConvexPolyhedron)>,
+    /// Meshes that look meant as blocks but are open, with their open edges (recentred).
+    open: Vec<(NodeId, Vec<[DVec3; 2]>)>,
 }
 
 impl RoomBuilder<'_> {
@@ -105,7 +107,8 @@ impl RoomBuilder<'_> {
                     .map(|&n| (n, PropReason::LooseBlock)),
             );
             props.sort_unstable_by_key(|(n, _)| *n);
-            let mut d = Vec::new();
+            let mut d: Vec<Diagnostic> =
+                p.open.iter().map(|(n, g)| self.open_block(*n, g)).collect();
             if let Some((count, volume, at)) = reading.pockets[k] {
                 d.push(self.pockets(room, count, volume, at));
             }
@@ -150,10 +153,12 @@ impl RoomBuilder<'_> {
         }
         let mut solids = Vec::new();
         let mut surfaces: Vec<(NodeId, [DVec3; 3])> = Vec::new();
+        let mut open = Vec::new();
         for (n, tris) in canonical_node_triangles(scene, &room.structure, self.origin) {
-            let (s, rest) = solids::split_node(n, &tris, eps);
+            let (s, rest, gaps) = solids::split_node_open(n, &tris, eps);
             solids.extend(s);
             surfaces.extend(rest.into_iter().map(|t| (n, t)));
+            open.extend(gaps.into_iter().map(|g| (n, g)));
         }
         if solids.is_empty() {
             return None;
@@ -224,6 +229,7 @@ impl RoomBuilder<'_> {
                 let (g, h) = self.gates(room);
                 g.into_iter().zip(h).collect()
             },
+            open,
         })
     }
 
@@ -246,6 +252,32 @@ impl RoomBuilder<'_> {
             .into_iter()
             .flat_map(|(n, tris)| solids::split_node(n, &tris, self.eps).0)
             .collect()
+    }
+
+    /// `CELL_BLOCK_OPEN` for node `n`, whose part with open edges `gaps` looks meant as a
+    /// closed block: read as a surface, it seals nothing, and the leak it leaves would
+    /// otherwise blame only its room.
+    fn open_block(&self, n: NodeId, gaps: &[[DVec3; 2]]) -> Diagnostic {
+        let at = |p: DVec3| {
+            let q = p + self.origin;
+            format!("({:.3}, {:.3}, {:.3})", q.x, q.y, q.z)
+        };
+        let list: Vec<String> = gaps
+            .iter()
+            .map(|[a, b]| format!("{} - {}", at(*a), at(*b)))
+            .collect();
+        let mid = gaps.iter().map(|[a, b]| (*a + *b) * 0.5).sum::<DVec3>() / gaps.len() as f64;
+        Diagnostic::new(
+            Code::CELL_BLOCK_OPEN,
+            format!(
+                "mesh `{}` is a block with {} open edge(s), so it is read as a surface and seals nothing: {}",
+                self.scene.node_label(n),
+                gaps.len(),
+                list.join(", ")
+            ),
+            self.loc(n).with_position((mid + self.origin).to_array()),
+        )
+        .hint("close the mesh: fill the hole, or weld the vertices along those edges so that each edge is shared by two triangles")
     }
 
     fn pockets(&self, room: &Room, count: usize, volume: f64, at: DVec3) -> Diagnostic {

@@ -81,6 +81,25 @@ pub(crate) fn split_node(
     tris: &[[DVec3; 3]],
     eps: f64,
 ) -> (Vec<Solid>, Vec<[DVec3; 3]>) {
+    let (solids, rest, _) = split_node_open(node, tris, eps);
+    (solids, rest)
+}
+
+/// The most open edges a part may have and still be taken for a block left open by mistake:
+/// a missing triangle opens three, a missing quad four, two missing triangles six. A room
+/// shell open at the top faces in and a sheet of surface has a long open rim.
+const MAX_OPEN_EDGES: usize = 6;
+
+/// The open edges of one part, as segments.
+pub(crate) type OpenEdges = Vec<[DVec3; 2]>;
+
+/// [`split_node`], with the open edges (world segments, recentred) of each part that looks
+/// meant as a block but is not closed: a few open edges, the rest closed, facing out.
+pub(crate) fn split_node_open(
+    node: NodeId,
+    tris: &[[DVec3; 3]],
+    eps: f64,
+) -> (Vec<Solid>, Vec<[DVec3; 3]>, Vec<OpenEdges>) {
     // Vertices matched by exact position: a closed mesh shares them (an exporter that split
     // a box's corners for flat normals wrote the same coordinates three times).
     let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
@@ -122,27 +141,38 @@ pub(crate) fn split_node(
         });
         groups[g].push(k);
     }
-    let (mut solids, mut rest) = (Vec::new(), Vec::new());
+    let (mut solids, mut rest, mut open) = (Vec::new(), Vec::new(), Vec::new());
     for g in groups {
-        let closed = g.iter().all(|&k| {
+        // Each edge whose triangles one way and the other do not match, once.
+        let mut gaps: Vec<[DVec3; 2]> = Vec::new();
+        for &k in &g {
             let t = tri_ids[k as usize];
-            (0..3).all(|i| {
+            for i in 0..3 {
                 let (a, b) = (t[i], t[(i + 1) % 3]);
-                a == b
-                    || edges.get(&(a, b)).map_or(0, Vec::len)
-                        == edges.get(&(b, a)).map_or(0, Vec::len)
-            })
-        });
+                let (fwd, back) = (
+                    edges.get(&(a, b)).map_or(0, Vec::len),
+                    edges.get(&(b, a)).map_or(0, Vec::len),
+                );
+                if a != b && fwd != back && (fwd > back || a < b) {
+                    let p = tris[k as usize];
+                    gaps.push([p[i], p[(i + 1) % 3]]);
+                }
+            }
+        }
         let part: Vec<[DVec3; 3]> = g.iter().map(|&k| tris[k as usize]).collect();
-        if closed && g.len() >= 4 {
+        if gaps.is_empty() && g.len() >= 4 {
             if let Some(s) = solid(node, part.clone(), eps) {
                 solids.push(s);
                 continue;
             }
         }
+        let few = !gaps.is_empty() && gaps.len() <= MAX_OPEN_EDGES && g.len() >= 8;
+        if few && solid(node, part.clone(), eps).is_some() {
+            open.push(gaps);
+        }
         rest.extend(part);
     }
-    (solids, rest)
+    (solids, rest, open)
 }
 
 /// A closed part as a solid, if it faces out and has volume.

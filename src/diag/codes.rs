@@ -109,6 +109,7 @@ codes! {
     CELL_GEOMETRY_OUTSIDE = Warning, "a mesh lies in no cell, so no cell renders it";
     CELL_POCKETS_FILLED = Info, "sealed pockets of air among solid blocks that no occupant reaches were filled, as qbsp fills them";
     CELL_ROOM_NO_OCCUPANT = Warning, "a room of solid blocks with no occupant encloses several separate regions of air; all were kept";
+    CELL_BLOCK_OPEN = Warning, "a mesh of a room of blocks is closed but for a few edges, so it is read as a surface and seals nothing";
     CELL_OCCUPANT_IN_SOLID = Info, "an occupant stands inside a solid block, so it marks no air";
 
     // --- annotated files ---
