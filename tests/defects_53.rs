@@ -344,3 +344,87 @@ fn an_open_block_is_named_with_its_open_edges() {
     let out = String::from_utf8_lossy(&closed.stdout) + String::from_utf8_lossy(&closed.stderr);
     assert!(!out.contains("CELL_BLOCK_OPEN"), "{out}");
 }
+
+/// samples/block_door.gltf turned 30° about Y and moved 50 km, its vertices baked in f32
+/// (4 to 8 mm apart out there).
+fn far_in_f32() -> String {
+    use base64::Engine;
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let mut d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(sample("block_door.gltf")).unwrap()).unwrap();
+    let uri = d["buffers"][0]["uri"].as_str().unwrap().to_string();
+    let mut buf = b64.decode(uri.split_once(',').unwrap().1).unwrap();
+    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+    let views = d["bufferViews"].clone();
+    for a in d["accessors"].as_array_mut().unwrap() {
+        if a["type"] != "VEC3" {
+            continue;
+        }
+        let v = &views[a["bufferView"].as_u64().unwrap() as usize];
+        let off = (v["byteOffset"].as_u64().unwrap_or(0) + a["byteOffset"].as_u64().unwrap_or(0))
+            as usize;
+        let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+        for i in 0..a["count"].as_u64().unwrap() as usize {
+            let at = off + 12 * i;
+            let r = |k: usize| {
+                f32::from_le_bytes(buf[at + 4 * k..at + 4 * k + 4].try_into().unwrap()) as f64
+            };
+            let (x, y, z) = (r(0), r(1), r(2));
+            let p = [
+                (c * x + s * z + 5e4) as f32,
+                y as f32,
+                (-s * x + c * z + 5e4) as f32,
+            ];
+            for k in 0..3 {
+                buf[at + 4 * k..at + 4 * k + 4].copy_from_slice(&p[k].to_le_bytes());
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        a["min"] = serde_json::json!(lo);
+        a["max"] = serde_json::json!(hi);
+    }
+    d["buffers"][0]["uri"] =
+        format!("data:application/octet-stream;base64,{}", b64.encode(&buf)).into();
+    d.to_string()
+}
+
+/// Item 5: a level baked into f32 50 km out, turned, leaks through rounding. The precision
+/// warning says how far apart its coordinates are and how far out, that pieces meant to meet
+/// miss by that much, and how to fix it; each leak's hint points at it.
+#[test]
+fn f32_precision_far_out_is_explained() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("far.gltf");
+    std::fs::write(&path, far_in_f32()).unwrap();
+    let o = portcullis()
+        .args(["check", "--sealed", "--format", "json"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let diags = r["files"][0]["diagnostics"].as_array().unwrap();
+    let capped = diags
+        .iter()
+        .find(|d| d["code"] == "TOLERANCE_CAPPED")
+        .unwrap();
+    let m = capped["message"].as_str().unwrap();
+    assert!(
+        m.contains("6.0e-3 m apart") && m.contains("50010 m from the origin"),
+        "{m}"
+    );
+    assert!(m.contains("may miss by that much"), "{m}");
+    let h = capped["hint"].as_str().unwrap();
+    assert!(
+        h.contains("node transform") && h.contains("nearer the origin"),
+        "{h}"
+    );
+    let leaks: Vec<&serde_json::Value> = diags.iter().filter(|d| d["code"] == "LEAK").collect();
+    assert!(!leaks.is_empty(), "rounding leaves gaps: {diags:?}");
+    for l in leaks {
+        assert!(
+            l["hint"].as_str().unwrap().contains("see TOLERANCE_CAPPED"),
+            "{l}"
+        );
+    }
+}

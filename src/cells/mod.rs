@@ -372,12 +372,12 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
             Diagnostic::new(
                 Code::TOLERANCE_CAPPED,
                 format!(
-                    "the input's precision ({:.3e} m: its coordinates are stored {:.1e} m apart where they are largest) is coarser than the largest tolerance allowed ({:.3e} m)",
-                    tol.input_precision, spacing, cfg.max_tolerance
+                    "the input's precision ({:.3e} m) is coarser than the largest tolerance allowed ({:.3e} m): its coordinates are stored {:.1e} m apart where they are largest, {:.0} m from the origin, so blocks and walls meant to meet may miss by that much, and leaks, overlapping cells and unreachable cells can come from rounding alone",
+                    tol.input_precision, cfg.max_tolerance, spacing, world_abs
                 ),
                 Location::file(&scene.path),
             )
-            .hint("store the geometry near its node's origin and place it with the node's translation (that keeps its precision), or raise [cells] max_tolerance"),
+            .hint("keep the vertices near the origin: store the geometry near its node's origin and place it with the node's translation (a node transform keeps the precision), or store the coordinates nearer the origin; else raise [cells] max_tolerance"),
         );
     }
     let mut cells: Vec<Cell> = Vec::new();

@@ -230,11 +230,36 @@ impl Diagnostics {
     /// `to_file`; `None` for a file in metres, Y up, which needs none), so that a leak in a
     /// brush map is found where the editor shows it.
     pub fn in_file_units(&mut self, to_file: Option<glam::DMat4>) {
+        self.blame_precision();
         let Some(m) = to_file else { return };
         for d in &mut self.0 {
             if let Some(p) = d.location.position {
                 let q = m.transform_point3(glam::DVec3::from_array(p));
                 d.location.file_position = Some(q.to_array());
+            }
+        }
+    }
+
+    /// When the input's precision was too coarse (`TOLERANCE_CAPPED`), the findings rounding
+    /// alone can cause say so in their hint: a level stored in f32 50 km from the origin has
+    /// vertices 4 mm apart, and its leaks and overlaps named no cause but that.
+    fn blame_precision(&mut self) {
+        if !self.has(Code::TOLERANCE_CAPPED) {
+            return;
+        }
+        const NOTE: &str = "the level's coordinates are too coarse here (see TOLERANCE_CAPPED): pieces meant to meet may miss by rounding alone; move the geometry nearer the origin first";
+        let rounding = [
+            Code::LEAK,
+            Code::CELL_OVERLAP,
+            Code::GRAPH_UNREACHABLE,
+            Code::EXTERIOR_OPENINGS,
+        ];
+        for d in &mut self.0 {
+            if rounding.contains(&d.code) && !d.hint.as_deref().is_some_and(|h| h.contains(NOTE)) {
+                d.hint = Some(match d.hint.take() {
+                    Some(h) => format!("{NOTE}; else {h}"),
+                    None => NOTE.to_string(),
+                });
             }
         }
     }
