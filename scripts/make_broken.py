@@ -382,11 +382,11 @@ def level_samples():
         closet(ms.start((1.0, 1.0, 1.0)), torch((2.15, 1.5, 1.0)), hollow=False), None)
     s["OCCUPANT_OUTSIDE.gltf"] = (
         closet(ms.start((1.0, 1.0, 1.0)), torch((5.0, 1.5, 1.0)), hollow=False), None)
-    # The east wall slab missing one triangle of its outer face: read as a surface, it leaks.
-    t = closet(ms.start((1.0, 1.0, 1.0)), hollow=False)
-    east = child(t, "closet-room", "wall_east")
-    east["tris"] = east["tris"][:2] + east["tris"][3:]
-    s["CELL_BLOCK_OPEN.gltf"] = (t, None)
+    # A crate block missing one triangle of its top: read as a surface, not as a block.
+    crate = ms.block("crate", (0.6, 0.0, 0.6, 1.0, 0.4, 1.0))
+    crate["tris"] = crate["tris"][:7] + crate["tris"][8:]
+    s["CELL_BLOCK_OPEN.gltf"] = (ms.level(ms.slab_room("closet-room", 0, 2, 0, 2, 2.5, 0.3, extra=[crate]),
+                                          ms.start((1.5, 1.0, 1.5))), None)
 
     # Leaks: a window in the kitchen's outer wall.
     def windowed():
