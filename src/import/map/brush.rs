@@ -10,9 +10,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
 
-/// Map coordinates reach ±32768 in every engine of the family; a brush is clipped out of a box
-/// well beyond that.
-pub(super) const WORLD: f64 = 1_048_576.0;
+use super::WORLD;
 
 /// Map units within which two corners of one brush are one point (qbsp welds at 1e-4 and
 /// ignores planes nearer than that).

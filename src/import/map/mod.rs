@@ -49,6 +49,10 @@ mod rooms;
 
 use rooms::Rooms;
 
+/// Map coordinates reach ±32768 in every engine of the family; a brush is clipped out of a box
+/// well beyond that, and one beyond it is refused.
+const WORLD: f64 = 1_048_576.0;
+
 /// Metres per map unit (Quake's inch).
 pub(crate) const METRES_PER_UNIT: f64 = 0.0254;
 

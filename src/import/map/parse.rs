@@ -434,13 +434,13 @@ fn face_through(
         .iter()
         .flatten()
         .fold(0.0f64, |m, x| m.max(x.abs()));
-    if flat && (far.is_nan() || far >= super::brush::WORLD) {
+    if flat && (far.is_nan() || far >= super::WORLD) {
         // Points so far out that their differences round away: the distance is the fault.
         return Err(Error {
             line,
             message: format!(
                 "a point of the face lies {far:e} units from the origin, beyond ±{}: too far out to give a plane (the engines of the Quake family reach ±32768)",
-                super::brush::WORLD
+                super::WORLD
             ),
             brush: true,
         });
