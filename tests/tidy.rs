@@ -1173,3 +1173,413 @@ fn the_string_error_finder_reads_signatures_across_lines() {
         ]
     );
 }
+
+/// How far above a table of measurements (in lines, within its section and not past the table
+/// before it) the command that measures it may be named.
+const COMMAND_REACH: usize = 12;
+
+/// Units of what a run measures: time, memory, ratios and shares (`0.40 s`, `39 MB`, `2.9×`).
+const MEASURED_UNITS: &[&str] = &[
+    "s", "ms", "µs", "min", "minutes", "KB", "MB", "GB", "%", "×",
+];
+
+/// Header words of a table whose numbers are counted or measured (`cells`, `pairs`, `measured`).
+const COUNTED: &[&str] = &[
+    "cells",
+    "portals",
+    "pairs",
+    "leafs",
+    "points",
+    "rays",
+    "triangles",
+    "brushes",
+    "los",
+    "sightlines",
+    "areas",
+    "rooms",
+    "seconds",
+    "memory",
+    "median",
+    "measured",
+];
+
+/// The pages whose figures must say how to reproduce them: README.md and docs/*.md, but
+/// docs/diagnostics.md, which scripts/gen_diagnostics_doc.py writes and which measures nothing.
+fn figure_pages(root: &Path) -> Vec<(String, String)> {
+    let mut names = vec!["README.md".to_string()];
+    let mut docs: Vec<String> = std::fs::read_dir(root.join("docs"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".md") && n != "diagnostics.md")
+        .map(|n| format!("docs/{n}"))
+        .collect();
+    docs.sort();
+    names.extend(docs);
+    names
+        .into_iter()
+        .map(|n| {
+            let text = std::fs::read_to_string(root.join(&n)).unwrap();
+            (n, text)
+        })
+        .collect()
+}
+
+/// The numbers of a text, each with the word right after it ("" when none): `0.40 s` is
+/// ("0.40", "s"), `2.9×` ("2.9", "×"), `1,078, 5,902` two numbers with no unit. Digits in a
+/// word (`E1M1`, `cell3`, `portal_3to5_1`) are no number.
+fn numbers(text: &str) -> Vec<(String, String)> {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        let glued = i > 0 && (chars[i - 1].is_alphanumeric() || chars[i - 1] == '_');
+        if !chars[i].is_ascii_digit() || glued {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < chars.len()
+            && (chars[i].is_ascii_digit()
+                || ((chars[i] == '.' || chars[i] == ',')
+                    && chars.get(i + 1).is_some_and(char::is_ascii_digit)))
+        {
+            i += 1;
+        }
+        let number: String = chars[start..i].iter().collect();
+        let mut j = i;
+        while j < chars.len() && chars[j] == ' ' {
+            j += 1;
+        }
+        let unit_start = j;
+        while j < chars.len() && (chars[j].is_alphabetic() || "%×µ".contains(chars[j])) {
+            j += 1;
+        }
+        out.push((number, chars[unit_start..j].iter().collect()));
+    }
+    out
+}
+
+/// Whether a command names a measuring tool of the project: a script, a bench or test target,
+/// the binary (after `VAR=value` settings and `/usr/bin/time`).
+fn is_command(text: &str) -> bool {
+    let rest = without_settings(text);
+    [
+        "scripts/",
+        "cargo bench",
+        "cargo test",
+        "portcullis ",
+        "target/release/portcullis ",
+        "/usr/bin/time ",
+    ]
+    .iter()
+    .any(|p| rest.starts_with(p))
+}
+
+/// A command without the `VAR=value` settings before it.
+fn without_settings(text: &str) -> &str {
+    let mut rest = text.trim();
+    while let Some((word, after)) = rest.split_once(' ') {
+        let setting = word.split_once('=').is_some_and(|(k, _)| {
+            !k.is_empty()
+                && k.chars()
+                    .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+        });
+        if !setting {
+            break;
+        }
+        rest = after.trim_start();
+    }
+    rest
+}
+
+/// For each line of a Markdown text, the language of the fenced block it is in (`sh`, `text`,
+/// "" for a bare fence), or None outside one; fence lines themselves are in none.
+fn fences(lines: &[&str]) -> Vec<Option<String>> {
+    let mut open: Option<String> = None;
+    lines
+        .iter()
+        .map(|l| match l.trim_start().strip_prefix("```") {
+            Some(lang) => {
+                open = match open {
+                    Some(_) => None,
+                    None => Some(lang.trim().to_string()),
+                };
+                None
+            }
+            None => open.clone(),
+        })
+        .collect()
+}
+
+/// The commands each line of a page names: the spans in backticks that are commands (a span
+/// broken over lines belongs to the line it starts on; a blank line or a fence ends it), and in
+/// a shell block the line itself (its `#` comment cut).
+fn page_commands(lines: &[&str], fence: &[Option<String>]) -> Vec<Vec<String>> {
+    let mut out = vec![Vec::new(); lines.len()];
+    // the span open at the end of the line before: the line it started on and its text
+    let mut open: Option<(usize, String)> = None;
+    for (i, line) in lines.iter().enumerate() {
+        match fence[i].as_deref() {
+            Some("sh" | "bash" | "") => {
+                let code = line.split(" #").next().unwrap_or("").trim();
+                if is_command(code) {
+                    out[i].push(code.to_string());
+                }
+                open = None;
+                continue;
+            }
+            Some(_) => {
+                open = None;
+                continue;
+            }
+            None if line.trim().is_empty() || line.trim_start().starts_with("```") => {
+                open = None;
+                continue;
+            }
+            None => {}
+        }
+        for (k, part) in line.split('`').enumerate() {
+            if k > 0 {
+                // a backtick: a span closes or opens here
+                open = match open.take() {
+                    Some((at, span)) => {
+                        if is_command(&span) {
+                            out[at].push(span);
+                        }
+                        None
+                    }
+                    None => Some((i, String::new())),
+                };
+            }
+            if let Some((_, span)) = &mut open {
+                if k == 0 {
+                    span.push(' ');
+                }
+                span.push_str(part);
+            }
+        }
+    }
+    out
+}
+
+/// Why a command a page names cannot run as written, or None: the script, bench or test
+/// target it names does not exist, `scripts/figures.sh` has no such figure, or the binary no
+/// such subcommand.
+fn command_fault(root: &Path, command: &str) -> Option<String> {
+    let words: Vec<&str> = without_settings(command).split_whitespace().collect();
+    let after = |flag: &str| -> Vec<&str> {
+        words
+            .windows(2)
+            .filter(|w| w[0] == flag)
+            .map(|w| w[1])
+            .collect()
+    };
+    let first = *words.first()?;
+    if let Some(script) = first.strip_prefix("scripts/") {
+        // `scripts/` alone names the folder
+        let path = root.join("scripts").join(script);
+        if !script.is_empty() && !path.is_file() {
+            return Some(format!("no scripts/{script}"));
+        }
+        // `scripts/figures.sh` alone lists the figures; with a name, it must be one of them
+        if let (true, Some(figure)) = (script == "figures.sh", words.get(1)) {
+            let text = std::fs::read_to_string(path).unwrap();
+            let known = text
+                .lines()
+                .any(|l| l.trim_start().starts_with(&format!("{figure})")));
+            if !known {
+                return Some(format!("scripts/figures.sh has no figure `{figure}`"));
+            }
+        }
+        return None;
+    }
+    if words.starts_with(&["cargo", "bench"]) {
+        let benches = after("--bench");
+        if benches.is_empty() {
+            return Some("`cargo bench` without `--bench NAME`".into());
+        }
+        return benches
+            .iter()
+            .find(|b| !root.join("benches").join(format!("{b}.rs")).is_file())
+            .map(|b| format!("no benches/{b}.rs"));
+    }
+    if words.starts_with(&["cargo", "test"]) {
+        return after("--test")
+            .iter()
+            .find(|t| !root.join("tests").join(format!("{t}.rs")).is_file())
+            .map(|t| format!("no tests/{t}.rs"));
+    }
+    let bin = words
+        .iter()
+        .position(|w| *w == "portcullis" || w.ends_with("/portcullis"))?;
+    let sub = words.get(bin + 1).copied().unwrap_or("");
+    let placeholder = sub.starts_with('-') || sub.chars().all(|c| !c.is_ascii_lowercase());
+    let real = root.join("src/cli").join(format!("{sub}.rs")).is_file()
+        && !["mod", "alloc", "huge_pages"].contains(&sub);
+    (!placeholder && !real).then(|| format!("`portcullis {sub}` is no command"))
+}
+
+/// What is wrong with a page's figures: each table of measurements with no command that
+/// measures it named within [`COMMAND_REACH`] lines above (in its section, after the table
+/// before it) nor in each of its measured rows; each command or `scripts/` file named that
+/// does not exist. A table measures when a cell of its body has a number in a unit of
+/// [`MEASURED_UNITS`], or its header names what is counted ([`COUNTED`]) over a number.
+fn figure_faults(root: &Path, page: &str, text: &str) -> Vec<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let fence = fences(&lines);
+    let commands = page_commands(&lines, &fence);
+    let is_row = |i: usize| fence[i].is_none() && lines[i].trim_start().starts_with('|');
+    let mut faults = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        for command in &commands[i] {
+            if let Some(why) = command_fault(root, command) {
+                faults.push(format!("{page}:{}: `{command}`: {why}", i + 1));
+            }
+        }
+        for (k, _) in line.match_indices("scripts/") {
+            // `scripts/X` of this project, not `a/scripts/X` of another
+            let own = line[..k]
+                .chars()
+                .next_back()
+                .is_none_or(|c| !c.is_alphanumeric() && !"/._-".contains(c));
+            let name: String = line[k + 8..]
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || "_.-".contains(*c))
+                .collect();
+            let name = name.trim_end_matches('.');
+            if own && !name.is_empty() && !root.join("scripts").join(name).is_file() {
+                faults.push(format!("{page}:{}: no scripts/{name}", i + 1));
+            }
+        }
+    }
+    let mut i = 0;
+    while i < lines.len() {
+        if !is_row(i) || (i > 0 && is_row(i - 1)) {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < lines.len() && is_row(i) {
+            i += 1;
+        }
+        let header: Vec<String> = lines[start]
+            .split(|c: char| !c.is_alphanumeric())
+            .map(str::to_lowercase)
+            .collect();
+        let counted = COUNTED.iter().any(|w| header.iter().any(|h| h == w));
+        let measures = |row: &str| {
+            numbers(row)
+                .iter()
+                .any(|(_, unit)| counted || MEASURED_UNITS.contains(&unit.as_str()))
+        };
+        let body = (start + 2).min(i)..i;
+        if !body.clone().any(|r| measures(lines[r])) {
+            continue;
+        }
+        // the lines above, up to the table before or the section's heading
+        let heading = |k: usize| fence[k].is_none() && lines[k].starts_with('#');
+        let named_above = (start.saturating_sub(COMMAND_REACH)..start)
+            .rev()
+            .take_while(|&k| !is_row(k) && !heading(k))
+            .any(|k| !commands[k].is_empty());
+        let each_row_names_one = body
+            .clone()
+            .filter(|&r| measures(lines[r]))
+            .all(|r| !commands[r].is_empty());
+        if !named_above && !each_row_names_one {
+            faults.push(format!(
+                "{page}:{}: a table of measurements with no command that reproduces it \
+                 (in backticks or a sh block within {COMMAND_REACH} lines above, or in each \
+                 measured row)",
+                start + 1
+            ));
+        }
+    }
+    faults
+}
+
+#[test]
+fn every_figure_names_the_command_that_measures_it() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let pages = figure_pages(root);
+    assert!(pages.len() >= 7, "{} pages", pages.len());
+    let faults: Vec<String> = pages
+        .iter()
+        .flat_map(|(page, text)| figure_faults(root, page, text))
+        .collect();
+    assert!(
+        faults.is_empty(),
+        "figures without the command that reproduces them (issue 53, item 13):\n{}",
+        faults.join("\n")
+    );
+    let generated = std::fs::read_to_string(root.join("scripts/gen_diagnostics_doc.py")).unwrap();
+    assert!(
+        generated.contains("docs/diagnostics.md"),
+        "docs/diagnostics.md is left out as generated by scripts/gen_diagnostics_doc.py"
+    );
+}
+
+#[test]
+fn the_figure_checker_sees_a_table_without_its_command() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let table = "| level | time |\n|---|---|\n| a | 0.4 s |\n";
+    let faults = |text: &str| figure_faults(root, "p.md", text);
+    assert_eq!(faults(table).len(), 1);
+    // named above, in a shell block or in backticks
+    assert!(faults(&format!("```sh\nscripts/bench.sh\n```\n\n{table}")).is_empty());
+    assert!(faults(&format!(
+        "Measured with `cargo bench --bench stages -- cull`:\n\n{table}"
+    ))
+    .is_empty());
+    assert!(faults(&format!(
+        "A span `cargo bench\n--bench stages` over lines:\n{table}"
+    ))
+    .is_empty());
+    assert_eq!(
+        faults(&format!(
+            "Not `cargo bench\n\n--bench stages` over a paragraph:\n{table}"
+        ))
+        .len(),
+        1
+    );
+    // but not across a heading or the table before, nor further than the reach
+    assert_eq!(
+        faults(&format!("`scripts/bench.sh`\n## Next\n{table}")).len(),
+        1
+    );
+    assert_eq!(
+        faults(&format!("`scripts/bench.sh`\n{table}\n{table}")).len(),
+        1
+    );
+    assert_eq!(
+        faults(&format!(
+            "`scripts/bench.sh`{}\n{table}",
+            "\n".repeat(COMMAND_REACH)
+        ))
+        .len(),
+        1
+    );
+    // or in each measured row
+    let rows = "| what | state |\n|---|---|\n| a | 2.9× (`scripts/bench.sh`) |\n| b | done |\n";
+    assert!(faults(rows).is_empty());
+    // counted things: a number under a header that names them; no unit, no count: no figure
+    assert_eq!(
+        faults("| map | cells |\n|---|---|\n| a | 1,078 |\n").len(),
+        1
+    );
+    assert!(
+        faults("| input | default |\n|---|---|\n| glTF | 8 mm |\n| `cell3`, E1M1 | 2e-5 |\n")
+            .is_empty()
+    );
+    // commands that cannot run as written
+    let bad = "`scripts/nope.sh`, `cargo bench --bench nope`, `cargo test --test nope`, \
+               `portcullis nope x`, `scripts/figures.sh nope`, scripts/gone.py\n";
+    assert_eq!(faults(bad).len(), 7, "{:?}", faults(bad));
+    assert!(faults("`QBSP=q cargo bench --bench brush_maps -- grid`, `portcullis --help`, `portcullis vis --report`\n").is_empty());
+    assert!(faults("`scripts/`, `scripts/figures.sh`, `scripts/figures.sh stages`\n").is_empty());
+    assert_eq!(
+        numbers("E1M1 0.40 s, 1,078, 2.9× cell3 85.6%"),
+        [("0.40", "s"), ("1,078", ""), ("2.9", "×"), ("85.6", "%")]
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+    );
+}
