@@ -8,6 +8,16 @@ fn portcullis() -> assert_cmd::Command {
     assert_cmd::Command::cargo_bin("portcullis").unwrap()
 }
 
+/// `check --sealed --format json` on `path`: its report.
+fn sealed_report(path: &std::path::Path) -> serde_json::Value {
+    let o = portcullis()
+        .args(["check", "--sealed", "--format", "json"])
+        .arg(path)
+        .output()
+        .unwrap();
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
 /// Item 4: `view --sealed` on a leaking level writes the page and exits 1, as the documented
 /// exit codes say for a level with errors; a clean level still exits 0.
 #[test]
@@ -236,24 +246,14 @@ fn a_leak_in_a_brush_map_is_placed_in_map_units() {
         out.contains("at (3.2512, 0.0000, -3.2512), (128.0, 128.0, 0.0) in the file's units"),
         "{out}"
     );
-    let o = portcullis()
-        .args(["check", "--sealed", "--format", "json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = sealed_report(&path);
     let leak = &r["files"][0]["diagnostics"][0];
     assert_eq!(leak["code"], "LEAK");
     assert_eq!(
         leak["location"]["file_position"],
         serde_json::json!([128.0, 128.0, 0.0])
     );
-    let o = portcullis()
-        .args(["check", "--sealed", "--format", "json"])
-        .arg(common::root().join("samples/broken/LEAK/level.gltf"))
-        .output()
-        .unwrap();
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = sealed_report(&common::root().join("samples/broken/LEAK/level.gltf"));
     let leak = &r["files"][0]["diagnostics"][0];
     assert!(
         leak["location"]["position"].is_array() && leak["location"].get("file_position").is_none(),
@@ -313,12 +313,7 @@ fn detail_buried_in_a_wall_is_no_noise_and_detail_on_a_face_is_rendered() {
 
 /// The `CELL_BLOCK_OPEN` findings of `check --sealed` on `path`, and every code found.
 fn open_blocks(path: &std::path::Path) -> (Vec<serde_json::Value>, Vec<String>) {
-    let o = portcullis()
-        .args(["check", "--sealed", "--format", "json"])
-        .arg(path)
-        .output()
-        .unwrap();
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = sealed_report(path);
     let diags = r["files"][0]["diagnostics"].as_array().unwrap().clone();
     let codes = diags
         .iter()
@@ -424,12 +419,7 @@ fn f32_precision_far_out_is_explained() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("far.gltf");
     std::fs::write(&path, far_in_f32()).unwrap();
-    let o = portcullis()
-        .args(["check", "--sealed", "--format", "json"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = sealed_report(&path);
     let diags = r["files"][0]["diagnostics"].as_array().unwrap();
     let capped = diags
         .iter()
