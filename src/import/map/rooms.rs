@@ -2,8 +2,8 @@
 //! `func_group`) make the rooms: `world`, or the `_portcullis_room` a `func_group` names. Every
 //! other brush entity (a door, a lift, a `func_wall`, an area portal) stands in one of them, so
 //! that a door stays a gate of the room whose air it fills: the room its own
-//! `_portcullis_room` names, else the only room there is, else the smallest room whose
-//! brushes' bounds hold its centre, else the nearest. A door left in an empty `world` while the
+//! `_portcullis_room` names, else the only room there is, else the room with the most brushes
+//! touching it, then the nearest brush. A door left in an empty `world` while the
 //! walls were grouped into `main` lost its cells and portals.
 
 use std::borrow::Cow;
@@ -16,12 +16,16 @@ use super::parse::{Brush, Entity};
 /// The room of a map with no world brushes at all.
 pub(super) const WORLD: &str = "world";
 
-/// The rooms the world's brushes make, with their bounds (map units) when there are several.
+/// The rooms the world's brushes make, with their brushes' boxes (map units) when there are
+/// several.
 pub(super) struct Rooms {
     names: Vec<String>,
-    /// Per name: the bounds of its brushes; empty when there is one room or none.
-    bounds: Vec<(DVec3, DVec3)>,
+    /// Per name: the boxes of its brushes; empty when there is one room or none.
+    boxes: Vec<Vec<(DVec3, DVec3)>>,
 }
+
+/// Map units within which a brush touches an entity's box (qbsp's tiny-portal epsilon).
+const TOUCH: f64 = 0.2;
 
 /// The room an entity's brushes make, when it is part of the world.
 pub(super) fn made_by(e: &Entity) -> Option<&str> {
@@ -60,8 +64,8 @@ pub(super) fn bounds(rings: &[(Vec<DVec3>, usize)]) -> Option<(DVec3, DVec3)> {
 }
 
 impl Rooms {
-    /// The rooms of `entities`, in the order they first appear; bounds are read only when
-    /// there is a choice to make.
+    /// The rooms of `entities`, in the order they first appear; their brushes' boxes are read
+    /// only when there is a choice to make.
     pub fn read(entities: &[Entity]) -> Rooms {
         let mut names: Vec<String> = Vec::new();
         for e in entities.iter().filter(|e| !e.brushes.is_empty()) {
@@ -73,49 +77,46 @@ impl Rooms {
         }
         let mut boxes = Vec::new();
         if names.len() > 1 {
-            let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            boxes = vec![empty; names.len()];
+            boxes = vec![Vec::new(); names.len()];
             for e in entities.iter().filter(|e| !e.brushes.is_empty()) {
                 let Some(n) = made_by(e) else { continue };
                 let i = names.iter().position(|m| m == n).expect("named above");
-                for b in &e.brushes {
-                    if b.faces.len() > brush::MAX_BRUSH_FACES {
-                        continue;
-                    }
+                for b in e
+                    .brushes
+                    .iter()
+                    .filter(|b| b.faces.len() <= brush::MAX_BRUSH_FACES)
+                {
                     let b = placed(e, b);
-                    if let Some((lo, hi)) =
-                        brush::polygons(&b.faces).ok().as_deref().and_then(bounds)
-                    {
-                        boxes[i] = (boxes[i].0.min(lo), boxes[i].1.max(hi));
-                    }
+                    boxes[i].extend(brush::polygons(&b.faces).ok().as_deref().and_then(bounds));
                 }
             }
         }
-        Rooms {
-            names,
-            bounds: boxes,
-        }
+        Rooms { names, boxes }
     }
 
-    /// The room of entity `e`, not part of the world, whose brushes' bounds are `at`.
+    /// The room of entity `e`, not part of the world, whose brushes' bounds are `at`: the room
+    /// with the most brushes touching it (a door's jambs, lintel and sill are its wall's), then
+    /// the one with the nearest brush, then the first. Only brushes at the entity count, so a
+    /// block far away, a ground plane or a thicker wall elsewhere cannot move it.
     pub fn of(&self, e: &Entity, at: Option<(DVec3, DVec3)>) -> String {
         if let Some(n) = e.get("_portcullis_room") {
             return n.to_string();
         }
-        let (Some((lo, hi)), false) = (at, self.bounds.is_empty()) else {
+        let (Some((lo, hi)), false) = (at, self.boxes.is_empty()) else {
             return self.names.first().map_or(WORLD, String::as_str).to_string();
         };
-        let c = (lo + hi) * 0.5;
-        let volume = |(a, b): &(DVec3, DVec3)| (*b - *a).max(DVec3::ZERO).element_product();
-        let gap = |(a, b): &(DVec3, DVec3)| (c - c.clamp(*a, *b)).length();
-        let holding = (0..self.names.len())
-            .filter(|&i| gap(&self.bounds[i]) == 0.0)
-            .min_by(|&i, &j| volume(&self.bounds[i]).total_cmp(&volume(&self.bounds[j])));
-        let i = holding.unwrap_or_else(|| {
-            (0..self.names.len())
-                .min_by(|&i, &j| gap(&self.bounds[i]).total_cmp(&gap(&self.bounds[j])))
-                .expect("two rooms or more")
-        });
-        self.names[i].clone()
+        let gap = |(a, b): &(DVec3, DVec3)| (lo - *b).max(*a - hi).max(DVec3::ZERO).length();
+        let score = |i: usize| {
+            let touching = self.boxes[i].iter().filter(|b| gap(b) <= TOUCH).count();
+            let nearest = self.boxes[i].iter().map(gap).fold(f64::INFINITY, f64::min);
+            (touching, nearest)
+        };
+        let scores: Vec<(usize, f64)> = (0..self.names.len()).map(score).collect();
+        let best = (0..self.names.len())
+            .min_by(|&i, &j| {
+                (scores[j].0.cmp(&scores[i].0)).then(scores[i].1.total_cmp(&scores[j].1))
+            })
+            .expect("two rooms or more");
+        self.names[best].clone()
     }
 }
