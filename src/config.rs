@@ -51,6 +51,9 @@ pub struct Config {
     /// `[import]`: how files are read.
     #[serde(default)]
     pub import: ImportConfig,
+    /// `[auto]`: how `--tags auto` finds rooms.
+    #[serde(default)]
+    pub auto: crate::auto::AutoConfig,
     /// Where the configuration was read from (None: built-in defaults).
     #[serde(skip)]
     pub path: Option<PathBuf>,

@@ -14,6 +14,13 @@ impl DisjointSets {
         }
     }
 
+    /// Adds a member in a part of its own and returns it.
+    pub fn push(&mut self) -> usize {
+        let n = self.parent.len();
+        self.parent.push(n);
+        n
+    }
+
     /// The least member of `x`'s part.
     pub fn find(&mut self, mut x: usize) -> usize {
         while self.parent[x] != x {

@@ -26,6 +26,7 @@
 //! An engine needs none of this: [`runtime`] loads what `convert` wrote and answers the
 //! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
+pub mod auto;
 pub mod buildings;
 pub mod cells;
 pub mod check;

@@ -4,7 +4,9 @@
 //! unknown member is refused by both. The records and the schema are two statements of one
 //! format, and this holds them together.
 
-use portcullis::format::{Annotated, Bounds, CellRecord, PortalRecord, RoomRecord};
+use portcullis::format::{
+    Annotated, Bounds, CellRecord, GeneratedRecord, PortalRecord, RoomRecord,
+};
 use portcullis::schema::{validate, Schema};
 use serde_json::{json, Value};
 
@@ -35,6 +37,13 @@ fn full() -> Annotated {
         input_hash: "xxh3v2:0123456789abcdef".into(),
         tolerance: 1e-5,
         tags: Some("doom".into()),
+        generated: Some(GeneratedRecord {
+            voxel: 0.25,
+            split_ratio: 0.6,
+            grid: [10, 20, 30],
+            axes: [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+            rooms: 2,
+        }),
         rooms: vec![RoomRecord {
             name: "hall".into(),
             cells: vec![0, 1],

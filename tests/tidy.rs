@@ -21,6 +21,7 @@ const LAYERS: &[&[&str]] = &[
     &["diag"],
     &["import"],
     &["tags"],
+    &["auto"],
     &["config"],
     &["cells"],
     &["portals"],

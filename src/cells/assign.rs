@@ -91,7 +91,9 @@ pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, r
     let mut far: Vec<NodeId> = Vec::new();
     for (ri, room) in tagging.rooms.iter().enumerate() {
         let mine = &set.room_cells[ri];
-        if mine.is_empty() {
+        // A generated room's structure is every node near it; unreached nodes are placed.
+        let generated = generated_reach(tagging, ri).is_some();
+        if mine.is_empty() || generated {
             continue;
         }
         for &n in room.structure.iter().filter(|n| !props.contains(n)) {
@@ -152,6 +154,59 @@ fn outside_diagnostic(scene: &Scene, n: NodeId) -> Diagnostic {
     .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
 }
 
+/// How far from a generated room's cells its geometry still belongs to them: one and a half
+/// voxels, since a generated cell stops short of the surface voxels around it. `None` for a
+/// room a designer tagged.
+fn generated_reach(tagging: &Tagging, room: usize) -> Option<f64> {
+    let g = tagging.generated.as_deref()?;
+    g.cells_of(room).map(|_| 1.5 * g.voxel * 3f64.sqrt())
+}
+
+/// Generated rooms' structure that no generated cell comes near (it faces only the void, or
+/// lies in a wall's middle) goes to the generated cell nearest its middle: drawn by a cell
+/// that may see it rather than dropped.
+fn place_unreached_generated(
+    tagging: &Tagging,
+    set: &CellSet,
+    mut rooms: Vec<Placed>,
+) -> Vec<Placed> {
+    let Some(g) = tagging.generated.as_deref() else {
+        return rooms;
+    };
+    let made: Vec<usize> = (g.first_room..tagging.rooms.len())
+        .flat_map(|r| set.room_cells.get(r).into_iter().flatten().copied())
+        .collect();
+    let placed: std::collections::HashSet<NodeId> = rooms
+        .iter()
+        .flat_map(|p| p.0.iter().map(|&(_, n)| n))
+        .collect();
+    let mut wanted: Vec<NodeId> = (g.first_room..tagging.rooms.len())
+        .flat_map(|r| tagging.rooms[r].structure.iter().copied())
+        .filter(|n| !placed.contains(n))
+        .collect();
+    wanted.sort_unstable();
+    wanted.dedup();
+    let Some(last) = rooms.last_mut() else {
+        return rooms;
+    };
+    for n in wanted {
+        let Some(b) = g.node_bounds(n) else { continue };
+        let mid = (b.min + b.max) * 0.5;
+        let gap = |c: usize| {
+            let cb = &set.cells[c].bounds;
+            (cb.min - mid).max(mid - cb.max).max(DVec3::ZERO).length()
+        };
+        if let Some(c) = made
+            .iter()
+            .copied()
+            .min_by(|&a, &b| gap(a).total_cmp(&gap(b)).then(a.cmp(&b)))
+        {
+            last.0.push((c, n));
+        }
+    }
+    rooms
+}
+
 /// (cell, node) placements and nodes in no cell, of one room (or of the loose nodes).
 type Placed = (Vec<(usize, NodeId)>, Vec<NodeId>);
 
@@ -181,6 +236,34 @@ impl<'a> Placer<'a> {
     /// The cells whose boxes meet `b` (ascending).
     fn near(&self, b: &Aabb) -> Vec<usize> {
         self.grid.query(b, self.eps)
+    }
+
+    /// The cells of `own` some triangle comes within `r` of (ascending): for generated cells,
+    /// which stop a voxel short of the walls they face.
+    fn near_triangles(
+        &self,
+        tris: &[[DVec3; 3]],
+        own: &std::collections::HashSet<usize>,
+        r: f64,
+    ) -> Vec<usize> {
+        let mut hit: Vec<usize> = Vec::new();
+        for t in tris {
+            let b = Aabb::from_points(t.iter());
+            let grown = Aabb {
+                min: b.min - r,
+                max: b.max + r,
+            };
+            for c in self.near(&grown) {
+                if own.contains(&c)
+                    && !hit.contains(&c)
+                    && triangle_in_cell(t, &self.set.cells[c].poly, r)
+                {
+                    hit.push(c);
+                }
+            }
+        }
+        hit.sort_unstable();
+        hit
     }
 
     /// The cell containing `p`: one of `prefer` first, else the lowest-numbered.
@@ -251,6 +334,18 @@ pub(crate) fn find(
             let mine = &set.room_cells[ri];
             let own: std::collections::HashSet<usize> =
                 mine.iter().chain(&took[ri]).copied().collect();
+            if let Some(r) = generated_reach(tagging, ri) {
+                for &n in &room.structure {
+                    let tris = node_triangles(scene, &[n], DVec3::ZERO);
+                    out.0.extend(
+                        placer
+                            .near_triangles(&tris, &own, r)
+                            .into_iter()
+                            .map(|c| (c, n)),
+                    );
+                }
+                return out;
+            }
             for &n in room.structure.iter().filter(|n| !props.contains(n)) {
                 let tris = node_triangles(scene, &[n], DVec3::ZERO);
                 let hit: Vec<usize> = near(&tris_bounds(&tris))
@@ -277,6 +372,7 @@ pub(crate) fn find(
         .collect();
     let mut lists: Vec<Vec<NodeId>> = vec![Vec::new(); set.cells.len()];
     let mut outside = Vec::new();
+    let rooms = place_unreached_generated(tagging, set, rooms);
     for (placed, out) in rooms {
         placed.into_iter().for_each(|(c, n)| lists[c].push(n));
         outside.extend(out);

@@ -51,7 +51,14 @@ impl RoomBuilder<'_> {
         let preps: Vec<Option<Prep>> = tagging
             .rooms
             .par_iter()
-            .map(|room| self.prep(room))
+            .enumerate()
+            // A generated room's cells are made already: its blocks are not read.
+            .map(
+                |(ri, room)| match self.generated.and_then(|g| g.cells_of(ri)) {
+                    Some(_) => None,
+                    None => self.prep(room),
+                },
+            )
             .collect();
         let read: Vec<usize> = (0..preps.len()).filter(|&r| preps[r].is_some()).collect();
         let mut by_name: Vec<usize> = read.clone();

@@ -89,6 +89,8 @@ pub enum CellSource {
     Hull,
     /// A convex piece of a non-convex room's interior.
     Split,
+    /// A box of a room `--tags auto` generated.
+    Generated,
     /// A bound mesh.
     Bound,
     /// An extruded footprint.
@@ -402,6 +404,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         frame,
         crack,
         blocks: Vec::new(),
+        generated: tagging.generated.as_deref(),
     };
     let (blocks, buried) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
@@ -512,6 +515,8 @@ struct RoomBuilder<'a> {
     /// The cells of each room read as solid blocks (`None`: read otherwise), found for the
     /// whole level at once before any room is built.
     blocks: Vec<Option<BlockCells>>,
+    /// What `--tags auto` generated: its rooms' cells are taken as they are.
+    generated: Option<&'a crate::tags::Generated>,
 }
 
 impl RoomBuilder<'_> {
@@ -530,7 +535,13 @@ impl RoomBuilder<'_> {
         let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
         // The gates of each of `polys` (only a block room has any).
         let mut gates: Vec<Vec<Gate>> = Vec::new();
-        if !room.bounds.is_empty() {
+        if let Some(made) = self.generated.and_then(|g| g.cells_of(ri)) {
+            let back = -self.origin;
+            polys.extend(
+                made.iter()
+                    .map(|p| (p.translated(back), CellSource::Generated)),
+            );
+        } else if !room.bounds.is_empty() {
             self.bound_polys(room, &mut polys, &mut diags);
         } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {
             self.extrude_all(room, &room.footprints, "footprint", &mut polys, &mut diags);

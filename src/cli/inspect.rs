@@ -337,6 +337,9 @@ fn cells_view(level: &Level, split: bool) -> Vec<CellView> {
 #[derive(Debug, Serialize)]
 struct TagsView {
     preset: String,
+    /// What `--tags auto` generated, and with which settings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    generated: Option<portcullis::tags::Generated>,
     rooms: Vec<RoomView>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     room_groups: Vec<GroupView>,
@@ -417,6 +420,7 @@ fn tags_view(t: &Tagged) -> TagsView {
     let paths = |v: &[usize]| v.iter().map(|&n| s.node_path(n)).collect::<Vec<_>>();
     TagsView {
         preset: g.preset.clone(),
+        generated: g.generated.as_deref().cloned(),
         rooms: g
             .rooms
             .iter()
@@ -714,6 +718,19 @@ fn render_annotation(out: &mut String, a: &AnnotationView) {
 /// left out when they are.
 fn render_tags(out: &mut String, t: &TagsView, style: &Style) {
     let _ = writeln!(out, "  tags (preset {}):", t.preset);
+    if let Some(g) = &t.generated {
+        let _ = writeln!(
+            out,
+            "    generated: {} rooms from {} voxels of air; voxel {:.3} m, grid {} x {} x {}, split ratio {}",
+            g.cells.len(),
+            g.air_voxels,
+            g.voxel,
+            g.grid[0],
+            g.grid[1],
+            g.grid[2],
+            g.split_ratio
+        );
+    }
     let rooms: Vec<String> = t.rooms.iter().map(room_row).collect();
     list(out, "rooms", &rooms, style);
     let portals: Vec<String> = t.portals.iter().map(authored_portal_row).collect();

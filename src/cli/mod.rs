@@ -81,8 +81,9 @@ pub enum Format {
 /// Options every level-reading subcommand shares.
 #[derive(Debug, Clone, Args)]
 pub struct LevelArgs {
-    /// Tag preset: default, doom, godot, lportal, panda3d, quake. Wins over the preset in
-    /// portcullis.toml.
+    /// Tag preset: default, doom, godot, lportal, panda3d, quake, or auto (the default rules,
+    /// then rooms generated in the untagged air; experimental, see docs/auto.md). Wins over the
+    /// preset in portcullis.toml.
     #[arg(long = "tags", value_name = "PRESET")]
     pub tags: Option<String>,
 

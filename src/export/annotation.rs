@@ -381,6 +381,19 @@ fn build_with_hash<'a>(
     if tagging.preset != "default" {
         root.insert("tags".into(), json!(tagging.preset));
     }
+    if let Some(g) = tagging.generated.as_deref() {
+        let axes: Vec<Value> = g.axes.iter().map(|a| json!(a.map(num))).collect();
+        root.insert(
+            "generated".into(),
+            json!({
+                "voxel": num(g.voxel),
+                "splitRatio": num(g.split_ratio),
+                "grid": g.grid,
+                "axes": axes,
+                "rooms": g.cells.len(),
+            }),
+        );
+    }
     if cells.room_cells.iter().any(|c| c.len() > 1) {
         let rooms: Vec<Value> = tagging
             .rooms

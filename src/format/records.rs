@@ -25,6 +25,9 @@ pub struct Annotated {
     /// level it was made from.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tags: Option<String>,
+    /// How `--tags auto` found the rooms, when it did.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generated: Option<GeneratedRecord>,
     /// Rooms of more than one cell (left out when every room is one cell).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rooms: Vec<RoomRecord>,
@@ -38,6 +41,23 @@ pub struct Annotated {
     /// decodes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub visibility: Option<Value>,
+}
+
+/// The settings and findings of `--tags auto`: enough to tell a reader the rooms were found,
+/// not drawn, and to find them again.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct GeneratedRecord {
+    /// Edge of a voxel (m).
+    pub voxel: f64,
+    /// The split ratio (`[auto] split_ratio`).
+    pub split_ratio: f64,
+    /// Voxels along the level's own axes.
+    pub grid: [usize; 3],
+    /// The level's own axes (world directions), the grid's.
+    pub axes: [[f64; 3]; 3],
+    /// How many rooms were generated.
+    pub rooms: usize,
 }
 
 /// A room cut into several cells.

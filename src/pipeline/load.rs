@@ -87,6 +87,7 @@ fn settings_bytes(config: &Config, rules: &RuleSet) -> Vec<u8> {
         "wildcard": rules.wildcard,
         "cells": config.cells,
         "portals": config.portals,
+        "generate": rules.generate.then_some(&config.auto),
     }))
     .unwrap_or_default()
 }
@@ -95,6 +96,15 @@ fn settings_bytes(config: &Config, rules: &RuleSet) -> Vec<u8> {
 pub fn tag(imported: import::Imported, config: Config, rules: RuleSet) -> Tagged {
     let mut tagging = tags::recognise(&imported.scene, &rules);
     tagging.settings = settings_bytes(&config, &rules);
+    if rules.generate {
+        // Rooms are found, so not finding tagged ones is no news.
+        (tagging.diagnostics.0).retain(|d| {
+            d.code != crate::diag::Code::TAG_NO_ROOMS
+                && d.code != crate::diag::Code::TAGS_PRESET_SUGGESTED
+        });
+        let found = crate::auto::generate(&imported.scene, &mut tagging, &config.auto);
+        tagging.generated = Some(Box::new(found));
+    }
     let mut diagnostics = imported.diagnostics;
     diagnostics.extend(tagging.diagnostics.iter().cloned());
     Tagged {

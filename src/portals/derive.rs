@@ -231,7 +231,8 @@ pub(crate) fn derive(
         sorted: &claims,
         found: &found,
     };
-    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed);
+    let generated = tagging.generated.as_deref();
+    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed, generated);
     crate::free::drop_elsewhere((found, claims, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
@@ -365,6 +366,7 @@ fn exterior_openings(
     cfg: &PortalsConfig,
     k: &Limits,
     claimed: &ClaimIndex,
+    generated: Option<&crate::tags::Generated>,
 ) -> Vec<Vec<(Vec<DVec3>, DVec3, f64)>> {
     let cx = ExteriorContext {
         opaque,
@@ -378,10 +380,15 @@ fn exterior_openings(
         .enumerate()
         .with_max_len(JOB)
         .map(|(c, cell)| {
+            // A generated cell stops up to a voxel short of the walls it faces: what blocks
+            // its faces is whatever lies in the voxel beyond them.
+            let depth = generated
+                .filter(|_| cell.source == crate::cells::CellSource::Generated)
+                .map_or(0.0, |g| 2.0 * g.voxel);
             Shadows::with(|shadows| {
                 let mut out = Vec::new();
                 for (i, face) in cell.poly.faces.iter().enumerate() {
-                    face_exterior(&cx, c, i, face, shadows, &mut out);
+                    face_exterior(&cx, (c, i, depth), face, shadows, &mut out);
                 }
                 out
             })
@@ -393,13 +400,20 @@ fn exterior_openings(
 /// nor anything opaque covers, added to `out`.
 fn face_exterior(
     cx: &ExteriorContext,
-    c: usize,
-    i: usize,
+    (c, i, depth): (usize, usize, f64),
     face: &crate::geom::polyhedron::Face,
     shadows: &mut Shadows,
     out: &mut Vec<(Vec<DVec3>, DVec3, f64)>,
 ) {
-    let (k, eps) = (cx.k, cx.k.eps);
+    // A generated cell's openings narrower than a voxel are gaps its voxels closed.
+    let wide;
+    let k = if depth > 0.0 {
+        wide = cx.k.widened(depth / 4.0);
+        &wide
+    } else {
+        cx.k
+    };
+    let eps = k.eps;
     let f = Frame2::of_face(face);
     let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
     let grid = face_grid(&ring);
@@ -412,15 +426,20 @@ fn face_exterior(
     if left.at_most(k.closed) {
         return;
     }
-    let near = NEAR * diagonal(ring_bounds(ring.iter()));
-    let bb = Aabb::from_points(face.points.iter()).grown(eps + near);
+    let thin = depth == 0.0;
+    let near = if thin {
+        NEAR * diagonal(ring_bounds(ring.iter()))
+    } else {
+        0.0
+    };
+    let bb = Aabb::from_points(face.points.iter()).grown(eps + near + depth);
     let d = face.plane.d;
     let slab = Slab {
         n: face.plane.normal,
         lo: d - eps,
-        hi: d + eps,
+        hi: d + eps + depth,
         frame: &f,
-        thin: true,
+        thin,
         near,
         beyond: &[],
     };
@@ -467,6 +486,7 @@ const JOB: usize = 64;
 
 /// The distances derivation works with: all from the one tolerance but the crack width, an
 /// absolute length (the cell stage's) so that it does not move with the tolerance.
+#[derive(Clone, Copy)]
 struct Limits {
     eps: f64,
     /// Openings thinner than this on average are float noise (ten tolerances) or cracks,
@@ -491,6 +511,15 @@ struct Limits {
 }
 
 impl Limits {
+    /// The limits with cracks up to `w` wide closed.
+    fn widened(&self, w: f64) -> Limits {
+        Limits {
+            crack: self.crack.max(w),
+            min_width: self.min_width.max(w),
+            ..*self
+        }
+    }
+
     fn new(eps: f64, cfg: &PortalsConfig) -> Limits {
         Limits {
             eps,

@@ -18,7 +18,9 @@ use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{NodeId, Scene};
 
 pub(crate) mod extras;
+mod generated;
 pub(crate) mod near_miss;
+pub use generated::Generated;
 pub mod presets;
 pub mod rules;
 mod suggest;
@@ -183,6 +185,9 @@ pub struct Tagging {
     /// What the tags stage reported.
     #[serde(skip)]
     pub diagnostics: Diagnostics,
+    /// The rooms `--tags auto` generated, with its settings (`None`: none were asked for).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub generated: Option<Box<Generated>>,
     /// Rooms by name as the rules compare names (lower case unless case-sensitive), so a level
     /// of many rooms resolves names in constant time. Kept by `add_room`.
     #[serde(skip)]
@@ -193,6 +198,14 @@ impl Tagging {
     /// Every occupant: the player starts first (in scene order), then the other occupants.
     pub fn all_occupants(&self) -> impl Iterator<Item = &NodeRef> {
         self.player_starts.iter().chain(self.occupants.iter())
+    }
+
+    /// Appends a room the generator found (`--tags auto`), findable by name like any other.
+    pub(crate) fn push_generated(&mut self, room: Room) -> RoomId {
+        let id = self.rooms.len();
+        self.room_index.insert(room.name.to_lowercase(), id);
+        self.rooms.push(room);
+        id
     }
 
     /// A room for an area of room `of` that its area portals cut off, called `name`: declared
@@ -354,6 +367,7 @@ impl<'a> Recognition<'a> {
             near_misses: Vec::new(),
             settings: Vec::new(),
             diagnostics: Diagnostics::default(),
+            generated: None,
             room_index: Default::default(),
         };
         Recognition {

@@ -5,6 +5,7 @@ use super::rules::{RuleSet, RuleSetSpec};
 
 /// (name, TOML text) of every preset.
 pub const PRESETS: &[(&str, &str)] = &[
+    ("auto", include_str!("presets/auto.toml")),
     ("default", include_str!("presets/default.toml")),
     ("doom", include_str!("presets/doom.toml")),
     ("godot", include_str!("presets/godot.toml")),
@@ -22,7 +23,13 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 pub fn spec(name: &str) -> Option<RuleSetSpec> {
     let (_, text) = PRESETS.iter().find(|(n, _)| n.eq_ignore_ascii_case(name))?;
     // The presets are ours and covered by tests; a parse failure is a build defect.
-    Some(toml::from_str(text).unwrap_or_else(|e| panic!("built-in preset {name} is invalid: {e}")))
+    let mut spec: RuleSetSpec =
+        toml::from_str(text).unwrap_or_else(|e| panic!("built-in preset {name} is invalid: {e}"));
+    // `auto` tags as `default` does, then generates rooms in the rest.
+    if spec.generate && spec.rules.is_empty() {
+        spec.rules = self::spec("default")?.rules;
+    }
+    Some(spec)
 }
 
 /// A preset as a `portcullis.toml` (issue 45): its comment, then a `[tags]` table naming it,

@@ -186,6 +186,9 @@ pub struct RuleSetSpec {
     /// Tried in order: the first rule that matches a source decides.
     #[serde(default, rename = "rule")]
     pub rules: Vec<RuleSpec>,
+    /// Rooms are also generated in the geometry no rule claims (`--tags auto`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub generate: bool,
 }
 
 /// A rule ready to match.
@@ -233,6 +236,8 @@ pub struct RuleSet {
     pub case_sensitive: bool,
     /// As in [`RuleSetSpec::wildcard`].
     pub wildcard: Option<char>,
+    /// As in [`RuleSetSpec::generate`].
+    pub generate: bool,
     pub(crate) rules: Vec<Rule>,
     /// The literal prefixes and suffixes of the name rules, for near misses.
     pub(crate) affixes: Vec<Affix>,
@@ -309,6 +314,7 @@ impl RuleSet {
             name: spec.name.clone(),
             case_sensitive: spec.case_sensitive,
             wildcard: spec.wildcard,
+            generate: spec.generate,
             rules,
             affixes,
             material_words,

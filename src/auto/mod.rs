@@ -1,0 +1,263 @@
+//! `--tags auto`: rooms, and their cells, found in geometry nobody tagged.
+//!
+//! The air is found on a voxel grid in the level's own frame (`frame`): every voxel a
+//! triangle touches is surface (`voxels`), the rest falls into connected pieces, and a piece
+//! is air when the surfaces around it face it (`air`). The air is split into rooms where it
+//! narrows, by a watershed on its distance field (`rooms`), and each room's voxels become a
+//! few boxes (`boxes`): the room's convex cells. The cells stage takes them as it takes a
+//! tagged room's cells, and every later stage (portals, checks, PVS, export) runs unchanged.
+//!
+//! Surface voxels belong to no cell: a cell never reaches through a wall, so a ray that
+//! enters a cell really saw into it. The openings a door's jambs narrow by up to a voxel
+//! are bridged by the portal stage's thick-wall rule, which opens the slab between two
+//! cells wherever no triangle in it blocks.
+//!
+//! Rooms a designer tagged win: generated rooms rank below every tagged one, so the cells
+//! stage cuts generated cells around tagged cells.
+
+mod air;
+mod boxes;
+mod frame;
+mod grow;
+mod rooms;
+mod voxels;
+
+use std::time::Instant;
+
+use glam::DVec3;
+use serde::Serialize;
+
+pub use frame::Frame;
+
+use crate::geom::aabb::Aabb;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::scene::{NodeId, Scene};
+use crate::tags::{Generated, Room, Tagging};
+
+/// `[auto]`: how rooms are found in untagged geometry.
+#[derive(Debug, Clone, serde::Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AutoConfig {
+    /// Edge of a voxel (m); unset: from the level's size and `max_voxels`. Openings narrower
+    /// than about two voxels close.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub voxel: Option<f64>,
+    /// The voxel budget the default voxel size is chosen for.
+    pub max_voxels: usize,
+    /// Two basins of the air stay apart, as two rooms, where the opening between them is
+    /// narrower than this share of the smaller one's depth.
+    pub split_ratio: f64,
+}
+
+impl Default for AutoConfig {
+    fn default() -> Self {
+        AutoConfig {
+            voxel: None,
+            max_voxels: 1 << 21,
+            split_ratio: 0.6,
+        }
+    }
+}
+
+/// The priority of generated rooms: below every tagged room's.
+pub const PRIORITY: i64 = -(1 << 40);
+
+/// The nodes whose geometry blocks sight: every mesh node but those the tags ignore, mark as
+/// detail, or use as portals, bounds or footprints.
+fn blocking_nodes(scene: &Scene, t: &Tagging) -> Vec<NodeId> {
+    let mut skip = vec![false; scene.nodes.len()];
+    let refs = (t.ignored.iter().map(|r| r.node))
+        .chain(t.detail.iter().map(|r| r.node))
+        .chain(t.portals.iter().map(|p| p.node))
+        .chain(t.bounds.iter().map(|b| b.node))
+        .chain(t.footprints.iter().map(|b| b.node))
+        .chain(t.rooms.iter().flat_map(|r| r.detail.iter().copied()));
+    for n in refs {
+        if let Some(s) = skip.get_mut(n) {
+            *s = true;
+        }
+    }
+    scene
+        .walk()
+        .into_iter()
+        .filter(|&n| scene.nodes[n].mesh.is_some() && !skip[n])
+        .collect()
+}
+
+/// Adds the rooms found in `scene`'s air to `tagging` and returns what was found.
+pub fn generate(scene: &Scene, tagging: &mut Tagging, cfg: &AutoConfig) -> Generated {
+    let mut seconds = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, seconds: &mut Vec<(&'static str, f64)>| {
+        seconds.push((name, clock.elapsed().as_secs_f64()));
+        clock = Instant::now();
+    };
+    let nodes = blocking_nodes(scene, tagging);
+    let per_node: Vec<Vec<[DVec3; 3]>> = nodes.iter().map(|&n| world_triangles(scene, n)).collect();
+    let world: Vec<[DVec3; 3]> = per_node.iter().flatten().copied().collect();
+    let centre = centroid(&world);
+    let tris: Vec<[DVec3; 3]> = world.iter().map(|t| t.map(|p| p - centre)).collect();
+    let frame = Frame::of(&tris);
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in tris.iter().flatten() {
+        let q = frame.to_frame(*p);
+        lo = lo.min(q);
+        hi = hi.max(q);
+    }
+    if tris.is_empty() {
+        (lo, hi) = (DVec3::ZERO, DVec3::ONE);
+    }
+    let size = (hi - lo).max(DVec3::splat(1e-9));
+    let h = cfg
+        .voxel
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .unwrap_or_else(|| (size.x * size.y * size.z / cfg.max_voxels.max(1) as f64).cbrt())
+        .max(size.max_element() / 4096.0);
+    let grid = voxels::Grid::around(frame, centre, lo, hi, h);
+    lap("frame", &mut seconds);
+    let surface = voxels::surface(&grid, &world, 1e-6);
+    lap("voxelise", &mut seconds);
+    let air = air::find(&grid, &surface, &world);
+    lap("air", &mut seconds);
+    let dist = rooms::distance(&grid, &air);
+    let (label, count) = rooms::watershed(&grid, &dist, cfg.split_ratio);
+    lap("rooms", &mut seconds);
+    let per_room = boxes::boxes(&grid, &label, count);
+    let in_grid: Vec<[DVec3; 3]> = world.iter().map(|t| t.map(|p| grid.to_grid(p))).collect();
+    let grown = grow::grow(&grid, &surface, &in_grid, &per_room);
+    let cells: Vec<Vec<ConvexPolyhedron>> = grown
+        .iter()
+        .map(|bs| bs.iter().map(|b| oriented_box(&grid, b)).collect())
+        .collect();
+    lap("cells", &mut seconds);
+    let first_room = tagging.rooms.len();
+    add_rooms(scene, tagging, &nodes, &per_node, &cells, h);
+    Generated {
+        voxel: h,
+        split_ratio: cfg.split_ratio,
+        grid: grid.dims,
+        axes: frame.axes.map(|a| a.to_array()),
+        surface_voxels: surface.iter().filter(|&&s| s).count(),
+        air_voxels: air.iter().filter(|&&a| a).count(),
+        first_room,
+        cells,
+        seconds,
+        nodes: {
+            let mut v: Vec<(NodeId, Aabb)> = nodes
+                .iter()
+                .zip(&per_node)
+                .map(|(&n, t)| (n, Aabb::from_points(t.iter().flatten())))
+                .collect();
+            v.sort_by_key(|x| x.0);
+            v
+        },
+    }
+}
+
+/// A node's triangles in world space, as it winds them, leaving out any with a non-finite
+/// corner.
+fn world_triangles(scene: &Scene, n: NodeId) -> Vec<[DVec3; 3]> {
+    let Some(m) = scene.nodes[n].mesh else {
+        return Vec::new();
+    };
+    let world = scene.world_positions(n);
+    let winding = scene.winding(n);
+    (scene.meshes[m].triangles.iter())
+        .filter_map(|&t| {
+            let [a, b, c] = winding.order(t).map(|i| world.get(i as usize).copied());
+            Some([a?, b?, c?]).filter(|t| t.iter().all(|p| p.is_finite()))
+        })
+        .collect()
+}
+
+/// The area-weighted centre of the triangles: it moves and turns with the level.
+fn centroid(tris: &[[DVec3; 3]]) -> DVec3 {
+    let (mut sum, mut area) = (DVec3::ZERO, 0.0);
+    for t in tris {
+        let a = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
+        sum += (t[0] + t[1] + t[2]) / 3.0 * a;
+        area += a;
+    }
+    if area > 0.0 {
+        sum / area
+    } else {
+        tris.first().map(|t| t[0]).unwrap_or(DVec3::ZERO)
+    }
+}
+
+/// The world polyhedron of a box of voxels.
+fn oriented_box(grid: &voxels::Grid, b: &grow::GridBox) -> ConvexPolyhedron {
+    let local = ConvexPolyhedron::from_aabb(&Aabb {
+        min: grid.origin + b[0] * grid.h,
+        max: grid.origin + b[1] * grid.h,
+    });
+    let move_point = |p: DVec3| grid.centre + grid.frame.to_world(p);
+    ConvexPolyhedron {
+        faces: local
+            .faces
+            .into_iter()
+            .map(|f| {
+                let normal = grid.frame.to_world(f.plane.normal);
+                let points: Vec<DVec3> = f.points.into_iter().map(move_point).collect();
+                let d = normal.dot(points[0]);
+                crate::geom::polyhedron::Face {
+                    plane: crate::geom::plane::Plane { normal, d },
+                    points,
+                }
+            })
+            .collect(),
+    }
+}
+
+/// Appends one tagging room per generated room: its structure is every blocking node whose
+/// box comes within two voxels of the room's cells.
+fn add_rooms(
+    scene: &Scene,
+    tagging: &mut Tagging,
+    nodes: &[NodeId],
+    per_node: &[Vec<[DVec3; 3]>],
+    cells: &[Vec<ConvexPolyhedron>],
+    h: f64,
+) {
+    let boxes: Vec<Aabb> = per_node
+        .iter()
+        .map(|t| Aabb::from_points(t.iter().flatten()))
+        .collect();
+    let mut placed = vec![false; scene.nodes.len()];
+    for (k, room_cells) in cells.iter().enumerate() {
+        let b = room_cells
+            .iter()
+            .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()));
+        let near = |nb: &Aabb| {
+            (nb.min - 2.0 * h).cmple(b.max).all() && (nb.max + 2.0 * h).cmpge(b.min).all()
+        };
+        let structure: Vec<NodeId> = (nodes.iter().zip(&boxes))
+            .filter(|(_, nb)| !nb.is_empty() && near(nb))
+            .map(|(&n, _)| n)
+            .collect();
+        for &n in &structure {
+            placed[n] = true;
+        }
+        let node = structure
+            .first()
+            .copied()
+            .or(nodes.first().copied())
+            .unwrap_or(0);
+        tagging.push_generated(Room {
+            name: format!("auto-{k}"),
+            node,
+            path: "(generated)".into(),
+            rule: "auto".into(),
+            group: None,
+            volume: crate::tags::rules::VolumeHint::Geometry,
+            priority: PRIORITY,
+            structure,
+            detail: Vec::new(),
+            bounds: Vec::new(),
+            footprints: Vec::new(),
+            area_of: None,
+        });
+    }
+    tagging.unassigned.retain(|r| !placed[r.node]);
+}
