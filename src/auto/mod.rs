@@ -7,10 +7,11 @@
 //! few boxes (`boxes`): the room's convex cells. The cells stage takes them as it takes a
 //! tagged room's cells, and every later stage (portals, checks, PVS, export) runs unchanged.
 //!
-//! Surface voxels belong to no cell: a cell never reaches through a wall, so a ray that
-//! enters a cell really saw into it. The openings a door's jambs narrow by up to a voxel
-//! are bridged by the portal stage's thick-wall rule, which opens the slab between two
-//! cells wherever no triangle in it blocks.
+//! Surface voxels belong to no cell but as far as a box grows into them (`grow`): a cell never
+//! reaches through a wall, so a ray that enters a cell really saw into it. What a box cannot
+//! grow into (a slanted wall's voxels) the portal stage reads as openings to the exterior
+//! wherever no triangle in the two voxels beyond blocks, so a ray that slips through is
+//! still followed, through the outside.
 //!
 //! Rooms a designer tagged win: generated rooms rank below every tagged one, so the cells
 //! stage cuts generated cells around tagged cells.

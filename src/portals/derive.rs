@@ -381,7 +381,10 @@ fn exterior_openings(
         .with_max_len(JOB)
         .map(|(c, cell)| {
             // A generated cell stops up to a voxel short of the walls it faces: what blocks
-            // its faces is whatever lies in the voxel beyond them.
+            // its faces is whatever lies in the two voxels beyond them. Every gap that slab
+            // leaves is an opening, sliver or not: a ray through a voxel a slanted wall only
+            // partly fills reaches the next cell through the outside (on MAP01 with every
+            // mesh merged, 3 voxels missed 268 sightlines of 78,000, 2 missed none).
             let depth = generated
                 .filter(|_| cell.source == crate::cells::CellSource::Generated)
                 .map_or(0.0, |g| 2.0 * g.voxel);
@@ -405,15 +408,7 @@ fn face_exterior(
     shadows: &mut Shadows,
     out: &mut Vec<(Vec<DVec3>, DVec3, f64)>,
 ) {
-    // A generated cell's openings narrower than a voxel are gaps its voxels closed.
-    let wide;
-    let k = if depth > 0.0 {
-        wide = cx.k.widened(depth / 4.0);
-        &wide
-    } else {
-        cx.k
-    };
-    let eps = k.eps;
+    let (k, eps) = (cx.k, cx.k.eps);
     let f = Frame2::of_face(face);
     let ring: Vec<DVec2> = face.points.iter().map(|p| f.to2(*p)).collect();
     let grid = face_grid(&ring);
@@ -486,7 +481,6 @@ const JOB: usize = 64;
 
 /// The distances derivation works with: all from the one tolerance but the crack width, an
 /// absolute length (the cell stage's) so that it does not move with the tolerance.
-#[derive(Clone, Copy)]
 struct Limits {
     eps: f64,
     /// Openings thinner than this on average are float noise (ten tolerances) or cracks,
@@ -511,15 +505,6 @@ struct Limits {
 }
 
 impl Limits {
-    /// The limits with cracks up to `w` wide closed.
-    fn widened(&self, w: f64) -> Limits {
-        Limits {
-            crack: self.crack.max(w),
-            min_width: self.min_width.max(w),
-            ..*self
-        }
-    }
-
     fn new(eps: f64, cfg: &PortalsConfig) -> Limits {
         Limits {
             eps,
