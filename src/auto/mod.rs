@@ -13,8 +13,9 @@
 //! wherever no triangle in the two voxels beyond blocks, so a ray that slips through is
 //! still followed, through the outside.
 //!
-//! Rooms a designer tagged win: generated rooms rank below every tagged one, so the cells
-//! stage cuts generated cells around tagged cells.
+//! Rooms are generated only in a level with no tagged room (`pipeline::load` decides); were
+//! they mixed, generated rooms rank below every tagged one, so the cells stage would cut
+//! generated cells around tagged cells.
 
 mod air;
 mod boxes;
@@ -59,6 +60,9 @@ impl Default for AutoConfig {
         }
     }
 }
+
+/// The most voxels a grid may have, whatever `[auto] voxel` asks for.
+const MOST_VOXELS: f64 = (1u64 << 26) as f64;
 
 /// The priority of generated rooms: below every tagged room's.
 pub const PRIORITY: i64 = -(1 << 40);
@@ -114,7 +118,10 @@ pub fn generate(scene: &Scene, tagging: &mut Tagging, cfg: &AutoConfig) -> Gener
         .voxel
         .filter(|v| v.is_finite() && *v > 0.0)
         .unwrap_or_else(|| (size.x * size.y * size.z / cfg.max_voxels.max(1) as f64).cbrt())
-        .max(size.max_element() / 4096.0);
+        .max(size.max_element() / 4096.0)
+        // However small a voxel is asked for, the grid stays within memory (about 9 bytes a
+        // voxel): the voxel used is the one the output records.
+        .max((size.x * size.y * size.z / MOST_VOXELS).cbrt());
     let grid = voxels::Grid::around(frame, centre, lo, hi, h);
     lap("frame", &mut seconds);
     let surface = voxels::surface(&grid, &world, 1e-6);

@@ -82,7 +82,7 @@ pub enum Format {
 #[derive(Debug, Clone, Args)]
 pub struct LevelArgs {
     /// Tag preset: default, doom, godot, lportal, panda3d, quake, or auto (the default rules,
-    /// then rooms generated in the untagged air; experimental, see docs/auto.md). Wins over the
+    /// and where they find no room, rooms generated in the air; experimental, docs/auto.md). Wins over the
     /// preset in portcullis.toml.
     #[arg(long = "tags", value_name = "PRESET")]
     pub tags: Option<String>,
