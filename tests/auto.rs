@@ -105,13 +105,12 @@ fn door_area(l: &Level, a: usize, b: usize) -> f64 {
 fn a_wall_with_a_door_splits_the_air_into_two_rooms_joined_by_a_door_sized_portal() {
     let l = auto_level(two_rooms(), DMat4::IDENTITY);
     let g = l.tagging().generated.as_deref().expect("generated");
-    assert_eq!(g.cells.len(), 2, "rooms");
+    assert_eq!(g.boxes.len(), 2, "rooms");
     let (a, b) = (g.first_room, g.first_room + 1);
     let area = door_area(&l, a, b);
-    // The cells grow out to the jambs and the lintel, so the portal is the door (and a
-    // sliver where the door's cell ends inside the next voxel), not the door narrowed by a
-    // voxel on each side (1.87 m² at this level's 4.4 cm voxels).
-    assert!((area - 2.1).abs() < 0.05, "door portal {area} m², not 2.1");
+    // The cells are bounded by the walls' own planes, so the portal is the door exactly,
+    // not the door narrowed by a voxel on each side (1.87 m² at this level's 4.4 cm voxels).
+    assert!((area - 2.1).abs() < 1e-6, "door portal {area} m², not 2.1");
     assert!(!l
         .diagnostics
         .0
@@ -129,7 +128,7 @@ fn the_same_rooms_are_found_turned_and_moved() {
         l.tagging().generated.as_deref().unwrap(),
         m.tagging().generated.as_deref().unwrap(),
     );
-    assert_eq!(g.cells.len(), h.cells.len(), "rooms");
+    assert_eq!(g.boxes.len(), h.boxes.len(), "rooms");
     assert_eq!(l.cells.cells.len(), m.cells.cells.len(), "cells");
     assert_eq!(g.grid, h.grid);
     let (x, y) = (
@@ -149,15 +148,15 @@ fn a_closed_box_in_a_room_is_no_air_and_splits_nothing() {
     }
     let l = auto_level(t, DMat4::IDENTITY);
     let g = l.tagging().generated.as_deref().unwrap();
-    assert_eq!(g.cells.len(), 1, "one room");
+    assert_eq!(g.boxes.len(), 1, "one room");
     let inside = v(3.5, 0.5, 2.5);
     assert!(
         !l.cells.cells.iter().any(|c| c.poly.contains(inside, 1e-9)),
         "a cell reaches into the crate"
     );
     let air: f64 = l.cells.cells.iter().map(|c| c.volume).sum();
-    // The room's 144 m³ less the crate's 1 m³, within the voxel the walls' slant leaves.
-    assert!(air > 143.0 * 0.97 && air <= 143.0 + 1e-6, "air {air} m³");
+    // The room's 144 m³ less the crate's 1 m³, exactly: cells meet the walls.
+    assert!((air - 143.0).abs() < 1e-6, "air {air} m³");
 }
 
 #[test]

@@ -1,21 +1,17 @@
-//! `--tags auto`: rooms, and their cells, found in geometry nobody tagged.
+//! `--tags auto`: rooms found in geometry nobody tagged.
 //!
 //! The air is found on a voxel grid in the level's own frame (`frame`): every voxel a
-//! triangle touches is surface (`voxels`), the rest falls into connected pieces, and a piece
-//! is air when the surfaces around it face it (`air`). The air is split into rooms where it
-//! narrows, by a watershed on its distance field (`rooms`), and each room's voxels become a
-//! few boxes (`boxes`): the room's convex cells. The cells stage takes them as it takes a
-//! tagged room's cells, and every later stage (portals, checks, PVS, export) runs unchanged.
+//! triangle touches is surface (`voxels`), and a voxel is air when the surfaces around it
+//! face it (`air`). The air is split into rooms where it narrows, by a watershed on its
+//! distance field (`rooms`), and each room's voxels become a few boxes (`boxes`), grown into
+//! the surface voxels up to the first triangle (`grow`): where each room is.
 //!
-//! Surface voxels belong to no cell but as far as a box grows into them (`grow`): a cell never
-//! reaches through a wall, so a ray that enters a cell really saw into it. What a box cannot
-//! grow into (a slanted wall's voxels) the portal stage reads as openings to the exterior
-//! wherever no triangle in the two voxels beyond blocks, so a ray that slips through is
-//! still followed, through the outside.
+//! The voxels find rooms, not cells: a box stops short of a slanted wall, and a ray slipping
+//! through that gap would reach a cell no portal leads to. The cells stage reads the level's
+//! cells exactly, from its own planes, and gives each to the room whose boxes it overlaps
+//! most (`cells::generated`); every later stage (portals, checks, PVS, export) runs unchanged.
 //!
-//! Rooms are generated only in a level with no tagged room (`pipeline::load` decides); were
-//! they mixed, generated rooms rank below every tagged one, so the cells stage would cut
-//! generated cells around tagged cells.
+//! Rooms are generated only in a level with no tagged room (`pipeline::load` decides).
 
 mod air;
 mod boxes;
@@ -134,13 +130,13 @@ pub fn generate(scene: &Scene, tagging: &mut Tagging, cfg: &AutoConfig) -> Gener
     let per_room = boxes::boxes(&grid, &label, count);
     let in_grid: Vec<[DVec3; 3]> = world.iter().map(|t| t.map(|p| grid.to_grid(p))).collect();
     let grown = grow::grow(&grid, &surface, &in_grid, &per_room);
-    let cells: Vec<Vec<ConvexPolyhedron>> = grown
+    let boxes: Vec<Vec<ConvexPolyhedron>> = grown
         .iter()
         .map(|bs| bs.iter().map(|b| oriented_box(&grid, b)).collect())
         .collect();
-    lap("cells", &mut seconds);
+    lap("boxes", &mut seconds);
     let first_room = tagging.rooms.len();
-    add_rooms(scene, tagging, &nodes, &per_node, &cells, h);
+    add_rooms(scene, tagging, &nodes, &per_node, &boxes, h);
     Generated {
         voxel: h,
         split_ratio: cfg.split_ratio,
@@ -149,7 +145,7 @@ pub fn generate(scene: &Scene, tagging: &mut Tagging, cfg: &AutoConfig) -> Gener
         surface_voxels: surface.iter().filter(|&&s| s).count(),
         air_voxels: air.iter().filter(|&&a| a).count(),
         first_room,
-        cells,
+        boxes,
         seconds,
         nodes: {
             let mut v: Vec<(NodeId, Aabb)> = nodes
@@ -219,28 +215,28 @@ fn oriented_box(grid: &voxels::Grid, b: &grow::GridBox) -> ConvexPolyhedron {
 }
 
 /// Appends one tagging room per generated room: its structure is every blocking node whose
-/// box comes within two voxels of the room's cells.
+/// box comes within two voxels of the room's boxes.
 fn add_rooms(
     scene: &Scene,
     tagging: &mut Tagging,
     nodes: &[NodeId],
     per_node: &[Vec<[DVec3; 3]>],
-    cells: &[Vec<ConvexPolyhedron>],
+    boxes: &[Vec<ConvexPolyhedron>],
     h: f64,
 ) {
-    let boxes: Vec<Aabb> = per_node
+    let node_boxes: Vec<Aabb> = per_node
         .iter()
         .map(|t| Aabb::from_points(t.iter().flatten()))
         .collect();
     let mut placed = vec![false; scene.nodes.len()];
-    for (k, room_cells) in cells.iter().enumerate() {
-        let b = room_cells
+    for (k, room_boxes) in boxes.iter().enumerate() {
+        let b = room_boxes
             .iter()
             .fold(Aabb::EMPTY, |b, c| b.union(&c.bounds()));
         let near = |nb: &Aabb| {
             (nb.min - 2.0 * h).cmple(b.max).all() && (nb.max + 2.0 * h).cmpge(b.min).all()
         };
-        let structure: Vec<NodeId> = (nodes.iter().zip(&boxes))
+        let structure: Vec<NodeId> = (nodes.iter().zip(&node_boxes))
             .filter(|(_, nb)| !nb.is_empty() && near(nb))
             .map(|(&n, _)| n)
             .collect();

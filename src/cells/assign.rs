@@ -92,7 +92,7 @@ pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, r
     for (ri, room) in tagging.rooms.iter().enumerate() {
         let mine = &set.room_cells[ri];
         // A generated room's structure is every node near it; unreached nodes are placed.
-        let generated = generated_reach(tagging, ri).is_some();
+        let generated = generated_of(tagging, ri).is_some();
         if mine.is_empty() || generated {
             continue;
         }
@@ -154,12 +154,44 @@ fn outside_diagnostic(scene: &Scene, n: NodeId) -> Diagnostic {
     .hint("move it inside a room, make it a child of the room it belongs to, or tag it `ignore`")
 }
 
-/// How far from a generated room's cells its geometry still belongs to them: one and a half
-/// voxels, since a generated cell stops short of the surface voxels around it. `None` for a
-/// room a designer tagged.
-fn generated_reach(tagging: &Tagging, room: usize) -> Option<f64> {
+/// What `--tags auto` generated, if it made room `room`.
+fn generated_of(tagging: &Tagging, room: usize) -> Option<&crate::tags::Generated> {
     let g = tagging.generated.as_deref()?;
-    g.cells_of(room).map(|_| 1.5 * g.voxel * 3f64.sqrt())
+    g.boxes_of(room).map(|_| g)
+}
+
+/// The generated rooms' structure, each node in every generated cell one of its triangles
+/// touches (cells meet the walls, so within a few tolerances).
+fn place_generated(
+    placer: &Placer,
+    scene: &Scene,
+    tagging: &Tagging,
+    set: &CellSet,
+    out: &mut Placed,
+) {
+    let Some(g) = tagging.generated.as_deref() else {
+        return;
+    };
+    let rooms = g.first_room..tagging.rooms.len();
+    let own: std::collections::HashSet<usize> = rooms
+        .clone()
+        .flat_map(|r| set.room_cells.get(r).into_iter().flatten().copied())
+        .collect();
+    let mut nodes: Vec<NodeId> = rooms
+        .flat_map(|r| tagging.rooms[r].structure.iter().copied())
+        .collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    let r = 4.0 * set.tolerance.distance;
+    for n in nodes {
+        let tris = node_triangles(scene, &[n], DVec3::ZERO);
+        out.0.extend(
+            placer
+                .near_triangles(&tris, &own, r)
+                .into_iter()
+                .map(|c| (c, n)),
+        );
+    }
 }
 
 /// Generated rooms' structure that no generated cell comes near (it faces only the void, or
@@ -238,8 +270,7 @@ impl<'a> Placer<'a> {
         self.grid.query(b, self.eps)
     }
 
-    /// The cells of `own` some triangle comes within `r` of (ascending): for generated cells,
-    /// which stop a voxel short of the walls they face.
+    /// The cells of `own` some triangle comes within `r` of (ascending).
     fn near_triangles(
         &self,
         tris: &[[DVec3; 3]],
@@ -334,15 +365,11 @@ pub(crate) fn find(
             let mine = &set.room_cells[ri];
             let own: std::collections::HashSet<usize> =
                 mine.iter().chain(&took[ri]).copied().collect();
-            if let Some(r) = generated_reach(tagging, ri) {
-                for &n in &room.structure {
-                    let tris = node_triangles(scene, &[n], DVec3::ZERO);
-                    out.0.extend(
-                        placer
-                            .near_triangles(&tris, &own, r)
-                            .into_iter()
-                            .map(|c| (c, n)),
-                    );
+            if let Some(g) = generated_of(tagging, ri) {
+                // The generated rooms share one reading of the level: their structure is
+                // placed once, in every generated cell a triangle touches.
+                if ri == g.first_room {
+                    place_generated(&placer, scene, tagging, set, &mut out);
                 }
                 return out;
             }

@@ -52,9 +52,9 @@ impl RoomBuilder<'_> {
             .rooms
             .par_iter()
             .enumerate()
-            // A generated room's cells are made already: its blocks are not read.
+            // Generated rooms are read together as one room (`super::generated`).
             .map(
-                |(ri, room)| match self.generated.and_then(|g| g.cells_of(ri)) {
+                |(ri, room)| match tagging.generated.as_deref().and_then(|g| g.boxes_of(ri)) {
                     Some(_) => None,
                     None => self.prep(room),
                 },

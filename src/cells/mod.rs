@@ -71,6 +71,7 @@ use block_rooms::BlockCells;
 mod blocks;
 mod bsp;
 mod footprint;
+mod generated;
 mod interior;
 mod overlap;
 pub use overlap::Overlap;
@@ -89,8 +90,6 @@ pub enum CellSource {
     Hull,
     /// A convex piece of a non-convex room's interior.
     Split,
-    /// A box of a room `--tags auto` generated.
-    Generated,
     /// A bound mesh.
     Bound,
     /// An extruded footprint.
@@ -404,10 +403,11 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         frame,
         crack,
         blocks: Vec::new(),
-        generated: tagging.generated.as_deref(),
+        generated: None,
     };
     let (blocks, buried) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
+    b.generated = generated::build(&b, tagging);
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count.
     let built: Vec<RoomCells> = tagging
@@ -515,8 +515,8 @@ struct RoomBuilder<'a> {
     /// The cells of each room read as solid blocks (`None`: read otherwise), found for the
     /// whole level at once before any room is built.
     blocks: Vec<Option<BlockCells>>,
-    /// What `--tags auto` generated: its rooms' cells are taken as they are.
-    generated: Option<&'a crate::tags::Generated>,
+    /// The cells of the rooms `--tags auto` generated, read once for all of them.
+    generated: Option<generated::GeneratedCells>,
 }
 
 impl RoomBuilder<'_> {
@@ -535,12 +535,12 @@ impl RoomBuilder<'_> {
         let mut polys: Vec<(ConvexPolyhedron, CellSource)> = Vec::new();
         // The gates of each of `polys` (only a block room has any).
         let mut gates: Vec<Vec<Gate>> = Vec::new();
-        if let Some(made) = self.generated.and_then(|g| g.cells_of(ri)) {
-            let back = -self.origin;
-            polys.extend(
-                made.iter()
-                    .map(|p| (p.translated(back), CellSource::Generated)),
-            );
+        if let Some((g, made)) = (self.generated.as_ref()).and_then(|g| Some((g, g.of(ri)?))) {
+            polys.extend(made.iter().cloned());
+            if ri == g.first_room {
+                props.extend(g.props.iter().copied());
+                diags.extend(g.diags.iter().cloned());
+            }
         } else if !room.bounds.is_empty() {
             self.bound_polys(room, &mut polys, &mut diags);
         } else if room.volume == VolumeHint::Footprint || !room.footprints.is_empty() {

@@ -722,7 +722,7 @@ fn render_tags(out: &mut String, t: &TagsView, style: &Style) {
         let _ = writeln!(
             out,
             "    generated: {} rooms from {} voxels of air; voxel {:.3} m, grid {} x {} x {}, split ratio {}",
-            g.cells.len(),
+            g.boxes.len(),
             g.air_voxels,
             g.voxel,
             g.grid[0],

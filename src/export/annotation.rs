@@ -390,7 +390,7 @@ fn build_with_hash<'a>(
                 "splitRatio": num(g.split_ratio),
                 "grid": g.grid,
                 "axes": axes,
-                "rooms": g.cells.len(),
+                "rooms": g.boxes.len(),
             }),
         );
     }

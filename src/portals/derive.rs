@@ -231,8 +231,7 @@ pub(crate) fn derive(
         sorted: &claims,
         found: &found,
     };
-    let generated = tagging.generated.as_deref();
-    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed, generated);
+    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed);
     crate::free::drop_elsewhere((found, claims, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
@@ -366,7 +365,6 @@ fn exterior_openings(
     cfg: &PortalsConfig,
     k: &Limits,
     claimed: &ClaimIndex,
-    generated: Option<&crate::tags::Generated>,
 ) -> Vec<Vec<(Vec<DVec3>, DVec3, f64)>> {
     let cx = ExteriorContext {
         opaque,
@@ -380,18 +378,10 @@ fn exterior_openings(
         .enumerate()
         .with_max_len(JOB)
         .map(|(c, cell)| {
-            // A generated cell stops up to a voxel short of the walls it faces: what blocks
-            // its faces is whatever lies in the two voxels beyond them. Every gap that slab
-            // leaves is an opening, sliver or not: a ray through a voxel a slanted wall only
-            // partly fills reaches the next cell through the outside (on MAP01 with every
-            // mesh merged, 3 voxels missed 268 sightlines of 78,000, 2 missed none).
-            let depth = generated
-                .filter(|_| cell.source == crate::cells::CellSource::Generated)
-                .map_or(0.0, |g| 2.0 * g.voxel);
             Shadows::with(|shadows| {
                 let mut out = Vec::new();
                 for (i, face) in cell.poly.faces.iter().enumerate() {
-                    face_exterior(&cx, (c, i, depth), face, shadows, &mut out);
+                    face_exterior(&cx, c, i, face, shadows, &mut out);
                 }
                 out
             })
@@ -403,7 +393,8 @@ fn exterior_openings(
 /// nor anything opaque covers, added to `out`.
 fn face_exterior(
     cx: &ExteriorContext,
-    (c, i, depth): (usize, usize, f64),
+    c: usize,
+    i: usize,
     face: &crate::geom::polyhedron::Face,
     shadows: &mut Shadows,
     out: &mut Vec<(Vec<DVec3>, DVec3, f64)>,
@@ -421,20 +412,15 @@ fn face_exterior(
     if left.at_most(k.closed) {
         return;
     }
-    let thin = depth == 0.0;
-    let near = if thin {
-        NEAR * diagonal(ring_bounds(ring.iter()))
-    } else {
-        0.0
-    };
-    let bb = Aabb::from_points(face.points.iter()).grown(eps + near + depth);
+    let near = NEAR * diagonal(ring_bounds(ring.iter()));
+    let bb = Aabb::from_points(face.points.iter()).grown(eps + near);
     let d = face.plane.d;
     let slab = Slab {
         n: face.plane.normal,
         lo: d - eps,
-        hi: d + eps + depth,
+        hi: d + eps,
         frame: &f,
-        thin,
+        thin: true,
         near,
         beyond: &[],
     };

@@ -25,9 +25,10 @@ pub struct Generated {
     pub air_voxels: usize,
     /// The first generated room's index in the tagging; the rest follow.
     pub first_room: usize,
-    /// Each generated room's cells (world).
+    /// Each generated room's voxel boxes (world): where the room is. The cells stage reads the
+    /// level's cells exactly and gives each to the room whose boxes it overlaps most.
     #[serde(skip)]
-    pub cells: Vec<Vec<ConvexPolyhedron>>,
+    pub boxes: Vec<Vec<ConvexPolyhedron>>,
     /// Seconds per step: (step, seconds); for `bench`, never written (a run's output does not
     /// depend on the machine).
     #[serde(skip)]
@@ -38,10 +39,10 @@ pub struct Generated {
 }
 
 impl Generated {
-    /// The cells of tagging room `room` if the generator made it.
-    pub fn cells_of(&self, room: usize) -> Option<&[ConvexPolyhedron]> {
+    /// The voxel boxes of tagging room `room` if the generator made it.
+    pub fn boxes_of(&self, room: usize) -> Option<&[ConvexPolyhedron]> {
         let k = room.checked_sub(self.first_room)?;
-        self.cells.get(k).map(|c| c.as_slice())
+        self.boxes.get(k).map(|c| c.as_slice())
     }
 
     /// The box of a blocking node's triangles, if the generator read it.

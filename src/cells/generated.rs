@@ -1,0 +1,117 @@
+//! The cells of the rooms `--tags auto` generated.
+//!
+//! The voxel rooms say where rooms are, not what their cells are: a voxel box stops short of
+//! a slanted wall, and a ray slipping through that gap reaches a cell no portal leads to. So
+//! the untagged level is read once as one room, the way a tagged room is (props set aside, then
+//! its prism or its 3D interior: cells bounded by the level's own planes, meeting every wall),
+//! and each cell goes to the generated room whose voxel boxes it overlaps most by volume. A
+//! cell overlapping none (air the voxels missed: a pocket smaller than the smallest room, a
+//! gap under two voxels) goes to the room of the box nearest it, so no air is lost.
+
+use glam::DVec3;
+
+use crate::diag::Diagnostic;
+use crate::geom::aabb::Aabb;
+use crate::geom::grid::BoxGrid;
+use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::scene::NodeId;
+use crate::tags::{Room, Tagging};
+
+use super::{CellSource, PropReason, RoomBuilder};
+
+/// The generated rooms' cells (recentred) by generated room, and what reading the level found.
+pub(super) struct GeneratedCells {
+    pub(super) first_room: usize,
+    pub(super) per_room: Vec<Vec<(ConvexPolyhedron, CellSource)>>,
+    pub(super) props: Vec<(NodeId, PropReason)>,
+    pub(super) diags: Vec<Diagnostic>,
+}
+
+impl GeneratedCells {
+    /// Room `ri`'s cells, if the generator made the room.
+    pub(super) fn of(&self, ri: usize) -> Option<&[(ConvexPolyhedron, CellSource)]> {
+        let k = ri.checked_sub(self.first_room)?;
+        self.per_room.get(k).map(Vec::as_slice)
+    }
+}
+
+/// Reads every generated room's structure as one room and shares its cells out (`None` when
+/// nothing was generated).
+pub(super) fn build(b: &RoomBuilder, tagging: &Tagging) -> Option<GeneratedCells> {
+    let g = tagging.generated.as_deref()?;
+    let rooms = &tagging.rooms[g.first_room.min(tagging.rooms.len())..];
+    let first = rooms.first()?;
+    let mut structure: Vec<NodeId> = rooms
+        .iter()
+        .flat_map(|r| r.structure.iter().copied())
+        .collect();
+    structure.sort_unstable();
+    structure.dedup();
+    let whole = Room {
+        structure,
+        ..first.clone()
+    };
+    let (mut polys, mut gates, mut props, mut diags) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    b.structure_polys(
+        g.first_room,
+        &whole,
+        &mut polys,
+        &mut gates,
+        &mut props,
+        &mut diags,
+    );
+    let boxes: Vec<(usize, ConvexPolyhedron)> = (g.boxes.iter().enumerate())
+        .flat_map(|(k, bs)| bs.iter().map(move |p| (k, p.translated(-b.origin))))
+        .collect();
+    let index = BoxGrid::new(boxes.iter().map(|(_, p)| p.bounds()).collect());
+    let mut per_room = vec![Vec::new(); rooms.len()];
+    for (poly, source) in polys {
+        let k = room_of(&poly, &boxes, &index, b.eps).min(rooms.len() - 1);
+        per_room[k].push((poly, source));
+    }
+    Some(GeneratedCells {
+        first_room: g.first_room,
+        per_room,
+        props,
+        diags,
+    })
+}
+
+/// The generated room whose boxes `cell` overlaps most by volume (ties to the lower room),
+/// else the room of the box nearest its interior.
+fn room_of(
+    cell: &ConvexPolyhedron,
+    boxes: &[(usize, ConvexPolyhedron)],
+    index: &BoxGrid,
+    eps: f64,
+) -> usize {
+    let mut shares: Vec<(usize, f64)> = Vec::new();
+    for i in index.query(&cell.bounds(), 0.0) {
+        let (k, p) = &boxes[i];
+        let v = cell.intersection(p, eps).map_or(0.0, |x| x.volume());
+        if v > 0.0 {
+            match shares.iter_mut().find(|(r, _)| r == k) {
+                Some(s) => s.1 += v,
+                None => shares.push((*k, v)),
+            }
+        }
+    }
+    if let Some((k, _)) = shares
+        .iter()
+        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+    {
+        return *k;
+    }
+    let at = cell.interior_point();
+    boxes
+        .iter()
+        .map(|(k, p)| (distance(&p.bounds(), at), *k))
+        .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+        .map_or(0, |(_, k)| k)
+}
+
+/// Distance from `p` to a box (0 inside).
+fn distance(b: &Aabb, p: DVec3) -> f64 {
+    (b.min - p).max(p - b.max).max(DVec3::ZERO).length()
+}

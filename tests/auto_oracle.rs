@@ -1,0 +1,219 @@
+//! `--tags auto` on real levels nobody tagged, judged by an oracle that shares no code with the
+//! cells, portals or PVS: rays cast from random eyes in the generated cells against the
+//! level's own triangles (parry's ray cast), each hit's cell looked up by its planes; the
+//! hit's cell must be in the eye's cell's full PVS. The Freedoom maps are merged into one
+//! untagged node here, so no sector structure is left.
+//!
+//! living_room runs in the suite; the bigger levels are marked for explicit runs
+//! (`cargo test --release --test auto_oracle -- --ignored`), as they take minutes.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat4, DVec3};
+use parry3d_f64::query::{Ray, RayCast};
+use portcullis::import::Imported;
+use portcullis::pipeline;
+use portcullis::vis::{self, VisOptions};
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = common::root().join("../shared/levels").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "skipped: {} is missing (../shared is not beside the clone)",
+            p.display()
+        );
+        None
+    }
+}
+
+/// The level's mesh nodes as one untagged node of world triangles.
+fn merged(path: &Path) -> portcullis::scene::Scene {
+    let imported = portcullis::import::import_path(path, &Default::default()).expect("imports");
+    let s = imported.scene;
+    let mut tris = Vec::new();
+    for n in s.walk() {
+        let Some(m) = s.nodes[n].mesh else { continue };
+        let w = s.world_positions(n);
+        let flip = s.nodes[n].world.determinant() < 0.0;
+        for t in &s.meshes[m].triangles {
+            let [a, b, c] = t.map(|i| w[i as usize]);
+            tris.push(if flip { [a, c, b] } else { [a, b, c] });
+        }
+    }
+    common::scene_of(vec![("level", None, tris, None)], DMat4::IDENTITY)
+}
+
+/// Eyes, rays per eye, and the misses and hits in no cell the oracle found.
+struct Verdict {
+    rays: usize,
+    misses: Vec<String>,
+    nowhere: usize,
+    /// Hits in no cell whose node no cell the eye's cell sees renders.
+    undrawn: Vec<String>,
+}
+
+fn audit(scene: portcullis::scene::Scene, eyes: usize, per_eye: usize) -> Verdict {
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, Some("auto")).unwrap();
+    let imported = Imported {
+        scene,
+        diagnostics: Default::default(),
+    };
+    let tagged = pipeline::tag(imported, config, rules);
+    let mesh = common::opaque_mesh(&tagged);
+    // The node of each of the mesh's triangles, in `opaque_mesh`'s order.
+    let owner: Vec<usize> = tagged
+        .scene
+        .walk()
+        .into_iter()
+        .filter(|&n| !tagged.tagging.portals.iter().any(|q| q.node == n))
+        .filter(|&n| !tagged.tagging.footprints.iter().any(|f| f.node == n))
+        .filter(|&n| !tagged.tagging.bounds.iter().any(|b| b.node == n))
+        .flat_map(|n| {
+            let k = tagged.scene.nodes[n]
+                .mesh
+                .map_or(0, |m| tagged.scene.meshes[m].triangles.len());
+            std::iter::repeat_n(n, k)
+        })
+        .collect();
+    assert_eq!(owner.len(), mesh.indices().len(), "triangle owners");
+    let level = pipeline::build(tagged);
+    let c = &level.cells;
+    assert!(!c.cells.is_empty(), "no cells");
+    let full = vis::of_level(
+        c.cells.len(),
+        &level.portals,
+        c.tolerance.distance,
+        &VisOptions::default(),
+    );
+    let mut rng = common::rng::SplitMix64::new(0x5eed_a070);
+    let total: f64 = c.cells.iter().map(|x| x.volume).sum();
+    let inside = |cell: usize, q: DVec3| {
+        (c.cells[cell].poly.faces.iter()).all(|f| f.plane.normal.dot(q) - f.plane.d <= 1e-9)
+    };
+    let in_box = |k: usize, q: DVec3| {
+        let b = &c.cells[k].bounds;
+        (b.min - 1e-9).cmple(q).all() && (b.max + 1e-9).cmpge(q).all()
+    };
+    let cell_at = |q: DVec3| (0..c.cells.len()).find(|&k| in_box(k, q) && inside(k, q));
+    let mut v = Verdict {
+        rays: 0,
+        misses: Vec::new(),
+        nowhere: 0,
+        undrawn: Vec::new(),
+    };
+    for _ in 0..eyes {
+        // An eye in a cell picked by volume: the air a camera stands in.
+        let mut pick = rng.unit() * total;
+        let eye_cell = (c.cells.iter().position(|x| {
+            pick -= x.volume;
+            pick <= 0.0
+        }))
+        .unwrap_or(c.cells.len() - 1);
+        let bb = c.cells[eye_cell].bounds;
+        let eye = loop {
+            let q = bb.min + (bb.max - bb.min) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
+            if inside(eye_cell, q) {
+                break q;
+            }
+        };
+        for _ in 0..per_eye {
+            let d = loop {
+                let d = DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 2.0 - 1.0;
+                let l = d.length();
+                if l > 1e-3 && l <= 1.0 {
+                    break d / l;
+                }
+            };
+            let Some(hit) = mesh.cast_local_ray_and_get_normal(&Ray::new(eye, d), f64::MAX, true)
+            else {
+                continue;
+            };
+            let toi = hit.time_of_impact;
+            v.rays += 1;
+            // Just before the hit: the air the hit surface faces, in some cell.
+            let back = (1e-6 * toi).max(1e-5 * c.tolerance.distance.max(1e-6));
+            let Some(hit_cell) = cell_at(eye + d * (toi - back).max(0.0)) else {
+                // Air in no cell (past an opening to the exterior): the hit is still seen,
+                // so a cell the eye's cell sees must render its node.
+                v.nowhere += 1;
+                let node = owner[hit.subshape as usize];
+                let drawn = (0..c.cells.len())
+                    .filter(|&k| k == eye_cell || full.sees(eye_cell, k))
+                    .any(|k| c.cells[k].nodes.contains(&node));
+                if !drawn {
+                    v.undrawn
+                        .push(format!("{eye} along {d}: node {node} at {toi}"));
+                }
+                continue;
+            };
+            if hit_cell != eye_cell && !full.sees(eye_cell, hit_cell) {
+                v.misses.push(format!(
+                    "{eye} along {d}: cell {eye_cell} sees cell {hit_cell} at {toi}"
+                ));
+            }
+        }
+    }
+    v
+}
+
+fn judge(name: &str, v: Verdict) {
+    eprintln!(
+        "{name}: {} rays hit, {} misses, {} hits in no cell",
+        v.rays,
+        v.misses.len(),
+        v.nowhere
+    );
+    assert!(v.rays > 100, "{name}: only {} rays hit", v.rays);
+    assert!(
+        v.misses.is_empty(),
+        "{name}: {} misses, first {:?}",
+        v.misses.len(),
+        v.misses.first()
+    );
+    assert!(
+        v.undrawn.is_empty(),
+        "{name}: {} hits in no cell drawn by no cell the eye's cell sees, first {:?}",
+        v.undrawn.len(),
+        v.undrawn.first()
+    );
+}
+
+#[test]
+fn living_room_rays_find_no_cell_the_pvs_misses() {
+    let Some(p) = shared("godot/living_room.glb") else {
+        return;
+    };
+    let scene = portcullis::import::import_path(&p, &Default::default())
+        .unwrap()
+        .scene;
+    judge("living_room", audit(scene, 200, 50));
+}
+
+#[test]
+#[ignore = "minutes: run with --ignored"]
+fn shared_levels_rays_find_no_cell_the_pvs_misses() {
+    for rel in [
+        "freedoom/freedoom2_MAP01.glb",
+        "freedoom/freedoom1_E1M2.glb",
+        "freedoom/freedoom1_E3M3.glb",
+    ] {
+        let Some(p) = shared(rel) else { continue };
+        judge(rel, audit(merged(&p), 200, 50));
+    }
+    for rel in [
+        "godot/occlusion_room.glb",
+        "godot/gi_zdm2.glb",
+        "sauerbraten/pandora.obj",
+    ] {
+        let Some(p) = shared(rel) else { continue };
+        let scene = portcullis::import::import_path(&p, &Default::default())
+            .unwrap()
+            .scene;
+        judge(rel, audit(scene, 200, 50));
+    }
+}
