@@ -172,3 +172,36 @@ fn a_level_with_tagged_rooms_is_read_as_tagged() {
     );
     assert!(names.iter().all(|n| !n.starts_with("auto-")), "{names:?}");
 }
+
+#[test]
+fn a_closet_of_six_slabs_in_one_untagged_mesh_is_its_air_not_its_slabs() {
+    // The slabs (closed, facing out) enclose more of their hull than the air does: read as a
+    // room modelled as a solid, their insides became the cells and the closet none.
+    let v = DVec3::new;
+    let (lo, hi, w) = (v(0.0, 0.0, 0.0), v(2.0, 2.5, 2.0), 0.3);
+    let mut t = Vec::new();
+    for axis in 0..3 {
+        for side in [0, 1] {
+            let (mut a, mut b) = (lo - DVec3::splat(w), hi + DVec3::splat(w));
+            if side == 0 {
+                b[axis] = lo[axis];
+            } else {
+                a[axis] = hi[axis];
+            }
+            t.extend(common::blocks::box_tris(a, b));
+        }
+    }
+    let l = auto_level(t, DMat4::IDENTITY);
+    assert!(l.tagging().generated.is_some(), "no rooms generated");
+    assert_eq!(l.cells.cells.len(), 1, "cells");
+    let c = &l.cells.cells[0];
+    assert!(
+        (c.volume - 10.0).abs() < 1e-6,
+        "air {} m³, not 10",
+        c.volume
+    );
+    assert!(
+        c.poly.contains(v(1.0, 1.25, 1.0), 1e-9),
+        "the cell is not the closet"
+    );
+}

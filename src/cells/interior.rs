@@ -148,10 +148,15 @@ fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron,
 
 /// The convex cells of the air inside a room's surface. `hull` is the convex hull of `tris`.
 /// Returns the hull alone when no triangle lies inside it (a convex room).
+///
+/// `as_rendered` reads the surface only as rendered, facing the air: for a whole level nobody
+/// tagged (`--tags auto`), whose voxel air is found by the same convention. A closet of six
+/// slabs encloses more than half its hull, which would otherwise read the slabs as the air.
 pub(crate) fn decompose(
     tris: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
     eps: f64,
+    as_rendered: bool,
 ) -> Vec<ConvexPolyhedron> {
     // Which way the air lies (see the module docs): a room modelled as a solid encloses most
     // of its hull with its surface facing out; anything else is read as rendered, the air in
@@ -161,13 +166,18 @@ pub(crate) fn decompose(
         .iter()
         .map(|t| (t[0] - centre).dot((t[1] - centre).cross(t[2] - centre)) / 6.0)
         .sum();
-    let sense = if enclosed > 0.5 * hull.volume() {
+    let sense = if enclosed > 0.5 * hull.volume() && !as_rendered {
         -1.0
     } else {
         1.0
     };
     let mut air = Vec::new();
-    for sense in [sense, -sense] {
+    let senses = if as_rendered {
+        &[sense][..]
+    } else {
+        &[sense, -sense][..]
+    };
+    for &sense in senses {
         let Some(surface) = Surface::new(tris, hull, eps, sense) else {
             return vec![hull.clone()];
         };
@@ -878,7 +888,7 @@ mod tests {
         let t = box_tris(DVec3::ZERO, DVec3::new(4.0, 3.0, 4.0));
         let pts: Vec<DVec3> = t.iter().flatten().copied().collect();
         let h = crate::geom::hull::hull(&pts, 1e-9).unwrap();
-        let cells = decompose(&t, &h, 1e-9);
+        let cells = decompose(&t, &h, 1e-9, false);
         assert_eq!(cells.len(), 1);
         assert!((cells[0].volume() - 48.0).abs() < 1e-9);
     }

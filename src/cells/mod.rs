@@ -404,6 +404,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         crack,
         blocks: Vec::new(),
         generated: None,
+        as_rendered: tagging.generated.is_some(),
     };
     let (blocks, buried) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
@@ -517,6 +518,9 @@ struct RoomBuilder<'a> {
     blocks: Vec<Option<BlockCells>>,
     /// The cells of the rooms `--tags auto` generated, read once for all of them.
     generated: Option<generated::GeneratedCells>,
+    /// Whether rooms were generated: the one room then read from its structure is the whole
+    /// level, read as rendered (`interior::decompose`).
+    as_rendered: bool,
 }
 
 impl RoomBuilder<'_> {
@@ -719,7 +723,7 @@ impl RoomBuilder<'_> {
         match hull(&pts, eps) {
             Ok(h) => {
                 let cells = prism::cells(&tris, &h, eps, frame)
-                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps));
+                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps, self.as_rendered));
                 let source = if cells.len() == 1 && cells[0] == h {
                     CellSource::Hull
                 } else {
