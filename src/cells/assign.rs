@@ -224,10 +224,7 @@ fn place_unreached_generated(
     for n in wanted {
         let Some(b) = g.node_bounds(n) else { continue };
         let mid = (b.min + b.max) * 0.5;
-        let gap = |c: usize| {
-            let cb = &set.cells[c].bounds;
-            (cb.min - mid).max(mid - cb.max).max(DVec3::ZERO).length()
-        };
+        let gap = |c: usize| set.cells[c].bounds.distance_to(mid);
         if let Some(c) = made
             .iter()
             .copied()

@@ -8,10 +8,7 @@
 //! cell overlapping none (air the voxels missed: a pocket smaller than the smallest room, a
 //! gap under two voxels) goes to the room of the box nearest it, so no air is lost.
 
-use glam::DVec3;
-
 use crate::diag::Diagnostic;
-use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::NodeId;
@@ -106,12 +103,7 @@ fn room_of(
     let at = cell.interior_point();
     boxes
         .iter()
-        .map(|(k, p)| (distance(&p.bounds(), at), *k))
+        .map(|(k, p)| (p.bounds().distance_to(at), *k))
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
         .map_or(0, |(_, k)| k)
-}
-
-/// Distance from `p` to a box (0 inside).
-fn distance(b: &Aabb, p: DVec3) -> f64 {
-    (b.min - p).max(p - b.max).max(DVec3::ZERO).length()
 }

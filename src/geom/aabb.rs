@@ -57,6 +57,10 @@ impl Aabb {
     pub(crate) fn meets(&self, o: &Aabb) -> bool {
         (0..3).all(|k| self.min[k] <= o.max[k] && self.max[k] >= o.min[k])
     }
+    /// Distance from `p` to the box (0 inside).
+    pub fn distance_to(&self, p: DVec3) -> f64 {
+        (self.min - p).max(p - self.max).max(DVec3::ZERO).length()
+    }
     /// True for a box holding no point (such as `EMPTY`).
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
