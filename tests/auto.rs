@@ -205,3 +205,48 @@ fn a_closet_of_six_slabs_in_one_untagged_mesh_is_its_air_not_its_slabs() {
         "the cell is not the closet"
     );
 }
+
+#[test]
+fn the_space_over_a_roof_whose_walls_stop_at_it_joins_the_yards_on_either_side() {
+    // Doom's sky hack: two yards under a sky at 8 m either side of a house whose walls stop
+    // at its roof (4 m), with nothing over the roof. The roof's back faces the space above
+    // it, so that space read as solid and no cell crossed it, yet a ray from one yard passes
+    // over the roof into the other (12 missed pairs on Freedoom MAP01 merged).
+    let v = DVec3::new;
+    let mut t = room(v(0.0, 0.0, 0.0), v(10.0, 8.0, 10.0), &[1]);
+    t.extend(room(v(20.0, 0.0, 0.0), v(30.0, 8.0, 10.0), &[0]));
+    // The house: a room inside walls 0.5 m thick, with no tops (as a Doom line has none).
+    t.extend(room(v(10.5, 0.0, 0.0), v(19.5, 4.0, 10.0), &[]));
+    t.extend(quad(
+        v(10.0, 0.0, 0.0),
+        v(10.0, 4.0, 0.0),
+        v(10.0, 4.0, 10.0),
+        v(10.0, 0.0, 10.0),
+        -DVec3::X,
+    ));
+    t.extend(quad(
+        v(20.0, 0.0, 0.0),
+        v(20.0, 4.0, 0.0),
+        v(20.0, 4.0, 10.0),
+        v(20.0, 0.0, 10.0),
+        DVec3::X,
+    ));
+    let l = auto_level(t, DMat4::IDENTITY);
+    let cell_at = |p: DVec3| {
+        (0..l.cells.cells.len())
+            .find(|&c| l.cells.cells[c].poly.contains_strictly(p, 1e-6))
+            .unwrap_or_else(|| panic!("no cell holds {p}"))
+    };
+    let (a, b) = (cell_at(v(5.0, 6.0, 5.0)), cell_at(v(25.0, 6.0, 5.0)));
+    cell_at(v(15.0, 6.0, 5.0));
+    let pvs = pipeline::pvs(&l, portcullis::vis::Method::Full);
+    assert!(
+        pvs.visible(a).any(|c| c == b),
+        "the far yard is not in the PVS"
+    );
+    let audit = pipeline::audit(&l, &pvs, 500);
+    let missed: Vec<_> = (audit.diagnostics.0.iter())
+        .filter(|d| d.code == portcullis::diag::Code::PVS_MISSES_SIGHTLINE)
+        .collect();
+    assert!(missed.is_empty(), "{missed:?}");
+}

@@ -40,6 +40,7 @@ fn full() -> Annotated {
         generated: Some(GeneratedRecord {
             voxel: 0.25,
             split_ratio: 0.6,
+            detail_area: Some(0.0625),
             grid: [10, 20, 30],
             axes: [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
             rooms: 2,

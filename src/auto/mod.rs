@@ -45,6 +45,10 @@ pub struct AutoConfig {
     /// Two basins of the air stay apart, as two rooms, where the opening between them is
     /// narrower than this share of the smaller one's depth.
     pub split_ratio: f64,
+    /// Planes whose triangles add up to less than this area (m²) are detail: they do not cut
+    /// the cells (trims, pipes, the facets of a curved patch). Unset: a voxel's face.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub detail_area: Option<f64>,
 }
 
 impl Default for AutoConfig {
@@ -53,6 +57,7 @@ impl Default for AutoConfig {
             voxel: None,
             max_voxels: 1 << 21,
             split_ratio: 0.6,
+            detail_area: None,
         }
     }
 }
@@ -140,6 +145,7 @@ pub fn generate(scene: &Scene, tagging: &mut Tagging, cfg: &AutoConfig) -> Gener
     Generated {
         voxel: h,
         split_ratio: cfg.split_ratio,
+        detail_area: cfg.detail_area.unwrap_or(h * h),
         grid: grid.dims,
         axes: frame.axes.map(|a| a.to_array()),
         surface_voxels: surface.iter().filter(|&&s| s).count(),

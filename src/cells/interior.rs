@@ -75,6 +75,27 @@ struct Surface {
     active: Vec<Frag>,
     /// +1 when the triangles face the air, -1 for a room modelled as a solid.
     sense: f64,
+    /// Triangles on planes too small to cut by ([`Reading::Level`]'s detail), and a grid
+    /// over their boxes.
+    detail: Vec<[DVec3; 3]>,
+    detail_index: Option<BoxGrid>,
+    /// For [`Reading::Level`]: the level's triangles to cast rays at, and its own axes.
+    rays: Option<(parry3d_f64::shape::TriMesh, [DVec3; 3])>,
+}
+
+/// How a surface is read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Reading {
+    /// A tagged room: as rendered, or as a solid when its surface encloses most of its hull.
+    Room,
+    /// A whole level nobody tagged (`--tags auto`): only as rendered, facing the air, the
+    /// convention its voxel air is found by (a closet of six slabs encloses more than half its
+    /// hull, which would otherwise read the slabs as the air). Planes whose triangles add up
+    /// to less than `detail_area` do not cut, as qbsp's detail brushes do not: a level of
+    /// trims, pipes and curved patches would otherwise be cut at every facet. A leaf holding
+    /// such detail is air (a surface is drawn there, so a camera sees into it): the cells
+    /// grow over the detail, never lose air to it.
+    Level { detail_area: f64, axes: [DVec3; 3] },
 }
 
 impl Surface {
@@ -100,9 +121,11 @@ impl Surface {
             .into_iter()
             .filter(|(leaf, boundary)| {
                 thickness(leaf) > 2.0 * eps
-                    && is_air(leaf, boundary, tris, self.sense)
-                    && (enclosed(leaf, boundary, hull, eps)
-                        || -self.sense * winding_number(tris, leaf.interior_point()) > 0.5)
+                    && (((is_air(leaf, boundary, tris, self.sense)
+                        || self.holds_detail(leaf, eps))
+                        && (enclosed(leaf, boundary, hull, eps)
+                            || -self.sense * winding_number(tris, leaf.interior_point()) > 0.5))
+                        || self.rays_see_air(leaf, tris))
             })
             .map(|(leaf, _)| leaf)
             .collect()
@@ -149,15 +172,16 @@ fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron,
 /// The convex cells of the air inside a room's surface. `hull` is the convex hull of `tris`.
 /// Returns the hull alone when no triangle lies inside it (a convex room).
 ///
-/// `as_rendered` reads the surface only as rendered, facing the air: for a whole level nobody
-/// tagged (`--tags auto`), whose voxel air is found by the same convention. A closet of six
-/// slabs encloses more than half its hull, which would otherwise read the slabs as the air.
 pub(crate) fn decompose(
     tris: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
     eps: f64,
-    as_rendered: bool,
+    reading: Reading,
 ) -> Vec<ConvexPolyhedron> {
+    let (as_rendered, detail_area) = match reading {
+        Reading::Room => (false, 0.0),
+        Reading::Level { detail_area, .. } => (true, detail_area),
+    };
     // Which way the air lies (see the module docs): a room modelled as a solid encloses most
     // of its hull with its surface facing out; anything else is read as rendered, the air in
     // front of its surfaces (including rooms built of solid wall blocks, which enclose little).
@@ -178,9 +202,12 @@ pub(crate) fn decompose(
         &[sense, -sense][..]
     };
     for &sense in senses {
-        let Some(surface) = Surface::new(tris, hull, eps, sense) else {
+        let Some(mut surface) = Surface::new(tris, hull, eps, sense, detail_area) else {
             return vec![hull.clone()];
         };
+        if let Reading::Level { axes, .. } = reading {
+            surface.rays = crate::geom::ray_mesh::ray_mesh(tris).map(|m| (m, axes));
+        }
         air = surface.air_leaves(tris, hull, eps);
         if !air.is_empty() {
             break;
@@ -195,8 +222,15 @@ pub(crate) fn decompose(
 }
 
 impl Surface {
-    /// `None` when every triangle lies on the hull (the room is convex).
-    fn new(tris: &[[DVec3; 3]], hull: &ConvexPolyhedron, eps: f64, sense: f64) -> Option<Surface> {
+    /// `None` when every triangle lies on the hull (the room is convex), or every one inside
+    /// it is detail (on a plane of less than `detail_area`).
+    fn new(
+        tris: &[[DVec3; 3]],
+        hull: &ConvexPolyhedron,
+        eps: f64,
+        sense: f64,
+        detail_area: f64,
+    ) -> Option<Surface> {
         let on_hull = |t: &[DVec3; 3]| {
             hull.faces
                 .iter()
@@ -206,30 +240,93 @@ impl Surface {
             return None;
         }
         let mut planes: Vec<Plane> = Vec::new();
+        let mut area: Vec<f64> = Vec::new();
         let mut index = PlaneIndex::default();
-        let mut hull_frags = Vec::new();
-        let mut active = Vec::new();
+        let mut frags: Vec<(Frag, bool)> = Vec::new();
         for t in tris {
             let Some(unit) = unit_normal(t, eps) else {
                 continue;
             };
             let id = index.intern(&mut planes, unit, t, eps);
+            area.resize(planes.len(), 0.0);
+            area[id] += 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
             let frag = Frag {
                 pts: t.to_vec(),
                 plane: id as u32,
                 air: unit * sense,
             };
-            if on_hull(t) {
+            frags.push((frag, on_hull(t)));
+        }
+        let (mut hull_frags, mut active, mut detail) = (Vec::new(), Vec::new(), Vec::new());
+        for (frag, on) in frags {
+            if on {
                 hull_frags.push(frag);
+            } else if area[frag.plane as usize] < detail_area {
+                detail.push([frag.pts[0], frag.pts[1], frag.pts[2]]);
             } else {
                 active.push(frag);
             }
         }
+        let detail_index = (!detail.is_empty())
+            .then(|| BoxGrid::new(detail.iter().map(Aabb::from_points).collect()));
         (!active.is_empty()).then_some(Surface {
             planes,
             hull_frags,
             active,
             sense,
+            detail,
+            detail_index,
+            rays: None,
+        })
+    }
+
+    /// The voxel air's rule at a leaf's interior point: of the first surfaces met along the
+    /// level's six axis directions, more are fronts than backs, and at least two. The space
+    /// over a roof whose walls were left out above it (Doom's sky hack) is air by it, as a
+    /// ray from a ledge down past the roof's edge crosses it; open sky over the ground alone
+    /// is not. Nor is the inside of a closed solid (winding number +1), where the rays may
+    /// meet the fronts of other solids overlapping it (the six slabs of a closet).
+    fn rays_see_air(&self, leaf: &ConvexPolyhedron, tris: &[[DVec3; 3]]) -> bool {
+        use parry3d_f64::query::Ray;
+        use parry3d_f64::shape::CompositeShapeRef;
+        let Some((mesh, axes)) = &self.rays else {
+            return false;
+        };
+        let at = leaf.interior_point();
+        let (mut front, mut back) = (0, 0);
+        for dir in axes.iter().flat_map(|a| [*a, -*a]) {
+            // parry turns the hit's normal towards the ray; the triangle's own says the side.
+            let ray = Ray::new(at, dir);
+            if let Some((t, _)) =
+                CompositeShapeRef(mesh).cast_local_ray_and_get_normal(&ray, f64::MAX, false)
+            {
+                let t = mesh.triangle(t);
+                if (t.b - t.a).cross(t.c - t.a).dot(dir) < 0.0 {
+                    front += 1;
+                } else {
+                    back += 1;
+                }
+            }
+        }
+        front > back && front >= 2 && winding_number(tris, at) < 0.5
+    }
+
+    /// Whether some detail triangle reaches more than the tolerance into `leaf`.
+    fn holds_detail(&self, leaf: &ConvexPolyhedron, eps: f64) -> bool {
+        let Some(index) = &self.detail_index else {
+            return false;
+        };
+        index.query(&leaf.bounds(), 0.0).into_iter().any(|i| {
+            let t = &self.detail[i];
+            let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+            let mut pts = t.to_vec();
+            for f in &leaf.faces {
+                pts = clip_polygon(&pts, f.plane.normal, f.plane.d - eps);
+                if pts.len() < 3 {
+                    return false;
+                }
+            }
+            polygon_area(&pts, normal) > eps * eps
         })
     }
 }
@@ -888,7 +985,7 @@ mod tests {
         let t = box_tris(DVec3::ZERO, DVec3::new(4.0, 3.0, 4.0));
         let pts: Vec<DVec3> = t.iter().flatten().copied().collect();
         let h = crate::geom::hull::hull(&pts, 1e-9).unwrap();
-        let cells = decompose(&t, &h, 1e-9, false);
+        let cells = decompose(&t, &h, 1e-9, Reading::Room);
         assert_eq!(cells.len(), 1);
         assert!((cells[0].volume() - 48.0).abs() < 1e-9);
     }

@@ -404,7 +404,13 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         crack,
         blocks: Vec::new(),
         generated: None,
-        as_rendered: tagging.generated.is_some(),
+        reading: match tagging.generated.as_deref() {
+            Some(g) => interior::Reading::Level {
+                detail_area: g.detail_area,
+                axes: g.axes.map(DVec3::from_array),
+            },
+            None => interior::Reading::Room,
+        },
     };
     let (blocks, buried) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
@@ -518,9 +524,9 @@ struct RoomBuilder<'a> {
     blocks: Vec<Option<BlockCells>>,
     /// The cells of the rooms `--tags auto` generated, read once for all of them.
     generated: Option<generated::GeneratedCells>,
-    /// Whether rooms were generated: the one room then read from its structure is the whole
-    /// level, read as rendered (`interior::decompose`).
-    as_rendered: bool,
+    /// How structure is read: when rooms were generated, the one room read from its structure
+    /// is the whole level (`interior::Reading::Level`).
+    reading: interior::Reading,
 }
 
 impl RoomBuilder<'_> {
@@ -723,7 +729,7 @@ impl RoomBuilder<'_> {
         match hull(&pts, eps) {
             Ok(h) => {
                 let cells = prism::cells(&tris, &h, eps, frame)
-                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps, self.as_rendered));
+                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps, self.reading));
                 let source = if cells.len() == 1 && cells[0] == h {
                     CellSource::Hull
                 } else {

@@ -721,14 +721,15 @@ fn render_tags(out: &mut String, t: &TagsView, style: &Style) {
     if let Some(g) = &t.generated {
         let _ = writeln!(
             out,
-            "    generated: {} rooms from {} voxels of air; voxel {:.3} m, grid {} x {} x {}, split ratio {}",
+            "    generated: {} rooms from {} voxels of air; voxel {:.3} m, grid {} x {} x {}, split ratio {}, detail under {:.3} m²",
             g.boxes.len(),
             g.air_voxels,
             g.voxel,
             g.grid[0],
             g.grid[1],
             g.grid[2],
-            g.split_ratio
+            g.split_ratio,
+            g.detail_area
         );
     }
     let rooms: Vec<String> = t.rooms.iter().map(room_row).collect();

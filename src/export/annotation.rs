@@ -388,6 +388,7 @@ fn build_with_hash<'a>(
             json!({
                 "voxel": num(g.voxel),
                 "splitRatio": num(g.split_ratio),
+                "detailArea": num(g.detail_area),
                 "grid": g.grid,
                 "axes": axes,
                 "rooms": g.boxes.len(),

@@ -52,6 +52,10 @@ pub struct GeneratedRecord {
     pub voxel: f64,
     /// The split ratio (`[auto] split_ratio`).
     pub split_ratio: f64,
+    /// Planes of less area (m²) did not cut the cells (`[auto] detail_area`); absent in files
+    /// written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detail_area: Option<f64>,
     /// Voxels along the level's own axes.
     pub grid: [usize; 3],
     /// The level's own axes (world directions), the grid's.

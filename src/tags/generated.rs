@@ -15,6 +15,8 @@ pub struct Generated {
     pub voxel: f64,
     /// The split ratio used.
     pub split_ratio: f64,
+    /// Planes of less area than this (m²) did not cut the cells (`[auto] detail_area`).
+    pub detail_area: f64,
     /// Voxels along the frame's axes.
     pub grid: [usize; 3],
     /// The frame's axes (world).

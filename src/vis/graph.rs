@@ -9,7 +9,11 @@
 //! and come back through any other. The outside is not convex and nothing in it is known to
 //! block, so the conservative methods treat it as open space (sight through it is still
 //! clipped by the openings themselves, as through any cell), and [`super::compute`] drops its
-//! row and column from the result.
+//! row and column from the result. An opening on the convex hull of every portal, facing out
+//! of it, leads nowhere: a sightline can come back into a cell only through a portal or an
+//! opening, and a straight line that left the hull never meets it again. Such openings (the
+//! open sky over a level with no sky modelled) are left out, exactly: the outside's fan of
+//! thousands of openings was most of the PVS's work on such levels.
 
 use glam::{DMat4, DVec3};
 
@@ -85,7 +89,9 @@ impl VisGraph {
     /// The open portals of a level. `epsilon`: the level's distance tolerance.
     pub fn from_portal_set(cells: usize, set: &PortalSet, epsilon: f64) -> VisGraph {
         let open = |p: &&crate::portals::Portal| !p.closed && p.polygon.len() >= 3;
-        let exterior = |p: &crate::portals::Portal| p.to.is_none() && p.transform.is_none();
+        let onto_hull = onto_hull(set, epsilon);
+        let exterior =
+            |p: &crate::portals::Portal| p.to.is_none() && p.transform.is_none() && !onto_hull(p);
         let outside = set
             .portals
             .iter()
@@ -154,6 +160,28 @@ impl VisGraph {
     /// Whether any portal is a mirror or teleporter.
     pub fn has_transforms(&self) -> bool {
         self.portals.iter().any(|p| p.transform.is_some())
+    }
+}
+
+/// Whether an opening lies on the convex hull of every portal's corners and faces out of it:
+/// no corner in front of its plane (see the module docs). Asked of the hull's faces, or of
+/// the corners themselves when they are flat (a hull needs volume).
+fn onto_hull(set: &PortalSet, eps: f64) -> impl Fn(&crate::portals::Portal) -> bool {
+    let corners: Vec<DVec3> = (set.portals.iter())
+        .flat_map(|p| p.polygon.iter().copied())
+        .collect();
+    let hull = crate::geom::hull::hull(&corners, eps).ok();
+    move |p| {
+        let Some(&at) = p.polygon.first() else {
+            return false;
+        };
+        match &hull {
+            Some(h) => h.faces.iter().any(|f| {
+                f.plane.normal.dot(p.normal) > 0.0
+                    && p.polygon.iter().all(|q| f.plane.distance(*q).abs() <= eps)
+            }),
+            None => corners.iter().all(|q| p.normal.dot(*q - at) <= eps),
+        }
     }
 }
 
