@@ -79,15 +79,29 @@ pub fn zero_run_decode(data: &[u8], expected: usize) -> Option<Vec<u8>> {
     (out.len() == expected).then_some(out)
 }
 
+/// The length of the lists written as compact JSON (`[[0,1],[0,1]]`), counted, not built: a
+/// dense PVS of 4,000 cells as a JSON tree took over a gigabyte only to be measured.
+fn lists_len(pvs: &Pvs) -> usize {
+    let digits = |v: usize| v.checked_ilog10().map_or(1, |d| d as usize + 1);
+    let n = pvs.cells();
+    let rows: usize = (0..n)
+        .map(|c| {
+            let (count, width) = pvs
+                .visible(c)
+                .fold((0usize, 0usize), |(k, w), v| (k + 1, w + digits(v)));
+            2 + width + count.saturating_sub(1)
+        })
+        .sum();
+    2 + rows + n.saturating_sub(1)
+}
+
 /// The smallest encoding; `None` for a level of one cell or none.
 pub fn encode(pvs: &Pvs, method: Method) -> Option<Encoded> {
     let n = pvs.cells();
     if n < 2 {
         return None;
     }
-    let lists: Vec<Vec<usize>> = (0..n).map(|c| pvs.visible(c).collect()).collect();
-    let lists_json = json!(lists);
-    let lists_len = lists_json.to_string().len();
+    let lists_len = lists_len(pvs);
     let mut bits = Vec::with_capacity(n * n.div_ceil(8));
     for c in 0..n {
         bits.extend(row_bytes(pvs, c));
@@ -100,8 +114,9 @@ pub fn encode(pvs: &Pvs, method: Method) -> Option<Encoded> {
         (bits.len(), false)
     };
     if n <= LISTS_UP_TO || lists_len <= bin_len + 64 {
+        let lists: Vec<Vec<usize>> = (0..n).map(|c| pvs.visible(c).collect()).collect();
         return Some(Encoded {
-            json: json!({"method": method.name(), "encoding": "lists", "lists": lists_json}),
+            json: json!({"method": method.name(), "encoding": "lists", "lists": lists}),
             blob: None,
         });
     }
@@ -175,6 +190,15 @@ pub fn decode(json: &Value, cells: usize, blob: Option<&[u8]>) -> Result<Pvs, Fo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_counted_length_is_the_written_one() {
+        for (n, every) in [(1, 1), (2, 1), (11, 3), (120, 7), (1000, 1), (1001, 97)] {
+            let p = sample(n, every);
+            let lists: Vec<Vec<usize>> = (0..n).map(|c| p.visible(c).collect()).collect();
+            assert_eq!(lists_len(&p), json!(lists).to_string().len(), "{n} cells");
+        }
+    }
 
     fn sample(n: usize, every: usize) -> Pvs {
         let mut p = Pvs::identity(n);
