@@ -245,6 +245,7 @@ fn the_space_over_a_roof_whose_walls_stop_at_it_joins_the_yards_on_either_side()
         "the far yard is not in the PVS"
     );
     let audit = pipeline::audit(&l, &pvs, 500);
+    assert!(audit.confirmed > 0, "the audit confirmed no pair");
     let missed: Vec<_> = (audit.diagnostics.0.iter())
         .filter(|d| d.code == portcullis::diag::Code::PVS_MISSES_SIGHTLINE)
         .collect();

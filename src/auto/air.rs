@@ -31,10 +31,17 @@ pub fn find(grid: &Grid, surface: &[bool], tris: &[[DVec3; 3]]) -> Vec<bool> {
         sweep(grid, &g, axis, &mut front, &mut back);
     }
     let mut air: Vec<bool> = (0..grid.len())
-        .map(|i| !surface[i] && front[i] > back[i] && front[i] >= 2)
+        .map(|i| !surface[i] && by_first_hits(front[i].into(), back[i].into()))
         .collect();
     drop_small(grid, &mut air);
     air
+}
+
+/// The rule air is judged by, from the first surfaces met along the six axis directions: more
+/// fronts than backs, and at least two fronts. The cells stage asks it of BSP leaves too
+/// (`cells::interior`), so the voxels and the cells agree on what air is.
+pub fn by_first_hits(front: usize, back: usize) -> bool {
+    front > back && front >= 2
 }
 
 /// Counts, for every voxel, the fronts and backs first met along `axis` both ways.

@@ -13,7 +13,7 @@
 //!
 //! Rooms are generated only in a level with no tagged room (`pipeline::load` decides).
 
-mod air;
+pub(crate) mod air;
 mod boxes;
 mod frame;
 mod grow;

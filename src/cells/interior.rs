@@ -308,7 +308,7 @@ impl Surface {
                 }
             }
         }
-        front > back && front >= 2 && winding_number(tris, at) < 0.5
+        crate::auto::air::by_first_hits(front, back) && winding_number(tris, at) < 0.5
     }
 
     /// Whether some detail triangle reaches more than the tolerance into `leaf`.
