@@ -39,6 +39,7 @@ PRT_TEXT = {
 COMMANDS.update({c: ["vis", "bad.prt"] for c in PRT_TEXT})
 COMMANDS["PRT_EXPORT_DROPPED"] = ["convert", "teleporter.gltf", "-o", "teleporter.prt"]
 COMMANDS["VIS_TRANSFORM_DEPTH"] = ["vis", "teleporter.gltf"]
+COMMANDS["VIS_FLOW_BUDGET"] = ["vis", "--flow-budget", "1", "stair_hall.gltf"]
 COMMANDS["SIGHTLINES_CONFIRMED"] = ["check", "--sightlines", "200", "two_rooms.gltf"]
 # A converted two_rooms.gltf whose stored PVS lost the pairs out of cell 0 (written before the
 # command runs, as tests/sightlines.rs does).
@@ -94,7 +95,8 @@ def example(code):
     if code in COMMANDS:
         with tempfile.TemporaryDirectory() as d:
             (Path(d) / "two_rooms.gltf").write_bytes((ROOT / "samples" / "two_rooms.gltf").read_bytes())
-            (Path(d) / "teleporter.gltf").write_bytes((ROOT / "samples" / "teleporter.gltf").read_bytes())
+            for name in ("teleporter.gltf", "stair_hall.gltf"):
+                (Path(d) / name).write_bytes((ROOT / "samples" / name).read_bytes())
             if code in PRT_TEXT:
                 (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
             if code.startswith("CULL_"):

@@ -184,6 +184,8 @@ pub struct VisConfig {
     pub transform_depth: Option<usize>,
     /// Sightlines per directed portal for the `sampled` method.
     pub samples: Option<usize>,
+    /// Portal tests the `full` flow may make in all (see `vis::DEFAULT_FLOW_BUDGET`).
+    pub flow_budget: Option<u64>,
 }
 
 /// `[import]`: how files are read.

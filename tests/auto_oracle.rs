@@ -210,13 +210,12 @@ fn shared_levels_rays_find_no_cell_the_pvs_misses() {
         let Some(p) = shared(rel) else { continue };
         judge(rel, audit(merged(&p), 200, 50));
     }
-    for rel in ["godot/gi_zdm2.glb", "sauerbraten/pandora.obj"] {
-        // Their full PVS (30,000 and 40,000 portals) does not finish in 20 minutes.
-        eprintln!(
-            "skipped {rel}: its full PVS does not finish (docs/auto.md, what it cannot do yet)"
-        );
-    }
-    for rel in ["godot/occlusion_room.glb"] {
+    // gi_zdm2 and pandora reach the flow's work budget: their PVS is conservative, looser.
+    for rel in [
+        "godot/occlusion_room.glb",
+        "godot/gi_zdm2.glb",
+        "sauerbraten/pandora.obj",
+    ] {
         let Some(p) = shared(rel) else { continue };
         let scene = portcullis::import::import_path(&p, &Default::default())
             .unwrap()

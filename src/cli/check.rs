@@ -147,7 +147,7 @@ fn check_one(a: &CheckArgs, input: &Path, cli_policy: &Policy) -> (FileReport, L
         recompute: a.recompute,
     };
     let to_file = t.scene.to_file;
-    let checked = pipeline::check_file(t, &opts);
+    let checked = pipeline::check_file(t, &opts, input);
     report.annotated = checked.annotated;
     report.cells = checked.counts.map(|c| c.0);
     report.portals = checked.counts.map(|c| c.1);

@@ -137,7 +137,9 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
     let pvs = (method.is_some() || a.pvs_of.is_some()).then(|| {
         let note = pipeline::transform_depth_note(&level, input);
         level.diagnostics.extend(note);
-        pipeline::pvs(&level, pvs_method)
+        let (pvs, note) = pipeline::pvs_noted(&level, pvs_method, input);
+        level.diagnostics.extend(note);
+        pvs
     });
     if pvs.is_some() {
         super::alloc::release_free_memory();

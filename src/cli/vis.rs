@@ -39,6 +39,11 @@ pub struct VisArgs {
     #[arg(long, value_name = "N")]
     pub transform_depth: Option<usize>,
 
+    /// Portal tests the full flow may make in all before it cuts the remaining portals short
+    /// (conservatively); default from `[vis] flow_budget`, else 33554432.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub flow_budget: Option<u64>,
+
     /// Instead of the PVS, print per level and method: run time, visible pairs, and the
     /// over-estimate against the sampled lower bound (with its sample count).
     #[arg(long)]
@@ -67,6 +72,7 @@ fn options(a: &VisArgs, loaded: &load::Loaded, method: Method) -> VisOptions {
             .unwrap_or(vis::DEFAULT_SAMPLES),
         threads: a.threads,
         transform_depth: a.transform_depth.unwrap_or(loaded.transform_depth),
+        flow_budget: (a.flow_budget).unwrap_or_else(|| portcullis::pipeline::flow_budget(cfg)),
         ..Default::default()
     }
 }
@@ -122,7 +128,13 @@ fn one(a: &VisArgs, f: &Path, methods: &[Method]) -> Result<Vec<Diagnostic>, Dia
     let g = &loaded.graph;
     let method = Method::parse(&a.method).unwrap_or(Method::Full);
     if !a.report {
-        let pvs = vis::compute(g, &options(a, &loaded, method));
+        let opts = options(a, &loaded, method);
+        let c = vis::computed(g, &opts);
+        if c.cut_short > 0 {
+            let note = vis::flow_budget_note(f, c.cut_short, c.sources, opts.flow_budget);
+            loaded.diagnostics.push(note);
+        }
+        let pvs = c.pvs;
         let mut out = std::io::BufWriter::new(std::io::stdout().lock());
         if a.files.len() > 1 {
             writeln!(out, "# {}", f.display()).map_err(|e| stdout_failed(f, e))?;

@@ -165,6 +165,7 @@ codes! {
 
     // --- visibility ---
     VIS_TRANSFORM_DEPTH = Info, "sightlines through mirrors and teleporters were followed only up to the depth bound";
+    VIS_FLOW_BUDGET = Info, "the full PVS reached its work budget: some portals' flow stopped early, so the PVS is looser (still conservative)";
 
     // --- prt ---
     PRT_UNKNOWN_FORMAT = Error, "the .prt file's first line names no portal file format portcullis reads";

@@ -30,7 +30,7 @@ pub struct GateOptions {
 }
 
 /// Checks one tagged file.
-pub fn check_file(mut t: Tagged, opts: &GateOptions) -> Checked {
+pub fn check_file(mut t: Tagged, opts: &GateOptions, input: &std::path::Path) -> Checked {
     let stored = if opts.recompute {
         None
     } else {
@@ -40,7 +40,8 @@ pub fn check_file(mut t: Tagged, opts: &GateOptions) -> Checked {
         let mut level = super::build(t);
         let leaks = super::check(&mut level, opts.sealed);
         if opts.rays > 0 {
-            let pvs = super::pvs(&level, crate::vis::Method::Full);
+            let (pvs, note) = super::pvs_noted(&level, crate::vis::Method::Full, input);
+            level.diagnostics.extend(note);
             let audit = super::audit(&level, &pvs, opts.rays);
             level.diagnostics.extend(audit.diagnostics);
         }

@@ -123,24 +123,41 @@ pub fn transform_depth_note(level: &Level, input: &Path) -> Option<Diagnostic> {
 }
 
 /// The level's PVS by `method`, through mirrors and teleporters as deep as
-/// [`transform_depth`], with the configuration's `[vis] samples`.
+/// [`transform_depth`], with the configuration's `[vis] samples` and `[vis] flow_budget`.
 pub fn pvs(level: &Level, method: Method) -> Pvs {
+    computed(level, method).pvs
+}
+
+/// [`pvs`], with the note `convert` and `check` give when the flow budget cut it short.
+pub fn pvs_noted(level: &Level, method: Method, input: &Path) -> (Pvs, Option<Diagnostic>) {
+    let c = computed(level, method);
+    let note = (c.cut_short > 0).then(|| {
+        let budget = flow_budget(level.config());
+        crate::vis::flow_budget_note(input, c.cut_short, c.sources, budget)
+    });
+    (c.pvs, note)
+}
+
+fn computed(level: &Level, method: Method) -> crate::vis::Computed {
+    let vis = &level.config().vis;
     let opts = crate::vis::VisOptions {
         method,
         transform_depth: transform_depth(level),
-        samples: level
-            .config()
-            .vis
-            .samples
-            .unwrap_or(crate::vis::DEFAULT_SAMPLES),
+        samples: vis.samples.unwrap_or(crate::vis::DEFAULT_SAMPLES),
+        flow_budget: flow_budget(level.config()),
         ..Default::default()
     };
-    crate::vis::of_level(
+    let g = crate::vis::VisGraph::from_portal_set(
         level.cells.cells.len(),
         &level.portals,
         level.cells.tolerance.distance,
-        &opts,
-    )
+    );
+    crate::vis::computed(&g, &opts)
+}
+
+/// `[vis] flow_budget`, else the default.
+pub fn flow_budget(config: &crate::config::Config) -> u64 {
+    (config.vis.flow_budget).unwrap_or(crate::vis::DEFAULT_FLOW_BUDGET)
 }
 
 /// `check --sightlines`: audits `pvs` against the level's triangles with `rays` rays per cell.
@@ -170,6 +187,7 @@ pub(crate) fn audit_stored(
     let pvs = stored.unwrap_or_else(|| {
         let opts = crate::vis::VisOptions {
             transform_depth: depth,
+            flow_budget: flow_budget(&tagged.config),
             ..Default::default()
         };
         crate::vis::of_level(cells, subject.portals, subject.eps, &opts)

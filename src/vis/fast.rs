@@ -63,10 +63,17 @@ fn one(g: &VisGraph, s: &[(DVec3, f64)], p: usize, depth: usize) -> Vec<u64> {
     }
     // Quake's filter, tested only on the portals the flood reaches: the flood through the
     // portals in front of `p` and with `p` partly behind them. `tested` remembers the ones
-    // that failed, so each portal is judged once.
+    // that failed, so each portal is judged once. A portal's verdict does not depend on the
+    // path to it, so each cell is expanded once: the outside's thousands of openings would
+    // otherwise be walked again for every opening that leads into it.
     let mut tested = vec![0u64; bits::words(n)];
+    let mut expanded = vec![0u64; bits::words(g.cells)];
     let mut stack = vec![src.to];
     while let Some(c) = stack.pop() {
+        if bits::get(&expanded, c) {
+            continue;
+        }
+        bits::set(&mut expanded, c);
         for &q in &g.leaving[c] {
             if bits::get(&might, q) || bits::get(&tested, q) {
                 continue;
@@ -88,17 +95,19 @@ fn one(g: &VisGraph, s: &[(DVec3, f64)], p: usize, depth: usize) -> Vec<u64> {
     might
 }
 
-/// Every portal reachable from `cell`, into `out`. Its own visited set: a portal already in
-/// `out` by the filtered flood may still lead somewhere only this unfiltered one goes.
+/// Every portal reachable from `cell`, into `out`. Its own visited set of cells: a portal
+/// already in `out` by the filtered flood may still lead somewhere only this unfiltered one goes.
 fn flood_all(g: &VisGraph, cell: usize, out: &mut [u64]) {
-    let mut seen = vec![0u64; out.len()];
+    let mut seen = vec![0u64; bits::words(g.cells)];
+    bits::set(&mut seen, cell);
     let mut stack = vec![cell];
     while let Some(c) = stack.pop() {
         for &q in &g.leaving[c] {
-            if !bits::get(&seen, q) {
-                bits::set(&mut seen, q);
-                bits::set(out, q);
-                stack.push(g.portals[q].to);
+            bits::set(out, q);
+            let to = g.portals[q].to;
+            if !bits::get(&seen, to) {
+                bits::set(&mut seen, to);
+                stack.push(to);
             }
         }
     }

@@ -22,6 +22,9 @@
 //! rank by room name where the level gives it), not by the portals' numbers, so the same
 //! level with its rooms listed in another order gets the same PVS.
 //!
+//! The work is bounded by a budget of portal tests (see [`portal_vis`]): a source cut short
+//! takes what its frame might still see as seen, which keeps every row conservative.
+//!
 //! A transformed portal moves the whole stack (source, pass, planes) into the target side's
 //! space, and the might-see of the world no longer applies, so it is reset to every portal;
 //! `depth` bounds how many transformed portals one chain may pass.
@@ -68,6 +71,48 @@ struct Run<'a> {
     spheres: &'a [(DVec3, f64)],
     depth: usize,
     all: &'a [u64],
+    /// Portals one source may test before the rest of its might-see is taken as seen.
+    budget: u64,
+    /// Per cell with more leaving portals than a bit row has words (the outside), its
+    /// leaving portals as a bit row: walked word by word against the frame's might-see.
+    wide: &'a [Option<Vec<u64>>],
+}
+
+/// The portals leaving a cell, in ascending order, that a frame's might-see still holds.
+enum Walk<'a> {
+    List(std::slice::Iter<'a, usize>),
+    Mask {
+        mask: &'a [u64],
+        at: usize,
+        word: u64,
+        base: usize,
+    },
+}
+
+impl Walk<'_> {
+    fn next(&mut self, might: &[u64]) -> Option<usize> {
+        match self {
+            Walk::List(it) => it.next().copied(),
+            Walk::Mask {
+                mask,
+                at,
+                word,
+                base,
+            } => loop {
+                if *word != 0 {
+                    let q = *base + word.trailing_zeros() as usize;
+                    *word &= *word - 1;
+                    return Some(q);
+                }
+                if *at >= mask.len() {
+                    return None;
+                }
+                *word = mask[*at] & might[*at];
+                *base = *at * 64;
+                *at += 1;
+            },
+        }
+    }
 }
 
 struct State {
@@ -75,6 +120,8 @@ struct State {
     vis: Vec<u64>,
     tmp: Vec<DVec3>,
     planes: Vec<Plane>,
+    /// Portals tested from the current source.
+    steps: u64,
 }
 
 /// Symmetry on graphs where every portal has its reverse and none is transformed: `p` can
@@ -100,19 +147,51 @@ impl Symmetry {
 /// How many waves the sorted portals are split into.
 const WAVES: usize = 64;
 
-/// The cell PVS. `might`: the `fast` might-see sets, the filter of the flow.
-pub fn pvs(g: &VisGraph, might: Vec<Vec<u64>>, depth: usize) -> Pvs {
-    super::fast::cell_pvs(g, &portal_vis(g, might, depth), depth)
+/// The first per-source bound once the flow has spent half its budget: small, so every
+/// portal gets a tightened row before any gets a long search.
+const FIRST_PASS: u64 = 1024;
+
+/// The cell PVS, and how many sources the flow cut short. `might`: the `fast` might-see
+/// sets, the filter of the flow; `budget`: the portal tests the flow may make in all.
+pub fn pvs(g: &VisGraph, might: Vec<Vec<u64>>, depth: usize, budget: u64) -> (Pvs, usize) {
+    let (rows, cut) = portal_vis(g, might, depth, budget);
+    (super::fast::cell_pvs(g, &rows, depth), cut)
 }
 
-/// Per directed portal, the portals it sees. `rows` starts as the might-see sets; each is
-/// replaced by the flow's result when its wave is over, so one matrix serves as the filter,
-/// the finished results and the output.
-pub(crate) fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) -> Vec<Vec<u64>> {
+/// Where the flow stands: the per-portal rows and what is known of each.
+struct Progress {
+    /// Per portal, its flow result once `finished`, else its might-see set (or the
+    /// conservative row of a flow cut short).
+    rows: Vec<Vec<u64>>,
+    finished: Vec<bool>,
+    /// The largest per-source bound each portal was run with (0: not yet run).
+    tried: Vec<u64>,
+    sym: Option<Symmetry>,
+    /// Portal tests made so far.
+    spent: u64,
+}
+
+/// Per directed portal, the portals it sees, and how many sources were cut short. `rows`
+/// starts as the might-see sets; each is replaced by the flow's result when its wave is
+/// over, so one matrix serves as the filter, the finished results and the output.
+///
+/// The work is bounded by `budget` portal tests, deterministically. The flow runs as
+/// always while it has spent less than half: each source may then use half the budget
+/// shared over its wave, which ordinary levels never reach. Past half, the remaining
+/// sources are run in passes with a per-source bound that starts at [`FIRST_PASS`] and
+/// grows fourfold while the budget allows it for all that are still cut short. A source cut
+/// short takes the rest of its might-see as seen (see `give_up`), so its row, and the PVS,
+/// stay conservative. The bounds depend only on work counted at wave ends, never on time
+/// or threads.
+pub(crate) fn portal_vis(
+    g: &VisGraph,
+    rows: Vec<Vec<u64>>,
+    depth: usize,
+    budget: u64,
+) -> (Vec<Vec<u64>>, usize) {
     let n = g.portals.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by_key(|&p| (bits::count(&rows[p]), g.order[p], p));
-    let mut finished = vec![false; n];
     let wave = n.div_ceil(WAVES).max(1);
     let mut entering = vec![Vec::new(); g.cells];
     for (i, p) in g.portals.iter().enumerate() {
@@ -120,26 +199,120 @@ pub(crate) fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) ->
     }
     let spheres: Vec<(DVec3, f64)> = g.portals.iter().map(|p| sphere(&p.winding)).collect();
     let all = bits::all(n);
+    let wide = wide_cells(g);
     // Every sightline can be walked back only when every portal has its reverse.
     let symmetric = !g.has_transforms() && g.reverse.iter().all(Option::is_some);
-    let mut sym = Symmetry {
-        finished: vec![0; bits::words(n)],
-        seen: vec![vec![0; bits::words(n)]; if symmetric { g.cells } else { 0 }],
+    let mut at = Progress {
+        rows,
+        finished: vec![false; n],
+        tried: vec![0; n],
+        sym: symmetric.then(|| Symmetry {
+            finished: vec![0; bits::words(n)],
+            seen: vec![vec![0; bits::words(n)]; g.cells],
+        }),
+        spent: 0,
     };
-    for chunk in order.chunks(wave) {
-        let run = Run {
-            g,
-            rows: &rows,
-            finished: &finished,
-            sym: symmetric.then_some(&sym),
-            entering: &entering,
-            spheres: &spheres,
-            depth,
-            all: &all,
-        };
-        // Largest first within the wave (the order is ascending), in small pieces, so the
-        // threads finish the wave together. The wave's members, and so the result, are fixed.
-        let results: Vec<Vec<u64>> = chunk
+    let half = budget / 2;
+    let mut cap = (half / wave as u64).max(1);
+    let mut exact = true;
+    let mut pending = order;
+    loop {
+        for (i, chunk) in pending.chunks(wave).enumerate() {
+            let run = Run {
+                g,
+                rows: &at.rows,
+                finished: &at.finished,
+                sym: at.sym.as_ref(),
+                entering: &entering,
+                spheres: &spheres,
+                depth,
+                all: &all,
+                wide: &wide,
+                budget: cap,
+            };
+            let results = run.wave(chunk, &at.tried);
+            at.record(g, &entering, chunk, results, cap);
+            if exact && at.spent >= half {
+                // What is left of the budget, shared over the sources not yet run.
+                exact = false;
+                let left = pending.len().saturating_sub((i + 1) * wave) as u64;
+                cap = (budget.saturating_sub(at.spent) / left.max(1)).clamp(1, FIRST_PASS);
+            }
+        }
+        // The next pass: the sources still cut short, at a bound none of them has had yet,
+        // while the budget covers it for all of them.
+        pending.retain(|&p| !at.finished[p]);
+        let mut next = cap * 4;
+        while pending.iter().all(|&p| at.tried[p] >= next) && !pending.is_empty() {
+            next *= 4;
+        }
+        let runs = pending.iter().filter(|&&p| at.tried[p] < next).count() as u64;
+        if runs == 0 || at.spent + next * runs > budget {
+            break;
+        }
+        cap = next;
+        exact = false;
+    }
+    (at.rows, pending.len())
+}
+
+/// Per cell with more leaving portals than a bit row has words (the outside), its leaving
+/// portals as a bit row.
+fn wide_cells(g: &VisGraph) -> Vec<Option<Vec<u64>>> {
+    let words = bits::words(g.portals.len());
+    (g.leaving.iter())
+        .map(|l| {
+            (l.len() > words).then(|| {
+                let mut m = vec![0; words];
+                l.iter().for_each(|&q| bits::set(&mut m, q));
+                m
+            })
+        })
+        .collect()
+}
+
+impl Progress {
+    /// Takes a wave's results: every row is replaced (a row cut short is still
+    /// conservative), and the sources that ran within `cap` are finished.
+    fn record(
+        &mut self,
+        g: &VisGraph,
+        entering: &[Vec<usize>],
+        chunk: &[usize],
+        results: Vec<Option<(Vec<u64>, u64)>>,
+        cap: u64,
+    ) {
+        for (&p, run) in chunk.iter().rev().zip(results) {
+            let Some((r, steps)) = run else {
+                continue;
+            };
+            self.spent += steps;
+            if steps < cap {
+                if let (Some(sym), Some(rp)) = (&mut self.sym, g.reverse[p]) {
+                    // Rows hold every portal into a seen cell; the first marks the cell.
+                    bits::set(&mut sym.finished, rp);
+                    for q in bits::ones(&r) {
+                        let to = g.portals[q].to;
+                        if entering[to].first() == Some(&q) {
+                            bits::set(&mut sym.seen[to], rp);
+                        }
+                    }
+                }
+                self.finished[p] = true;
+            }
+            self.tried[p] = self.tried[p].max(cap);
+            self.rows[p] = r;
+        }
+    }
+}
+
+impl Run<'_> {
+    /// Runs a wave's sources (each with its row and the tests it made), largest first (the
+    /// order is ascending), in small pieces, so the threads finish the wave together. The
+    /// wave's members, and so the result, are fixed. A source already run with at least
+    /// this bound keeps its row.
+    fn wave(&self, chunk: &[usize], tried: &[u64]) -> Vec<Option<(Vec<u64>, u64)>> {
+        chunk
             .par_iter()
             .rev()
             .with_max_len(4)
@@ -149,29 +322,19 @@ pub(crate) fn portal_vis(g: &VisGraph, mut rows: Vec<Vec<u64>>, depth: usize) ->
                     vis: Vec::new(),
                     tmp: Vec::new(),
                     planes: Vec::new(),
+                    steps: 0,
                 },
-                |st, &p| run.source(st, p),
-            )
-            .collect();
-        for (&p, r) in chunk.iter().rev().zip(results) {
-            if let (true, Some(rp)) = (symmetric, g.reverse[p]) {
-                // Rows hold every portal into a seen cell; the first marks the cell.
-                bits::set(&mut sym.finished, rp);
-                for q in bits::ones(&r) {
-                    let to = g.portals[q].to;
-                    if entering[to].first() == Some(&q) {
-                        bits::set(&mut sym.seen[to], rp);
+                |st, &p| {
+                    if tried[p] >= self.budget {
+                        return None;
                     }
-                }
-            }
-            rows[p] = r;
-            finished[p] = true;
-        }
+                    let r = self.source(st, p);
+                    Some((r, st.steps))
+                },
+            )
+            .collect()
     }
-    rows
-}
 
-impl Run<'_> {
     fn frame(st: &mut State, d: usize, words: usize) {
         while st.frames.len() <= d {
             st.frames.push(Frame {
@@ -195,6 +358,7 @@ impl Run<'_> {
         let words = bits::words(g.portals.len());
         st.vis.clear();
         st.vis.resize(words, 0);
+        st.steps = 0;
         let src = &g.portals[p];
         // What the finished portals out of the same cell see is already in the cell's PVS:
         // starting from it, the flow looks only for what is new to the cell. The row stays a
@@ -243,13 +407,27 @@ impl Run<'_> {
         let eps = g.epsilon;
         let words = st.vis.len();
         Self::frame(st, d + 1, words);
-        for &q in &g.leaving[cell] {
+        let mut walk = match &self.wide[cell] {
+            Some(mask) => Walk::Mask {
+                mask,
+                at: 0,
+                word: 0,
+                base: 0,
+            },
+            None => Walk::List(g.leaving[cell].iter()),
+        };
+        while let Some(q) = walk.next(&st.frames[d].might) {
+            if st.steps >= self.budget {
+                self.give_up(st, d);
+                return;
+            }
             let (lo, hi) = st.frames.split_at_mut(d + 1);
             let cur = &mut lo[d];
             let next = &mut hi[0];
             if !bits::get(&cur.might, q) {
                 continue;
             }
+            st.steps += 1;
             let portal = &g.portals[q];
             if portal.transform.is_some() && cur.transforms >= self.depth {
                 continue;
@@ -334,6 +512,23 @@ impl Run<'_> {
                 continue;
             }
             self.flow(st, d + 1, portal.to);
+        }
+    }
+
+    /// Takes every portal frame `d` might still see as seen, with the cells it leads into:
+    /// what any longer chain could find is among them, so the row stays conservative.
+    fn give_up(&self, st: &mut State, d: usize) {
+        let f = &st.frames[d];
+        for w in 0..f.might.len() {
+            let mut new = f.might[w] & !st.vis[w];
+            while new != 0 {
+                let q = w * 64 + new.trailing_zeros() as usize;
+                new &= new - 1;
+                bits::set(&mut st.vis, q);
+                for &r in &self.entering[self.g.portals[q].to] {
+                    bits::set(&mut st.vis, r);
+                }
+            }
         }
     }
 

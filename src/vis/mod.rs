@@ -43,6 +43,11 @@ pub use graph::{VisGraph, VisPortal};
 /// Default sightlines per directed portal for `sampled`.
 pub const DEFAULT_SAMPLES: usize = 2000;
 
+/// Default portal tests the `full` flow may make in all (about 15 s on one core): no
+/// shipped or shared level of rooms comes near half of it, while open levels of thousands
+/// of small cells (an arena, a town) would otherwise take hours. See `full.rs`.
+pub const DEFAULT_FLOW_BUDGET: u64 = 1 << 25;
+
 /// How to compute a PVS.
 #[derive(Debug, Clone)]
 pub struct VisOptions {
@@ -56,6 +61,8 @@ pub struct VisOptions {
     pub transform_depth: usize,
     /// Seed of the sampler's generators.
     pub seed: u64,
+    /// Portal tests the `full` flow may make in all; sources past it keep a conservative row.
+    pub flow_budget: u64,
 }
 
 impl Default for VisOptions {
@@ -66,22 +73,41 @@ impl Default for VisOptions {
             threads: None,
             transform_depth: DEFAULT_TRANSFORM_DEPTH,
             seed: 1,
+            flow_budget: DEFAULT_FLOW_BUDGET,
         }
     }
 }
 
 /// The PVS of a portal graph.
 pub fn compute(g: &VisGraph, opts: &VisOptions) -> Pvs {
+    computed(g, opts).pvs
+}
+
+/// A PVS and what bounded it.
+#[derive(Debug, Clone)]
+pub struct Computed {
+    /// The result.
+    pub pvs: Pvs,
+    /// Directed portals whose `full` flow the budget cut short (their rows fall back towards
+    /// `fast`); 0 for the other methods.
+    pub cut_short: usize,
+    /// Directed portals in the graph (the flow's sources).
+    pub sources: usize,
+}
+
+/// The PVS of a portal graph, with how many sources the flow budget cut short.
+pub fn computed(g: &VisGraph, opts: &VisOptions) -> Computed {
     let run = || match opts.method {
-        Method::Flood => flood::pvs(g),
-        Method::Fast => fast::pvs(g, opts.transform_depth),
+        Method::Flood => (flood::pvs(g), 0),
+        Method::Fast => (fast::pvs(g, opts.transform_depth), 0),
         Method::Full => {
             let might = fast::might_see(g, opts.transform_depth);
-            full::pvs(g, might, opts.transform_depth)
+            full::pvs(g, might, opts.transform_depth, opts.flow_budget)
         }
         Method::Sampled => {
             let might = fast::might_see(g, opts.transform_depth);
-            sampled::pvs(g, &might, opts.samples, opts.transform_depth, opts.seed)
+            let p = sampled::pvs(g, &might, opts.samples, opts.transform_depth, opts.seed);
+            (p, 0)
         }
     };
     // A pool of our own: the requested size, and a deep stack for the flow's recursion
@@ -90,13 +116,18 @@ pub fn compute(g: &VisGraph, opts: &VisOptions) -> Pvs {
     if let Some(t) = opts.threads {
         b = b.num_threads(t.max(1));
     }
-    let pvs = match b.build() {
+    let (pvs, cut_short) = match b.build() {
         Ok(pool) => pool.install(run),
         Err(_) => run(),
     };
-    match g.outside {
+    let pvs = match g.outside {
         Some(o) => pvs.first_cells(o),
         None => pvs,
+    };
+    Computed {
+        pvs,
+        cut_short,
+        sources: g.portals.len(),
     }
 }
 
@@ -115,6 +146,23 @@ pub fn transform_depth_note(file: &std::path::Path, depth: usize) -> crate::diag
         crate::diag::Location::file(file),
     )
     .hint("set `[vis] transform_depth` in portcullis.toml (or `vis --transform-depth`) to follow them further")
+}
+
+/// The note that the flow budget cut `cut` of `sources` directed portals short.
+pub fn flow_budget_note(
+    file: &std::path::Path,
+    cut: usize,
+    sources: usize,
+    budget: u64,
+) -> crate::diag::Diagnostic {
+    crate::diag::Diagnostic::new(
+        crate::diag::Code::VIS_FLOW_BUDGET,
+        format!(
+            "the full PVS reached its budget of {budget} portal tests: the flow from {cut} of {sources} directed portals stopped early and took the rest of what they might see as seen (conservative, looser)"
+        ),
+        crate::diag::Location::file(file),
+    )
+    .hint("set `[vis] flow_budget` in portcullis.toml (or `vis --flow-budget`) higher for a tighter PVS at more time; fewer, larger cells cost far less")
 }
 
 /// The PVS of a level's cells and portals.
