@@ -91,7 +91,28 @@ fn levels() -> Vec<(PathBuf, Option<&'static str>)> {
         .collect();
     v.push((common::fixture("MAP01_godot.glb"), None));
     v.push((common::fixture("panda3d_culling.glb"), Some("panda3d")));
+    // A level nobody tagged, its rooms generated (`--tags auto`), when ../shared is beside.
+    v.extend(
+        shared_untagged()
+            .into_iter()
+            .take(1)
+            .map(|p| (p, Some("auto"))),
+    );
     v
+}
+
+/// The shared third-party levels with no tags that docs/auto.md shows, when they are there.
+fn shared_untagged() -> Vec<PathBuf> {
+    let dir = common::root().join("../shared/levels/godot");
+    let found: Vec<PathBuf> = ["living_room.glb", "occlusion_room.glb"]
+        .iter()
+        .map(|n| dir.join(n))
+        .filter(|p| p.exists())
+        .collect();
+    if found.is_empty() {
+        eprintln!("skipped the auto levels: ../shared/levels/godot is missing");
+    }
+    found
 }
 
 #[test]
@@ -185,6 +206,28 @@ fn readme_screenshot() {
         .unwrap_or_else(|| common::root().join("docs/view.png"));
     let r = open(&page, &target, &[]);
     assert_eq!(r["errors"], serde_json::json!([]), "{r}");
+}
+
+/// docs/auto.md's pictures: the shared untagged levels under `--tags auto`, one colour per
+/// generated room (regenerate with `cargo test --release --test viewer -- --ignored auto_`).
+#[test]
+#[ignore = "writes docs/auto_*.png; run by hand to refresh docs/auto.md's pictures"]
+fn auto_screenshots() {
+    if driver().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for level in shared_untagged() {
+        let stem = level.file_stem().unwrap().to_string_lossy().into_owned();
+        let page = dir.path().join(format!("{stem}.html"));
+        view(&level, Some("auto"), &page);
+        let r = open(
+            &page,
+            &common::root().join(format!("docs/auto_{stem}.png")),
+            &[],
+        );
+        assert_eq!(r["errors"], serde_json::json!([]), "{r}");
+    }
 }
 
 /// A generated building of 400 rooms opens and becomes interactive; the time is reported, not

@@ -441,7 +441,11 @@ fn a_flow_cut_short_by_its_budget_stays_between_full_and_fast() {
         props: false,
     });
     let fmt = portcullis::export::target::OutFormat::Glb;
-    std::fs::write(&path, portcullis::export::gltf_out::write_plain(&scene, fmt)).unwrap();
+    std::fs::write(
+        &path,
+        portcullis::export::gltf_out::write_plain(&scene, fmt),
+    )
+    .unwrap();
     let g = graph_of(&path, None);
     let with = |method, budget, threads| {
         vis::computed(
@@ -457,17 +461,30 @@ fn a_flow_cut_short_by_its_budget_stays_between_full_and_fast() {
     let exact = with(Method::Full, vis::DEFAULT_FLOW_BUDGET, 2);
     assert_eq!(exact.cut_short, 0, "a small level fits the default budget");
     let fast = with(Method::Fast, 1, 2).pvs;
-    assert!(exact.pvs.pairs() < fast.pairs(), "the flow is tighter than fast here");
+    assert!(
+        exact.pvs.pairs() < fast.pairs(),
+        "the flow is tighter than fast here"
+    );
     let mut cut_any = false;
     for budget in [1, 100, 1_000, 5_000, 20_000] {
         let one = with(Method::Full, budget, 1);
         let two = with(Method::Full, budget, 2);
-        assert_eq!(one.pvs, two.pvs, "budget {budget}: threads change the result");
+        assert_eq!(
+            one.pvs, two.pvs,
+            "budget {budget}: threads change the result"
+        );
         assert_eq!(one.cut_short, two.cut_short);
         let lost = exact.pvs.missing_from(&one.pvs);
-        assert!(lost.is_empty(), "budget {budget} lost {:?}", &lost[..lost.len().min(5)]);
+        assert!(
+            lost.is_empty(),
+            "budget {budget} lost {:?}",
+            &lost[..lost.len().min(5)]
+        );
         let over = one.pvs.missing_from(&fast);
-        assert!(over.is_empty(), "budget {budget}: looser than fast at {over:?}");
+        assert!(
+            over.is_empty(),
+            "budget {budget}: looser than fast at {over:?}"
+        );
         cut_any |= one.cut_short > 0;
     }
     assert!(cut_any, "the small budgets cut some flow short");
