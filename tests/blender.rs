@@ -136,6 +136,47 @@ print("ok")
     );
 }
 
+/// The add-on's client on a level nobody tagged, with the panel's preset set to `auto`:
+/// the converted file is written, and the rooms the panel lists are the generated ones.
+#[test]
+fn the_addons_client_lists_the_rooms_auto_generates() {
+    let level = common::root().join("../shared/levels/godot/living_room.glb");
+    if !level.exists() {
+        eprintln!(
+            "skipped: {} is missing (../shared is not beside the clone)",
+            level.display()
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let copy = dir.path().join("living_room.glb");
+    std::fs::copy(&level, &copy).unwrap();
+    let code = r#"
+import importlib.util, sys
+spec = importlib.util.spec_from_file_location("cli", sys.argv[1])
+cli = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(cli)
+r = cli.convert_and_check(sys.argv[2], sys.argv[3], preset="auto")
+assert r.output, r
+assert r.exit_code in (0, 1), r
+assert r.rooms and all(n.startswith("auto-") for n in r.rooms), r.rooms
+print("rooms", len(r.rooms))
+"#;
+    let out = Command::new(plain_python())
+        .args(["-c", code])
+        .arg(common::root().join("blender/portcullis_blender/cli.py"))
+        .arg(env!("CARGO_BIN_EXE_portcullis"))
+        .arg(&copy)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("rooms "),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// scripts/package_blender.py's zip is an extension Blender's own validator accepts.
 #[test]
 fn the_packaged_addon_is_a_valid_blender_extension() {
