@@ -106,12 +106,13 @@ fn crossing(g: &Gate, o: DVec3, d: DVec3) -> Option<f64> {
     Some(t)
 }
 
-/// The part of the segment `o + t d`, `t` in `[0, len]`, inside a convex cell, as `(t0, t1)`.
-fn clip(poly: &ConvexPolyhedron, o: DVec3, d: DVec3, len: f64) -> Option<(f64, f64)> {
+/// The part of the segment `o + t d`, `t` in `[0, len]`, at least `inset` inside every face
+/// of a convex cell, as `(t0, t1)`.
+fn clip(poly: &ConvexPolyhedron, o: DVec3, d: DVec3, len: f64, inset: f64) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (0.0f64, len);
     for f in &poly.faces {
         let dn = f.plane.normal.dot(d);
-        let dist = f.plane.distance(o);
+        let dist = f.plane.distance(o) + inset;
         if dn == 0.0 {
             if dist > 0.0 {
                 return None;
@@ -163,7 +164,7 @@ fn through_overlap<'a>(
         line.windows(2)
             .any(|w| {
                 let len = w[0].distance(w[1]);
-                len > 0.0 && clip(region, w[0], (w[1] - w[0]) / len, len).is_some()
+                len > 0.0 && clip(region, w[0], (w[1] - w[0]) / len, len, 0.0).is_some()
             })
             .then_some(rooms)
     })
@@ -235,6 +236,9 @@ struct Tracer<'a> {
     /// A ray must run this far inside a cell to see into it (grazing a face or an edge is not
     /// seeing in).
     within: f64,
+    /// How deep inside a cell a ray must run to see into it: the distance tolerance, within
+    /// which a point is on a face.
+    inset: f64,
     depth: usize,
 }
 
@@ -305,7 +309,10 @@ impl Tracer<'_> {
                     if !meets_box(b, o, d, len) {
                         return None;
                     }
-                    let (t0, t1) = clip(poly, o, d, len)?;
+                    // Deeper than the tolerance, and along the ray more than `within`: a
+                    // ray grazing a face at a shallow angle runs far along it while never
+                    // more than a tolerance inside (a wall a hair off the cell's face).
+                    let (t0, t1) = clip(poly, o, d, len, self.inset)?;
                     (t1 - t0 > self.within).then_some((t0, c))
                 })
                 .collect();
@@ -347,6 +354,7 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         index,
         far: 4.0 * s.extent.max(s.eps),
         within: 10.0 * s.eps,
+        inset: s.eps,
         depth,
     };
     let n = s.cells.len().min(pvs.cells());
@@ -437,6 +445,27 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
 mod tests {
     use super::*;
     use crate::geom::aabb::Aabb;
+
+    /// A ray running a long way along a face, less than the tolerance inside, does not see
+    /// into the cell; one a little deeper does.
+    #[test]
+    fn a_ray_grazing_a_face_does_not_see_in() {
+        let cell = ConvexPolyhedron::from_aabb(&Aabb {
+            min: DVec3::ZERO,
+            max: DVec3::new(4.0, 3.0, 2.0),
+        });
+        let eps = 1e-3;
+        let along = |depth: f64| {
+            let o = DVec3::new(-1.0, 1.0, 2.0 - depth);
+            clip(&cell, o, DVec3::X, 6.0, eps)
+        };
+        assert_eq!(along(0.5 * eps), None);
+        let (t0, t1) = along(2.0 * eps).expect("two tolerances deep is inside");
+        assert!((t0 - 1.0 - eps).abs() < 1e-12 && (t1 - 5.0 + eps).abs() < 1e-12);
+        // Without an inset the grazing ray runs 4 m inside: what the audit used to count.
+        let o = DVec3::new(-1.0, 1.0, 2.0 - 0.5 * eps);
+        assert_eq!(clip(&cell, o, DVec3::X, 6.0, 0.0), Some((1.0, 5.0)));
+    }
 
     #[test]
     fn a_ray_through_an_overlap_is_told_by_its_rooms() {
