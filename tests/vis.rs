@@ -460,6 +460,18 @@ fn a_flow_cut_short_by_its_budget_stays_between_full_and_fast() {
     };
     let exact = with(Method::Full, vis::DEFAULT_FLOW_BUDGET, 2);
     assert_eq!(exact.cut_short, 0, "a small level fits the default budget");
+    // The largest budget `--flow-budget` takes: no overflow, the same exact flow, also on a
+    // level of one wave (a few portals), where a source's bound is the whole half budget.
+    let most = with(Method::Full, u64::MAX, 2);
+    assert_eq!((most.pvs, most.cut_short), (exact.pvs.clone(), 0));
+    let small = graph_of(&sample("stair_hall.gltf"), None);
+    let huge = VisOptions {
+        flow_budget: u64::MAX,
+        ..Default::default()
+    };
+    let c = vis::computed(&small, &huge);
+    assert_eq!(c.cut_short, 0);
+    assert_eq!(c.pvs, run(&small, Method::Full));
     let fast = with(Method::Fast, 1, 2).pvs;
     assert!(
         exact.pvs.pairs() < fast.pairs(),

@@ -242,12 +242,16 @@ pub(crate) fn portal_vis(
         // The next pass: the sources still cut short, at a bound none of them has had yet,
         // while the budget covers it for all of them.
         pending.retain(|&p| !at.finished[p]);
-        let mut next = cap * 4;
+        // Saturating: a budget near u64::MAX (`--flow-budget` takes any) must not wrap.
+        let mut next = cap.saturating_mul(4);
         while pending.iter().all(|&p| at.tried[p] >= next) && !pending.is_empty() {
-            next *= 4;
+            if next == u64::MAX {
+                break;
+            }
+            next = next.saturating_mul(4);
         }
         let runs = pending.iter().filter(|&&p| at.tried[p] < next).count() as u64;
-        if runs == 0 || at.spent + next * runs > budget {
+        if runs == 0 || at.spent.saturating_add(next.saturating_mul(runs)) > budget {
             break;
         }
         cap = next;
@@ -286,7 +290,7 @@ impl Progress {
             let Some((r, steps)) = run else {
                 continue;
             };
-            self.spent += steps;
+            self.spent = self.spent.saturating_add(steps);
             if steps < cap {
                 if let (Some(sym), Some(rp)) = (&mut self.sym, g.reverse[p]) {
                     // Rows hold every portal into a seen cell; the first marks the cell.
