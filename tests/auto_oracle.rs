@@ -140,8 +140,13 @@ fn audit(scene: portcullis::scene::Scene, eyes: usize, per_eye: usize) -> Verdic
             };
             let toi = hit.time_of_impact;
             v.rays += 1;
-            // Just before the hit: the air the hit surface faces, in some cell.
-            let back = (1e-6 * toi).max(1e-5 * c.tolerance.distance.max(1e-6));
+            // Just before the hit: the air the hit surface faces, in some cell. Two
+            // tolerances off the surface, along the ray: a wall within the tolerance of a
+            // cell's face is on that face, and a hit a hair past it is no sighting of the
+            // cell behind (gi_zdm2: a ray met a wall 0.39 m away, 4e-7 m short of which
+            // the cell beyond began).
+            let across = d.dot(hit.normal).abs().max(1e-3);
+            let back = (1e-6 * toi).max(2.0 * c.tolerance.distance / across);
             let Some(hit_cell) = cell_at(eye + d * (toi - back).max(0.0)) else {
                 // Air in no cell (past an opening to the exterior): the hit is still seen,
                 // so a cell the eye's cell sees must render its node.
