@@ -334,3 +334,57 @@ fn doom_maps_drawn_share_is_within_one_and_a_half_times_the_designers() {
         );
     }
 }
+
+/// Rooms, cells and PVS pairs of a level under `--tags auto`, every node moved by `m`.
+fn reading(mut scene: portcullis::scene::Scene, m: DMat4) -> (usize, usize, usize) {
+    for n in scene.nodes.iter_mut() {
+        n.world = m * n.world;
+    }
+    let config = portcullis::config::Config::default();
+    let rules = portcullis::config::rule_set(&config, Some("auto")).unwrap();
+    let imported = Imported {
+        scene,
+        diagnostics: Default::default(),
+    };
+    let level = pipeline::build(pipeline::tag(imported, config, rules));
+    let cells = level.cells.cells.len();
+    let pvs = pipeline::pvs(&level, vis::Method::Full);
+    let pairs = (0..cells).map(|c| pvs.visible(c).count()).sum();
+    (level.tagging().rooms.len(), cells, pairs)
+}
+
+#[test]
+#[ignore = "a minute: run with --ignored"]
+fn turned_and_moved_the_same_rooms_and_pvs_within_one_percent() {
+    // 37° about (1, 2, 3), then 1e5 m away (the acceptance's motion).
+    let m = DMat4::from_rotation_translation(
+        glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 37f64.to_radians()),
+        DVec3::splat(1e5),
+    );
+    for rel in [
+        "freedoom/freedoom2_MAP01.glb",
+        "freedoom/freedoom1_E1M2.glb",
+        "freedoom/freedoom1_E3M3.glb",
+    ] {
+        let Some(p) = shared(rel) else { continue };
+        let scene = merged(&p);
+        let (rooms, cells, pairs) = reading(scene.clone(), DMat4::IDENTITY);
+        let (t_rooms, t_cells, t_pairs) = reading(scene, m);
+        let change = (t_pairs as f64 - pairs as f64) / pairs as f64;
+        eprintln!(
+            "{rel}: rooms {rooms} / {t_rooms}, cells {cells} / {t_cells}, PVS pairs {pairs} / {t_pairs} ({:+.2}%)",
+            100.0 * change
+        );
+        // Something was judged: rooms found, and cells that see more than themselves.
+        assert!(
+            rooms > 1 && pairs > 2 * cells,
+            "{rel}: {rooms} rooms, {pairs} pairs"
+        );
+        assert_eq!(rooms, t_rooms, "{rel}: the same rooms turned");
+        assert!(
+            change.abs() <= 0.01,
+            "{rel}: PVS pairs changed {:+.2}%",
+            100.0 * change
+        );
+    }
+}
