@@ -41,6 +41,9 @@ COMMANDS["PRT_EXPORT_DROPPED"] = ["convert", "teleporter.gltf", "-o", "teleporte
 COMMANDS["VIS_TRANSFORM_DEPTH"] = ["vis", "teleporter.gltf"]
 COMMANDS["VIS_FLOW_BUDGET"] = ["vis", "--flow-budget", "1", "stair_hall.gltf"]
 COMMANDS["SIGHTLINES_CONFIRMED"] = ["check", "--sightlines", "200", "two_rooms.gltf"]
+# Two rooms whose shared wall is slats with 5 mm slits (make_broken.slatted_rooms), written
+# before the command runs.
+COMMANDS["SIGHTLINES_THROUGH_CRACKS"] = ["check", "--sightlines", "200", "slats.gltf"]
 # A converted two_rooms.gltf whose stored PVS lost the pairs out of cell 0 (written before the
 # command runs, as tests/sightlines.rs does).
 COMMANDS["PVS_MISSES_SIGHTLINE"] = ["check", "--sightlines", "200", "edited.gltf"]
@@ -104,6 +107,10 @@ def example(code):
                                capture_output=True, check=True)
                 (Path(d) / "cams.jsonl").write_text(CAMERA + "\n")
                 (Path(d) / "bad.jsonl").write_text(CAMERA + '\n{"eye":[2,1.6],"look":[1,0,0]}\n')
+            if code == "SIGHTLINES_THROUGH_CRACKS":
+                sys.path.insert(0, str(ROOT / "scripts"))
+                import make_broken
+                make_broken.ms.write_gltf(make_broken.slatted_rooms(), Path(d) / "slats.gltf")
             if code == "PVS_MISSES_SIGHTLINE":
                 subprocess.run([EXE, "convert", "two_rooms.gltf", "-o", "edited.gltf"], cwd=d,
                                capture_output=True, check=True)

@@ -69,6 +69,19 @@ def closed_room(name, x0, x1, z0=0.0, z1=4.0, holes=()):
     return ms.room_node(name, tris_floor, tris_ceiling, walls)
 
 
+def slatted_rooms(gap=0.005):
+    """`kitchen-room` and `lounge-room` sharing the wall x = 4, its middle 2 m cut into 1 cm
+    slats with `gap`-wide slits floor to ceiling: under the crack width the slits are closed
+    (no portal), and `check --sightlines` reports the rays through them as
+    SIGHTLINES_THROUGH_CRACKS (gen_diagnostics_doc.py's example)."""
+    holes, z = [], 1.0
+    while z + gap + 0.01 < 3.0:
+        holes.append((z, z + gap, 0.0, H))
+        z += gap + 0.01
+    return ms.level(closed_room("kitchen-room", 0.0, 4.0, holes=[("x1", *h) for h in holes]),
+                    closed_room("lounge-room", 4.0, 8.0, holes=[("x0", *h) for h in holes]))
+
+
 def door_quad(x, nx, z0=1.5, z1=2.5, h=2.2):
     return ms.wall_x(x, [ms.rect_zy(z0, 0, z1, h)], nx)
 

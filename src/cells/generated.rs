@@ -64,6 +64,12 @@ pub(super) fn build(b: &RoomBuilder, tagging: &Tagging) -> Option<GeneratedCells
     let index = BoxGrid::new(boxes.iter().map(|(_, p)| p.bounds()).collect());
     let mut per_room = vec![Vec::new(); rooms.len()];
     for (poly, source) in polys {
+        // A cell thinner than a crack is a closed crack (a wafer 0.7 mm thick under
+        // gi_zdm2's roof): it makes no cell, as in the solid reading. An eye there saw out
+        // along the wafer through faces the portal stage closes as cracks.
+        if thinner_than(&poly, b.crack) {
+            continue;
+        }
         let k = room_of(&poly, &boxes, &index, b.eps).min(rooms.len() - 1);
         per_room[k].push((poly, source));
     }
@@ -72,6 +78,17 @@ pub(super) fn build(b: &RoomBuilder, tagging: &Tagging) -> Option<GeneratedCells
         per_room,
         props,
         diags,
+    })
+}
+
+/// Whether the cell is thinner than `width` across one of its faces (the distance from the
+/// face's plane to the furthest corner behind it).
+fn thinner_than(cell: &ConvexPolyhedron, width: f64) -> bool {
+    cell.faces.iter().any(|f| {
+        let deepest = (cell.faces.iter().flat_map(|g| g.points.iter()))
+            .map(|p| -f.plane.distance(*p))
+            .fold(0.0, f64::max);
+        deepest < width
     })
 }
 
@@ -106,4 +123,26 @@ fn room_of(
         .map(|(k, p)| (p.bounds().distance_to(at), *k))
         .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
         .map_or(0, |(_, k)| k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::aabb::Aabb;
+    use glam::DVec3;
+
+    /// A slab 0.7 mm thick is thinner than an 8 mm crack however long and wide; a 2.5 cm
+    /// sliver is not.
+    #[test]
+    fn a_wafer_is_thinner_than_a_crack_and_a_sliver_is_not() {
+        let slab = |t: f64| {
+            ConvexPolyhedron::from_aabb(&Aabb {
+                min: DVec3::ZERO,
+                max: DVec3::new(53.0, 0.02, t),
+            })
+        };
+        assert!(thinner_than(&slab(0.0007), 0.008));
+        assert!(!thinner_than(&slab(0.025), 0.008));
+        assert!(!thinner_than(&slab(0.0007), 0.0));
+    }
 }

@@ -345,6 +345,14 @@ fn level_frame(scene: &Scene) -> (Aabb, f64, f64) {
         )
 }
 
+/// The crack width: `[cells] crack_width`, else the format's own (a brush map's), else the
+/// default. Gaps narrower than this are closed.
+pub(crate) fn crack_width(cfg: &CellsConfig, scene: &Scene) -> f64 {
+    cfg.crack_width
+        .or(scene.crack_width)
+        .unwrap_or(crate::config::DEFAULT_CRACK_WIDTH)
+}
+
 /// Builds the cells of every tagged room, with walls up to the default
 /// `[portals] max_wall_thickness` thick (see [`build_reaching`]).
 pub fn build(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig) -> CellSet {
@@ -389,10 +397,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
     let top = level_top(scene, origin, &frame);
     let (skip, extruded) = footprint_nodes(scene, tagging, origin, &frame);
     let ctx = footprint::Context::new(scene, &skip, &extruded, origin, cfg, eps, (frame, top));
-    let crack = cfg
-        .crack_width
-        .or(scene.crack_width)
-        .unwrap_or(crate::config::DEFAULT_CRACK_WIDTH);
+    let crack = crack_width(cfg, scene);
     let mut b = RoomBuilder {
         scene,
         cfg,

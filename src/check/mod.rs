@@ -96,6 +96,8 @@ pub struct Subject<'a> {
     pub extent: f64,
     /// Portals this far across a wall still lie on their cells' boundary (m).
     pub max_wall_thickness: f64,
+    /// Gaps narrower than this are closed (m): the sightline audit's rays are this thick.
+    pub crack: f64,
     /// Occupants, player starts first: where leak searches begin (none: no leak search).
     pub starts: Vec<Start>,
     /// Where two rooms' cells overlapped before one was cut around the other (the region and
@@ -182,6 +184,7 @@ impl<'a> Subject<'a> {
                 bounds.size().length()
             },
             max_wall_thickness: tagged.config.portals.max_wall_thickness,
+            crack: cells.crack,
             starts: starts(tagged, &cells.buried),
             overlaps: cells
                 .overlaps

@@ -7,6 +7,12 @@
 //! ray passes through is really visible from the cell it started in: a pair the PVS lacks is
 //! an error, and the pairs the rays confirm tell how tight the PVS is.
 //!
+//! A gap narrower than the crack width (`[cells] crack_width`) is closed for the cells and the
+//! portals alike (DESIGN, Cells), so a ray that finds a pair the PVS lacks is traced again as
+//! thick as a crack: eight rays beside it, parallel, half a crack width out. A pair only the thin
+//! ray reaches is seen through a closed crack, which is reported apart
+//! (`SIGHTLINES_THROUGH_CRACKS`), not as a miss.
+//!
 //! It shares nothing with the visibility methods but the cells and portals: the rays know
 //! triangles and planes, not portal flow. Each cell's rays come from a generator seeded by the
 //! cell's number, so the result is the same for any thread count.
@@ -40,7 +46,13 @@ pub struct Audit {
     /// Every pair some ray joined (each cell with itself): a lower bound of the real PVS from
     /// the level's own geometry.
     pub seen: Pvs,
+    /// Pairs the PVS lacks that only rays through closed cracks joined.
+    pub through_cracks: usize,
 }
+
+/// Rays beside a ray that make it as thick as a crack: the octagon they stand on holds the
+/// crack's circle, so a gap narrower than a crack stops one of them however it lies.
+const SIDES: usize = 8;
 
 /// How a portal changes a ray that crosses it.
 enum Rule {
@@ -155,6 +167,24 @@ fn missed(s: &Subject, c: usize, x: usize, line: &[DVec3]) -> Diagnostic {
     .hint(hint)
 }
 
+/// `SIGHTLINES_THROUGH_CRACKS`: `count` pairs only rays through closed cracks join, with the
+/// first one's ray.
+fn through_cracks(s: &Subject, count: usize, c: usize, x: usize, line: &[DVec3]) -> Diagnostic {
+    let (from, to) = (line[0], line[line.len() - 1]);
+    Diagnostic::new(
+        Code::SIGHTLINES_THROUGH_CRACKS,
+        format!(
+            "{count} pairs of cells the PVS leaves out are joined only by rays through gaps narrower than the crack width ({} m), which the cells and portals close: the first, from {} to {}, by the ray from ({:.4}, {:.4}, {:.4}) to ({:.4}, {:.4}, {:.4})",
+            s.crack,
+            s.cell(c),
+            s.cell(x),
+            from.x, from.y, from.z, to.x, to.y, to.z
+        ),
+        s.cells[c].at.clone().with_position(from.to_array()),
+    )
+    .hint("if such a gap is an opening, make it wider than the crack width or lower `[cells] crack_width` in portcullis.toml; if it is a modelling crack, close it, or leave it: nothing sees through it")
+}
+
 /// The rooms of the first overlap (see [`Subject::overlaps`]) a polyline passes through.
 fn through_overlap<'a>(
     overlaps: &'a [(ConvexPolyhedron, [String; 2])],
@@ -240,6 +270,17 @@ struct Tracer<'a> {
     /// which a point is on a face.
     inset: f64,
     depth: usize,
+    /// How far beside a ray its side rays run (0: rays are thin).
+    radius: f64,
+}
+
+/// Which way a ray goes through a line of a rule: first a thin ray, then, for a pair the PVS
+/// lacks, as thick as a crack.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Reach {
+    /// Only the thin ray joins the pair: through a closed crack.
+    ThroughCrack,
+    Clear,
 }
 
 impl Tracer<'_> {
@@ -288,6 +329,108 @@ impl Tracer<'_> {
             }
         }
         out
+    }
+
+    /// The pieces of a ray as thick as a crack: the thin ray's pieces, cut where one of its side
+    /// rays (parallel, `radius` out, or half way to a wall nearer the eye than that) meets a
+    /// triangle first. A piece that ends on a gate (a mirror
+    /// on a wall) lets its side rays meet that wall up to `radius / cos` sooner.
+    fn thicken(&self, pieces: &[(DVec3, DVec3, f64)]) -> Vec<(DVec3, DVec3, f64)> {
+        let Some(mesh) = self.mesh.as_ref().filter(|_| self.radius > 0.0) else {
+            return pieces.to_vec();
+        };
+        let mut out = Vec::new();
+        for (i, &(o, d, len)) in pieces.iter().enumerate() {
+            let slack = if i + 1 < pieces.len() {
+                let gate = self.gates.iter().find(|g| crossing(g, o, d) == Some(len));
+                gate.map_or(0.0, |g| self.radius / g.normal.dot(d).abs().max(1e-3))
+            } else {
+                0.0
+            };
+            let (u, v) = d.any_orthonormal_pair();
+            let cut = (0..SIDES)
+                .filter_map(|k| {
+                    let a = std::f64::consts::TAU * k as f64 / SIDES as f64;
+                    let w = u * a.cos() + v * a.sin();
+                    // A side ray starts on the eye's side of a wall beside it: from behind
+                    // the wall it would meet the wall's back, not a crack ahead.
+                    let r = (mesh.cast_local_ray(&Ray::new(o, w), self.radius, false))
+                        .map_or(self.radius, |h| 0.5 * h);
+                    let side = o + w * r;
+                    let hit = mesh.cast_local_ray_and_get_normal(&Ray::new(side, d), len, false)?;
+                    // The axis stops where it meets the plane the side ray hit (a slat
+                    // beside a slit the axis passes stands on the wall's plane), no more
+                    // than two radii sooner (a wall met at a grazing angle).
+                    let (t, n) = (hit.time_of_impact, hit.normal);
+                    let nd = n.dot(d);
+                    let on_plane = if nd != 0.0 {
+                        n.dot(side + d * t - o) / nd
+                    } else {
+                        t
+                    };
+                    Some(on_plane.clamp(t - 2.0 * self.radius, t))
+                })
+                .fold(f64::INFINITY, f64::min);
+            if cut < len - slack {
+                out.push((o, d, cut));
+                break;
+            }
+            out.push((o, d, len));
+        }
+        out
+    }
+
+    /// What `rays` rays from cell `c` reached: each cell with the first ray that reached it
+    /// the clearest way (a pair the PVS lacks is traced again as thick as a crack).
+    fn rays_from(
+        &self,
+        c: usize,
+        s: &Subject,
+        pvs: &Pvs,
+        rays: usize,
+        targets: &[&[DVec3]],
+    ) -> BTreeMap<usize, (Reach, Vec<DVec3>)> {
+        let mut found = BTreeMap::new();
+        let Some((poly, b)) = self.cells[c] else {
+            return found;
+        };
+        let mut r = Rng::new(0x5167_4711_u64 ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        for k in 0..rays {
+            let Some(p) = point_in(poly, &b, s.eps, &mut r) else {
+                continue;
+            };
+            // Every other ray aimed at a random point of a random portal (of the level,
+            // not only this cell's): uniform directions rarely thread a narrow opening.
+            let aim = (k % 2 == 1 && !targets.is_empty())
+                .then(|| {
+                    let t = &targets[(r.unit() * targets.len() as f64) as usize % targets.len()];
+                    (point_on(t, &mut r) - p).try_normalize()
+                })
+                .flatten();
+            let pieces = self.trace(p, aim.unwrap_or_else(|| direction(&mut r)));
+            let mut thick: Option<Vec<usize>> = None;
+            for x in self.cells_met(&pieces) {
+                if x == c {
+                    continue;
+                }
+                let reach = if x >= pvs.cells() || pvs.sees(c, x) {
+                    Reach::Clear
+                } else {
+                    let thick = thick.get_or_insert_with(|| self.cells_met(&self.thicken(&pieces)));
+                    if thick.contains(&x) {
+                        Reach::Clear
+                    } else {
+                        Reach::ThroughCrack
+                    }
+                };
+                if found.get(&x).is_none_or(|(had, _)| *had < reach) {
+                    let mut line = vec![p];
+                    line.extend(pieces.iter().map(|&(o, d, l)| o + d * l));
+                    found.insert(x, (reach, line));
+                }
+            }
+        }
+        found
     }
 
     /// The cells a ray's pieces run through, each once, in the order met.
@@ -356,6 +499,7 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         within: 10.0 * s.eps,
         inset: s.eps,
         depth,
+        radius: 0.5 * s.crack / (std::f64::consts::PI / SIDES as f64).cos(),
     };
     let n = s.cells.len().min(pvs.cells());
     let targets: Vec<&[DVec3]> = s
@@ -365,41 +509,11 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         .filter(|p| !p.closed && p.polygon.len() >= 3)
         .map(|p| p.polygon.as_slice())
         .collect();
-    // Per cell: the cells its rays reached, each with the first ray that reached it.
-    let reached: Vec<BTreeMap<usize, Vec<DVec3>>> = (0..n)
+    // Per cell: the cells its rays reached, each with the first ray that reached it the
+    // clearest way.
+    let reached: Vec<BTreeMap<usize, (Reach, Vec<DVec3>)>> = (0..n)
         .into_par_iter()
-        .map(|c| {
-            let mut found = BTreeMap::new();
-            let Some((poly, b)) = tracer.cells[c] else {
-                return found;
-            };
-            let mut r = Rng::new(0x5167_4711_u64 ^ (c as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-            for k in 0..rays {
-                let Some(p) = point_in(poly, &b, s.eps, &mut r) else {
-                    continue;
-                };
-                // Every other ray aimed at a random point of a random portal (of the level,
-                // not only this cell's): uniform directions rarely thread a narrow opening.
-                let aim = (k % 2 == 1 && !targets.is_empty())
-                    .then(|| {
-                        let t =
-                            &targets[(r.unit() * targets.len() as f64) as usize % targets.len()];
-                        (point_on(t, &mut r) - p).try_normalize()
-                    })
-                    .flatten();
-                let pieces = tracer.trace(p, aim.unwrap_or_else(|| direction(&mut r)));
-                for x in tracer.cells_met(&pieces) {
-                    if x != c {
-                        found.entry(x).or_insert_with(|| {
-                            let mut line = vec![p];
-                            line.extend(pieces.iter().map(|&(o, d, l)| o + d * l));
-                            line
-                        });
-                    }
-                }
-            }
-            found
-        })
+        .map(|c| tracer.rays_from(c, s, pvs, rays, &targets))
         .collect();
     let mut out = Audit {
         diagnostics: Diagnostics::default(),
@@ -407,16 +521,21 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
         confirmed: 0,
         pairs: 0,
         seen: Pvs::identity(n),
+        through_cracks: 0,
     };
+    let mut crack_example = None;
     for (c, found) in reached.iter().enumerate() {
-        for &x in found.keys().filter(|&&x| x < n) {
-            out.seen.bits.set(c, x);
-        }
         out.pairs += pvs.visible(c).filter(|&v| v != c).count();
-        for (&x, line) in found {
+        for (&x, (reach, line)) in found {
             if x >= n {
                 continue;
             }
+            if *reach == Reach::ThroughCrack {
+                out.through_cracks += 1;
+                crack_example.get_or_insert((c, x, line));
+                continue;
+            }
+            out.seen.bits.set(c, x);
             if pvs.sees(c, x) {
                 out.confirmed += 1;
                 continue;
@@ -424,6 +543,10 @@ pub fn audit(s: &Subject, triangles: &[[DVec3; 3]], pvs: &Pvs, rays: usize, dept
             out.diagnostics.push(missed(s, c, x, line));
             out.lines.push(line.clone());
         }
+    }
+    if let Some((c, x, line)) = crack_example {
+        out.diagnostics
+            .push(through_cracks(s, out.through_cracks, c, x, line));
     }
     let share = if out.pairs > 0 {
         100.0 * out.confirmed as f64 / out.pairs as f64

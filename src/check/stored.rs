@@ -240,6 +240,7 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
             bounds.size().length()
         },
         max_wall_thickness: t.config.portals.max_wall_thickness,
+        crack: crate::cells::crack_width(&t.config.cells, &t.scene),
         starts: super::starts(t, &[]),
         overlaps: Vec::new(),
     }

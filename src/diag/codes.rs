@@ -150,6 +150,7 @@ codes! {
     // --- sightlines (check --sightlines N) ---
     PVS_MISSES_SIGHTLINE = Error, "a ray through the level's geometry joins two cells that the PVS says cannot see each other";
     SIGHTLINES_CONFIRMED = Info, "the share of the PVS's pairs that rays through the level's geometry confirmed";
+    SIGHTLINES_THROUGH_CRACKS = Info, "pairs of cells the PVS leaves out are joined only by rays through gaps narrower than the crack width, which the level's reading closes";
 
     // --- usd ---
     USD_CORE_MISSING = Error, "USD input needs Pixar's usd-core Python package, which the embedded Python cannot import";

@@ -36,6 +36,27 @@ pub(crate) fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
     Some(Polygon2 { outer, holes })
 }
 
+/// Whether a disc `width` across fits in `p`: its inward offset by half that (i_overlay's
+/// outline, round joins, so a reflex corner keeps its arc) leaves something. An opening that
+/// passes this is no crack wherever else it narrows: a ray as thick as a crack gets through.
+pub(crate) fn holds_disc(p: &Polygon2, width: f64) -> bool {
+    use i_overlay::mesh::float::outline::offset::OutlineOffset;
+    use i_overlay::mesh::float::style::{LineJoin, OutlineStyle};
+    let ring = |r: &[DVec2]| r.iter().map(|q| [q.x, q.y]).collect::<Vec<[f64; 2]>>();
+    let shape: Vec<Vec<[f64; 2]>> = std::iter::once(ring(&p.outer))
+        .chain(p.holes.iter().map(|h| ring(h)))
+        .collect();
+    let style = OutlineStyle::new(-0.5 * width).line_join(LineJoin::Round(0.25));
+    shape.outline(&style).iter().any(|s| {
+        s.first()
+            .is_some_and(|outer| super::partition::ring_mean_width(&to_vec2(outer)) > 0.0)
+    })
+}
+
+fn to_vec2(r: &[[f64; 2]]) -> Vec<DVec2> {
+    r.iter().map(|q| DVec2::new(q[0], q[1])).collect()
+}
+
 /// The diameter of the circle inscribed in triangle `a b c`: twice its mean width (twice its
 /// area over its perimeter is the inradius of a triangle).
 fn inscribed_diameter(a: DVec2, b: DVec2, c: DVec2) -> f64 {
@@ -107,6 +128,34 @@ mod tests {
             outer,
             holes: Vec::new(),
         }
+    }
+
+    /// A disc fits where the shape is wide enough somewhere, however thin on average: the
+    /// wedge beside gi_zdm2's pipe flange (10 cm by 12.5 mm, 11.7 mm across inside) holds an
+    /// 8 mm disc, a wedge half as tall does not; a 1 cm square does, a 5 mm strip never; a
+    /// ring 6 mm wide round a hole does not, though its outline alone would.
+    #[test]
+    fn a_disc_fits_where_the_shape_is_wide_enough_somewhere() {
+        let wedge = |h: f64| poly(vec![v(0.0, 0.0), v(0.1, 0.0), v(0.1, h)]);
+        assert!(holds_disc(&wedge(0.0125), 0.008));
+        assert!(wedge(0.0125).mean_width() < 0.008);
+        assert!(!holds_disc(&wedge(0.006), 0.008));
+        let square = poly(vec![v(0.0, 0.0), v(0.01, 0.0), v(0.01, 0.01), v(0.0, 0.01)]);
+        assert!(holds_disc(&square, 0.008));
+        assert!(!holds_disc(&square, 0.011));
+        let strip = poly(vec![v(0.0, 0.0), v(3.0, 0.0), v(3.0, 0.005), v(0.0, 0.005)]);
+        assert!(!holds_disc(&strip, 0.008));
+        let ring = Polygon2 {
+            outer: vec![v(0.0, 0.0), v(0.1, 0.0), v(0.1, 0.1), v(0.0, 0.1)],
+            holes: vec![vec![
+                v(0.006, 0.006),
+                v(0.006, 0.094),
+                v(0.094, 0.094),
+                v(0.094, 0.006),
+            ]],
+        };
+        assert!(!holds_disc(&ring, 0.008));
+        assert!(holds_disc(&poly(ring.outer.clone()), 0.008));
     }
 
     /// A 1 x 1 window with a needle 1e-5 wide running 1.5 down from its sill.

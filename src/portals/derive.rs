@@ -37,7 +37,7 @@ use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection};
 use crate::geom::cover::{is_covered, Remainder};
-use crate::geom::crack::without_cracks;
+use crate::geom::crack::{holds_disc, without_cracks};
 use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
@@ -134,11 +134,14 @@ pub(crate) fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
 
 /// What is an opening of a region left open: the region without its vertices within the
 /// tolerance of a straight edge ([`drop_near_collinear`]) and without its cracks
-/// (`geom/crack.rs`), if that is at least `min_width` wide on average. A region nothing
+/// (`geom/crack.rs`), if that is at least `min_width` wide on average, or, with `disc` (between
+/// generated cells), holds a disc as wide as a crack somewhere: what a ray as thick as a crack
+/// passes. Tagged levels keep the average alone, so their verdicts stay what they were (a
+/// wedge beside a panda3d stair, 10.75 mm at its widest, stays a crack there). A region nothing
 /// blocks (`clear`: a face two cells of the same air share, on one plane) is no gap between
 /// blockers: it is kept whole however narrow (a sliver cell's face), unless it is float noise
 /// (under ten tolerances wide on average).
-fn opening(o: &Polygon2, k: &Limits, clear: bool) -> Option<Polygon2> {
+fn opening(o: &Polygon2, k: &Limits, clear: bool, disc: bool) -> Option<Polygon2> {
     let straight = Polygon2 {
         outer: drop_near_collinear(&o.outer, k.eps),
         holes: o
@@ -150,7 +153,11 @@ fn opening(o: &Polygon2, k: &Limits, clear: bool) -> Option<Polygon2> {
     if clear {
         return Some(straight).filter(|o| o.mean_width() >= 10.0 * k.eps);
     }
-    without_cracks(&straight, k.crack).filter(|o| o.mean_width() >= k.min_width)
+    // Wide enough on average, or wide enough somewhere: a wedge a crack-thick ray passes
+    // (11.7 mm across, 5.9 mm on average, beside a pipe's flange on gi_zdm2) is an opening.
+    without_cracks(&straight, k.crack).filter(|o| {
+        o.mean_width() >= k.min_width || (disc && k.crack > 0.0 && holds_disc(o, 0.98 * k.crack))
+    })
 }
 
 /// Convex pieces of an opening (or its convex hull when the conservative shape is asked for).
@@ -207,12 +214,21 @@ pub(crate) fn derive(
     let order = PairOrder {
         rank: &set.cell_rank,
     };
+    // Generated cells tile the air the reading found: what lies between two of them is a
+    // solid's inside or air it left out, never a wall to bridge. Bridging it (sight only
+    // straight through, along the normal) lost the rays that cross such a gap slantwise and
+    // leave it sideways (gi_zdm2: a 40 cm gap between slabs of air).
+    let generated = |c: usize| {
+        (tagging.generated.as_deref()).is_some_and(|g| g.boxes_of(cells.cells[c].room).is_some())
+    };
+    let generated: Vec<bool> = (0..cells.cells.len()).map(generated).collect();
     let cx = PairContext {
         cells,
         opaque: &opaque,
         near_cells: &near_cells,
         cfg,
         k: &k,
+        generated: &generated,
     };
     let mut found: Vec<PairOpenings> = pairs
         .par_iter()
@@ -231,7 +247,7 @@ pub(crate) fn derive(
         sorted: &claims,
         found: &found,
     };
-    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed);
+    let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed, &generated);
     crate::free::drop_elsewhere((found, claims, opaque));
     for (c, list) in exterior.into_iter().enumerate() {
         for (polygon, normal, area) in list {
@@ -356,6 +372,7 @@ struct ExteriorContext<'a> {
     cfg: &'a PortalsConfig,
     k: &'a Limits,
     claimed: &'a ClaimIndex<'a>,
+    generated: &'a [bool],
 }
 
 /// Every cell's openings to the exterior (polygon, normal, area), by cell.
@@ -365,12 +382,14 @@ fn exterior_openings(
     cfg: &PortalsConfig,
     k: &Limits,
     claimed: &ClaimIndex,
+    generated: &[bool],
 ) -> Vec<Vec<(Vec<DVec3>, DVec3, f64)>> {
     let cx = ExteriorContext {
         opaque,
         cfg,
         k,
         claimed,
+        generated,
     };
     cells
         .cells
@@ -448,7 +467,7 @@ fn face_exterior(
     .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
     for o in difference(&whole, &covered, grid)
         .iter()
-        .filter_map(|o| opening(o, k, false))
+        .filter_map(|o| opening(o, k, false, cx.generated[c]))
     {
         for piece in pieces(&o, cx.cfg.conservative, eps) {
             let piece = exact.restore(piece);
@@ -528,6 +547,9 @@ struct PairContext<'a> {
     near_cells: &'a BoxGrid,
     cfg: &'a PortalsConfig,
     k: &'a Limits,
+    /// Per cell, whether `--tags auto` generated it: no wall is bridged to it, and its
+    /// openings are kept where a crack-wide disc fits ([`opening`]).
+    generated: &'a [bool],
 }
 
 fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) -> PairOpenings {
@@ -573,7 +595,7 @@ fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) ->
             let centre = |pts: &[DVec3]| pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
             let gap = 0.5
                 * (fb.plane.distance(centre(&fa.points)) + fa.plane.distance(centre(&fb.points)));
-            if gap < -eps || gap > reach {
+            if gap < -eps || gap > reach || (gap > eps && (cx.generated[a] || cx.generated[b])) {
                 continue;
             }
             let gap = gap.max(0.0);
@@ -831,7 +853,8 @@ impl<'f> FacePair<'f> {
         let open = difference(&self.shared, blockers, self.grid);
         let exact = self.exact(blockers);
         let clear = self.gap <= eps && blockers.is_empty();
-        for o in open.iter().filter_map(|o| opening(o, cx.k, clear)) {
+        let disc = cx.generated[self.a] && cx.generated[self.b];
+        for o in open.iter().filter_map(|o| opening(o, cx.k, clear, disc)) {
             for piece in pieces(&o, cx.cfg.conservative, eps) {
                 let piece = exact.restore(piece);
                 // CCW about na in 2D: seen from A (behind the plane) it turns the
@@ -986,8 +1009,8 @@ mod tests {
             ],
             holes: vec![],
         };
-        assert!(opening(&slot, &k, false).is_none());
-        let kept = opening(&slot, &k, true).unwrap();
+        assert!(opening(&slot, &k, false, false).is_none());
+        let kept = opening(&slot, &k, true, false).unwrap();
         assert!((kept.area() - 0.15).abs() < 1e-12);
         // Float noise stays noise: under ten tolerances wide.
         let hair = Polygon2 {
@@ -998,6 +1021,6 @@ mod tests {
                 .collect(),
             holes: vec![],
         };
-        assert!(opening(&hair, &k, true).is_none());
+        assert!(opening(&hair, &k, true, false).is_none());
     }
 }
