@@ -76,6 +76,7 @@ fn full() -> Annotated {
                 node: None,
             },
         ],
+        buried_occupants: vec![0],
         visibility: Some(json!({"method": "full", "encoding": "lists", "lists": [[0, 1], [0, 1]]})),
     }
 }

@@ -39,7 +39,7 @@
 //! theorem); a cell never carries a plane its shape does not need. A thick wall is bridged only
 //! where no other cell lies in the gap (a reveal cell already joins the two sides).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -1080,51 +1080,13 @@ const PLAN_GRID: f64 = 1.0 / (1u64 << 20) as f64;
 
 /// Every vertex within `tol` of another (transitively) moved onto the least of them (by x,
 /// then y): f32 noise between the corners of neighbouring floor tiles is gone before the
-/// union, whose grid is finer than the tolerance. The least point is the same whatever order
-/// the triangles come in.
-fn weld(mut tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
-    let mut pts: Vec<DVec2> = tris.iter().flatten().copied().collect();
-    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    pts.dedup();
-    let mut parts = crate::disjoint::DisjointSets::new(pts.len());
-    if !(tol > 0.0 && tol.is_finite()) {
-        return tris;
-    }
-    // Points by cell of a grid `tol` wide: a point's neighbours within `tol` are in the 3 x 3
-    // cells around its own (a sweep along x alone was quadratic in a column of vertices).
-    let key = |p: DVec2| ((p.x / tol).floor() as i64, (p.y / tol).floor() as i64);
-    let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-    for (i, p) in pts.iter().enumerate() {
-        cells.entry(key(*p)).or_default().push(i);
-    }
-    for i in 0..pts.len() {
-        let (kx, ky) = key(pts[i]);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                let Some(near) = cells.get(&(kx + dx, ky + dy)) else {
-                    continue;
-                };
-                for &j in near {
-                    if j > i && pts[i].distance(pts[j]) <= tol {
-                        // The root is always the least index: the least point of the cluster.
-                        parts.union(i, j);
-                    }
-                }
-            }
-        }
-    }
-    let at = |p: DVec2| {
-        pts.binary_search_by(|q| q.x.total_cmp(&p.x).then(q.y.total_cmp(&p.y)))
-            .ok()
-    };
-    for t in &mut tris {
-        for p in t.iter_mut() {
-            if let Some(i) = at(*p) {
-                *p = pts[parts.find(i)];
-            }
-        }
-    }
-    tris
+/// union, whose grid is finer than the tolerance (`geom::weld`).
+fn weld(tris: Vec<[DVec2; 3]>, tol: f64) -> Vec<[DVec2; 3]> {
+    let pts: Vec<DVec3> = tris.iter().flatten().map(|p| p.extend(0.0)).collect();
+    let out = crate::geom::weld::weld(&pts, tol);
+    out.chunks_exact(3)
+        .map(|t| [t[0].truncate(), t[1].truncate(), t[2].truncate()])
+        .collect()
 }
 
 /// `q` turned `n` quarter turns counter-clockwise about the origin (exact).

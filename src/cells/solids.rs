@@ -4,7 +4,7 @@
 //! Doom sector's walls) and closed solids that bound it from outside (greybox slabs, CSG boxes,
 //! brushes, wall kits). A *solid* is an edge-connected part of one node's mesh that is closed
 //! (every edge is met by exactly as many triangles one way as the other, the vertices matched by
-//! their exact world position) and encloses positive volume with its triangles facing out, by
+//! their world position within the tolerance) and encloses positive volume with its triangles facing out, by
 //! the divergence theorem. A closed mesh facing in is a room shell, not a solid. The test reads
 //! only the topology and the sign of a sum, so moving, turning or scaling a level cannot change
 //! it.
@@ -100,15 +100,22 @@ pub(crate) fn split_node_open(
     tris: &[[DVec3; 3]],
     eps: f64,
 ) -> (Vec<Solid>, Vec<[DVec3; 3]>, Vec<OpenEdges>) {
-    // Vertices matched by exact position: a closed mesh shares them (an exporter that split
-    // a box's corners for flat normals wrote the same coordinates three times).
+    // Vertices matched by position within the tolerance: a closed mesh shares them (an
+    // exporter that split a box's corners for flat normals wrote the same coordinates three
+    // times, and one writing f32 brushes wrote a corner where three faces meet as `0.0`,
+    // `2.8e-16` and `-3.7e-14`).
+    let corners: Vec<DVec3> = tris.iter().flatten().copied().collect();
+    let welded = crate::geom::weld::weld(&corners, eps);
     let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
     let mut id = |p: DVec3| {
         let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
         let next = ids.len() as u32;
         *ids.entry(key).or_insert(next)
     };
-    let tri_ids: Vec<[u32; 3]> = tris.iter().map(|t| t.map(&mut id)).collect();
+    let tri_ids: Vec<[u32; 3]> = welded
+        .chunks_exact(3)
+        .map(|t| [id(t[0]), id(t[1]), id(t[2])])
+        .collect();
     // Directed edge -> (triangles using it), and union-find over triangles sharing an edge.
     let mut edges: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for (k, t) in tri_ids.iter().enumerate() {

@@ -159,6 +159,16 @@ pub(crate) fn portal_set(a: &Annotated) -> PortalSet {
     }
 }
 
+/// The scene nodes of the occupants the annotation says stand inside a solid block.
+fn buried(t: &Tagged, a: &Annotated) -> Vec<crate::scene::NodeId> {
+    (0..t.scene.nodes.len())
+        .filter(|&n| {
+            crate::export::gltf_out::node_index(&t.scene, n)
+                .is_some_and(|i| a.buried_occupants.contains(&i))
+        })
+        .collect()
+}
+
 /// The check subject for a sound stored annotation of `t`.
 pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject<'a> {
     let eps = a.tolerance.max(1e-12);
@@ -241,7 +251,7 @@ pub fn subject<'a>(t: &Tagged, a: &Annotated, portals: &'a PortalSet) -> Subject
         },
         max_wall_thickness: t.config.portals.max_wall_thickness,
         crack: crate::cells::crack_width(&t.config.cells, &t.scene),
-        starts: super::starts(t, &[]),
+        starts: super::starts(t, &buried(t, a)),
         overlaps: Vec::new(),
     }
 }

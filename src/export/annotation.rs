@@ -23,6 +23,18 @@ fn num(x: f64) -> Value {
     Value::from(if r == 0.0 { 0.0 } else { r })
 }
 
+/// The tolerance as [`num`] writes it, but one below a billionth of a metre (a level of no
+/// geometry, or one modelled in nanometres) to six significant digits: rounded it would read
+/// as zero, which the schema forbids and no check can use.
+fn tolerance(x: f64) -> Value {
+    match num(x) {
+        Value::Number(n) if n.as_f64() == Some(0.0) && x > 0.0 => {
+            Value::from(format!("{x:.5e}").parse::<f64>().unwrap_or(x))
+        }
+        v => v,
+    }
+}
+
 /// The root extension object and, per glTF node index, the node extension object.
 pub struct Annotation<'a> {
     /// The root object's members in order. `cells` and `portals`, when present, hold `null`
@@ -377,7 +389,7 @@ fn build_with_hash<'a>(
         json!(format!("portcullis {}", env!("CARGO_PKG_VERSION"))),
     );
     root.insert("inputHash".into(), Value::Null);
-    root.insert("tolerance".into(), num(cells.tolerance.distance));
+    root.insert("tolerance".into(), tolerance(cells.tolerance.distance));
     if tagging.preset != "default" {
         root.insert("tags".into(), json!(tagging.preset));
     }
@@ -428,6 +440,12 @@ fn build_with_hash<'a>(
     }
     if !portals.portals.is_empty() {
         root.insert("portals".into(), Value::Null);
+    }
+    let mut buried: Vec<usize> = cells.buried.iter().filter_map(|&n| node_index(n)).collect();
+    buried.sort_unstable();
+    buried.dedup();
+    if !buried.is_empty() {
+        root.insert("buriedOccupants".into(), json!(buried));
     }
     let portal_nodes = portals
         .portals

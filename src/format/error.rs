@@ -72,6 +72,12 @@ pub enum FormatError {
         /// The node it names.
         node: usize,
     },
+    /// An occupant buried in solid is a node that does not exist.
+    #[error("/buriedOccupants: node {node} does not exist")]
+    BuriedNodeMissing {
+        /// The node it names.
+        node: usize,
+    },
     /// The inline `lists` of the stored visibility do not decode.
     #[error("/visibility: {0}")]
     StoredLists(Box<FormatError>),

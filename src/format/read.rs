@@ -65,6 +65,11 @@ pub fn consistency(a: &Annotated, node_count: usize) -> Vec<FormatError> {
             }
         }
     }
+    for &node in &a.buried_occupants {
+        if node >= node_count {
+            out.push(FormatError::BuriedNodeMissing { node });
+        }
+    }
     for (i, p) in a.portals.iter().enumerate() {
         for &c in &p.cells {
             if c >= cells {

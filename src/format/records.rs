@@ -37,6 +37,10 @@ pub struct Annotated {
     /// The portals between cells (and to the outside).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub portals: Vec<PortalRecord>,
+    /// The occupants (glTF nodes) that stand inside a solid block: they mark no air and seed
+    /// no leak search, as qbsp skips them, so a check of the file reads them as its source did.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub buried_occupants: Vec<usize>,
     /// The stored PVS, encoded (see [`super::visibility`]); [`super::read::visibility`]
     /// decodes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]

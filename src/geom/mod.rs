@@ -33,6 +33,7 @@ pub mod polyhedron;
 pub(crate) mod ray_mesh;
 pub mod tolerance;
 pub(crate) mod triangulate;
+pub(crate) mod weld;
 
 /// Shapes the geometry tests share.
 #[cfg(test)]
