@@ -268,6 +268,26 @@ def level_samples():
                                        {"name": "Ceiling", "tris": ceiling, "material": "wall"}]}]}
     s["CELL_ROOM_FROM_FLOOR.gltf"] = (t, None)
 
+    # A closed door: a floor walled by walls of no height (each edge a zero-area quad, its
+    # corners distinct vertices, as a Doom sector whose floor and ceiling meet is written),
+    # lying on the kitchen's floor, which renders it.
+    door = [(1.0, 0.0, 1.0), (1.0, 0.0, 2.0), (2.0, 0.0, 2.0), (2.0, 0.0, 1.0)]
+    flat = []
+    for k in range(4):
+        a, b = door[k], door[(k + 1) % 4]
+        flat += [(a, b, b), (a, b, a)]
+    t = two_rooms()
+    t["children"].append({"name": "door-room", "children": [
+        {"name": "Floor", "tris": ms.facing(ms.quad(*door), (0, 1, 0)) + flat,
+         "material": "floor", "unshared": True}]})
+    s["CELL_ROOM_ZERO_HEIGHT.gltf"] = (t, None)
+
+    # Two rooms through a doorway, the kitchen's back wall slit floor to ceiling 5 mm wide:
+    # under the 8 mm crack width, the slit is closed (no opening to the exterior) and said so.
+    s["CRACKS_CLOSED.gltf"] = (ms.level(
+        closed_room("kitchen-room", 0.0, 4.0, holes=[("x1", 1.5, 2.5, 0, 2.2), ("x0", 2.0, 2.005, 0, H)]),
+        closed_room("lounge-room", 4.0, 8.0, holes=[("x0", 1.5, 2.5, 0, 2.2)])), None)
+
     t = two_rooms()
     t["children"].append({"name": "cellar-room"})
     s["CELL_ROOM_EMPTY.gltf"] = (t, None)

@@ -805,7 +805,9 @@ def write_gltf(tree, path):
             indices = []
             for tri in t["tris"]:
                 for v in tri:
-                    if v not in index:
+                    # `unshared`: every corner its own vertex, as exporters that write walls
+                    # of no height (a Doom sector whose floor and ceiling meet) do.
+                    if t.get("unshared") or v not in index:
                         index[v] = len(verts)
                         verts.append(v)
                     indices.append(index[v])

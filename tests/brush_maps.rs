@@ -567,3 +567,52 @@ fn an_independent_plain_gltf_export_gives_qbsps_verdict() {
     }
     eprintln!("{}", table.join("\n"));
 }
+
+/// A level at the wrong scale shows in what the crack width closed: E1M1 read at a thousandth
+/// of its size with glTF's 8 mm crack width keeps 3 cells of its 1,078, and `check` and
+/// `inspect` say the crack width closed hundreds of gaps, the widest 7.7 mm across; at its
+/// own scale it closed none wider than a tenth of its crack width.
+#[test]
+fn a_level_at_the_wrong_scale_shows_what_the_crack_width_closed() {
+    let Some(dir) = testmaps() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let map = tmp.path().join("e1m1.map");
+    std::fs::copy(dir.join("E1M1-edited-ents.map"), &map).unwrap();
+    // (count, widest in mm) from CRACKS_CLOSED's message; none without one.
+    let closed = |out: &str| -> (usize, f64) {
+        let Some(line) = out.lines().find(|l| l.contains("[CRACKS_CLOSED]")) else {
+            return (0, 0.0);
+        };
+        let count = line.split(" closed ").nth(1).unwrap();
+        let count: usize = count.split_whitespace().next().unwrap().parse().unwrap();
+        let widest = line.split("the widest, ").nth(1).unwrap();
+        let widest: f64 = widest.split_whitespace().next().unwrap().parse().unwrap();
+        (count, widest)
+    };
+    let run = |cmd: &str| {
+        let out = assert_cmd::Command::cargo_bin("portcullis")
+            .unwrap()
+            .args([cmd, "--color", "never"])
+            .arg(&map)
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr)
+    };
+    let (n, w) = closed(&run("check"));
+    assert!(
+        n == 0,
+        "at its own scale {n} gaps closed, the widest {w} mm"
+    );
+    std::fs::write(
+        tmp.path().join("portcullis.toml"),
+        "[import]\nmap_scale = 0.0000254\n[cells]\ncrack_width = 0.008\n",
+    )
+    .unwrap();
+    for cmd in ["check", "inspect"] {
+        let (n, w) = closed(&run(cmd));
+        assert!(
+            n > 500 && (5.0..8.0).contains(&w),
+            "{cmd}: {n} gaps, the widest {w} mm"
+        );
+    }
+}

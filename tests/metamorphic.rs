@@ -625,11 +625,21 @@ fn results_do_not_hang_on_the_tolerance() {
         };
         let mut t = load_tagged(&path, &opts).unwrap_or_else(|d| panic!("{}: {d}", path.display()));
         t.scene.gltf = None;
-        let base = run(t.scene.clone(), &t, DMat4::IDENTITY);
+        // What the crack width closed is counted only where a gap is wider than two
+        // tolerances (a narrower one is no gap to the geometry): how many it says may change
+        // with the tolerance, the cells and portals may not.
+        let without_cracks = |mut r: Outcome| {
+            r.tagged
+                .diagnostics
+                .0
+                .retain(|d| d.code != Code::CRACKS_CLOSED);
+            r
+        };
+        let base = without_cracks(run(t.scene.clone(), &t, DMat4::IDENTITY));
         let file = path.file_name().unwrap().to_string_lossy().to_string();
         let mut found = Vec::new();
         for factor in [0.25, 0.5, 2.0, 4.0] {
-            let out = run_with(t.scene.clone(), &t, DMat4::IDENTITY, factor);
+            let out = without_cracks(run_with(t.scene.clone(), &t, DMat4::IDENTITY, factor));
             found.extend(compare(
                 &base,
                 &out,

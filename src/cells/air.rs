@@ -31,6 +31,7 @@ use super::interior::thickness;
 use super::solids::Solid;
 use crate::disjoint::DisjointSets;
 use crate::geom::aabb::Aabb;
+use crate::geom::crack::ClosedGaps;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::{overlap, polygon_area, ConvexPolyhedron};
 
@@ -57,6 +58,9 @@ pub(super) struct Air<'a> {
     /// The level-wide region (joined component) of each leaf, and whether it is a crack.
     pub region: Vec<usize>,
     pub thin: Vec<bool>,
+    /// The gaps the crack width closed: regions of air thinner than a crack (between blocks),
+    /// and pairs of regions that meet only through faces narrower than a crack.
+    pub closed: ClosedGaps,
     grid: BoxGrid,
     eps: f64,
     _life: std::marker::PhantomData<&'a ()>,
@@ -167,7 +171,8 @@ impl<'a> Air<'a> {
                 thick[region[i]] = true;
             }
         }
-        let thin = (0..n).map(|i| !thick[region[i]]).collect();
+        let thin: Vec<bool> = (0..n).map(|i| !thick[region[i]]).collect();
+        let closed = closed_gaps(&leaves, &links, &narrow, (&region, &thin), crack, eps);
         Air {
             leaves,
             links,
@@ -176,6 +181,7 @@ impl<'a> Air<'a> {
             world: on_world,
             region,
             thin,
+            closed,
             grid,
             eps,
             _life: std::marker::PhantomData,
@@ -378,6 +384,51 @@ impl<'a> Air<'a> {
             .max_by(|a, b| a.volume().total_cmp(&b.volume()))
             .map_or(DVec3::ZERO, |r| r.interior_point())
     }
+}
+
+/// What the crack width closed among the air (see [`Air::closed`]), in leaf and link order;
+/// hairs between blocks meant to touch are not counted (`geom::crack::counts_as_gap`).
+fn closed_gaps(
+    leaves: &[Leaf],
+    links: &[Link],
+    narrow: &[(usize, Vec<DVec3>, DVec3)],
+    (region, thin): (&[usize], &[bool]),
+    crack: f64,
+    eps: f64,
+) -> ClosedGaps {
+    let mut out = ClosedGaps::default();
+    // A crack between blocks: its thickest leaf.
+    let mut cracks: std::collections::BTreeMap<usize, (f64, DVec3)> = Default::default();
+    for (i, l) in leaves.iter().enumerate().filter(|&(i, _)| thin[i]) {
+        let t = thickness(&l.region);
+        let e = cracks
+            .entry(region[i])
+            .or_insert((t, l.region.interior_point()));
+        if t > e.0 {
+            *e = (t, l.region.interior_point());
+        }
+    }
+    // Two regions meeting only through narrow faces: the widest face between them.
+    let mut pairs: std::collections::BTreeMap<(usize, usize), (f64, DVec3)> = Default::default();
+    for (k, poly, normal) in narrow {
+        let l = &links[*k];
+        let (ra, rb) = (region[l.a as usize], region[l.b as usize]);
+        if l.joined || ra == rb || thin[l.a as usize] || thin[l.b as usize] {
+            continue;
+        }
+        let w = least_width(poly, *normal);
+        let at = poly.iter().copied().sum::<DVec3>() / poly.len().max(1) as f64;
+        let e = pairs.entry((ra.min(rb), ra.max(rb))).or_insert((w, at));
+        if w > e.0 {
+            *e = (w, at);
+        }
+    }
+    for (w, at) in cracks.into_values().chain(pairs.into_values()) {
+        if crate::geom::crack::counts_as_gap(w, crack, eps) {
+            out.add(w, at);
+        }
+    }
+    out
 }
 
 /// Joins regions that meet through narrow faces which together make an opening wider than a

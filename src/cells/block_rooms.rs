@@ -15,6 +15,7 @@ use super::{
     canonical_node_triangles, detect_props, extras_flag, CellSource, Gate, PropReason, RoomBuilder,
 };
 use crate::diag::{Code, Diagnostic, Diagnostics};
+use crate::geom::crack::ClosedGaps;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::NodeId;
 use crate::tags::{Room, Tagging};
@@ -41,13 +42,13 @@ struct Prep {
 }
 
 impl RoomBuilder<'_> {
-    /// Every block room's cells (`None` for rooms read otherwise), and the occupants standing
-    /// inside a solid.
+    /// Every block room's cells (`None` for rooms read otherwise), the occupants standing
+    /// inside a solid, and the gaps among the blocks the crack width closed (recentred).
     pub(super) fn read_blocks(
         &self,
         tagging: &Tagging,
         diags: &mut Diagnostics,
-    ) -> (Vec<Option<BlockCells>>, Vec<NodeId>) {
+    ) -> (Vec<Option<BlockCells>>, Vec<NodeId>, ClosedGaps) {
         let preps: Vec<Option<Prep>> = tagging
             .rooms
             .par_iter()
@@ -76,7 +77,11 @@ impl RoomBuilder<'_> {
             });
         }
         if rooms.is_empty() {
-            return ((0..preps.len()).map(|_| None).collect(), Vec::new());
+            return (
+                (0..preps.len()).map(|_| None).collect(),
+                Vec::new(),
+                ClosedGaps::default(),
+            );
         }
         let near = rooms
             .iter()
@@ -146,7 +151,7 @@ impl RoomBuilder<'_> {
                 .hint("move it into the room's air if it should mark it (qbsp skips such entities too)"),
             );
         }
-        (out, buried)
+        (out, buried, reading.closed)
     }
 
     /// A room's blocks, or `None` when it is read otherwise (see the module docs).

@@ -74,6 +74,8 @@ pub(super) struct Reading {
     pub unsure: Vec<Vec<(f64, DVec3)>>,
     /// The occupants that stand inside a solid (they seed nothing).
     pub buried: Vec<usize>,
+    /// The gaps among the blocks the crack width closed (recentred).
+    pub closed: crate::geom::crack::ClosedGaps,
 }
 
 /// Reads the air of the block rooms (see the module docs). `others` are solids of the level
@@ -96,6 +98,7 @@ pub(super) fn read(
         pockets: vec![None; rooms.len()],
         unsure: vec![Vec::new(); rooms.len()],
         buried: Vec::new(),
+        closed: Default::default(),
     };
     // All solids, each with its room (none for `others`).
     let mut solids: Vec<Solid> = Vec::new();
@@ -148,6 +151,7 @@ pub(super) fn read(
         return out;
     };
     let air = &level.air;
+    out.closed = air.closed;
     // Occupants, and what they reach.
     let mut seeds = Vec::new();
     for (k, &p) in occupants.iter().enumerate() {

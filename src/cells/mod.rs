@@ -39,7 +39,7 @@
 //! theorem); a cell never carries a plane its shape does not need. A thick wall is bridged only
 //! where no other cell lies in the gap (a reveal cell already joins the two sides).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -189,6 +189,8 @@ pub struct CellSet {
     pub crack: f64,
     /// Occupants standing inside a solid block: they seed nothing (qbsp skips them too).
     pub buried: Vec<NodeId>,
+    /// The gaps among solid blocks the crack width closed.
+    pub closed: crate::geom::crack::ClosedGaps,
     /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
@@ -417,7 +419,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
             None => interior::Reading::Room,
         },
     };
-    let (blocks, buried) = b.read_blocks(tagging, &mut diags);
+    let (blocks, buried, closed) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
     b.generated = generated::build(&b, tagging);
     // Rooms are built on their own, in parallel, and their cells numbered in room order
@@ -447,6 +449,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         prop_reasons,
         overlaps: Vec::new(),
         crack,
+        closed: closed.moved(origin),
         buried,
         diagnostics: diags,
     };
@@ -713,6 +716,20 @@ impl RoomBuilder<'_> {
             return;
         }
         let tris = canonical_triangles(scene, &structure, origin);
+        if floor_only(&tris, frame.up) && walls_of_no_height(&tris, eps) {
+            diags.push(
+                Diagnostic::new(
+                    Code::CELL_ROOM_ZERO_HEIGHT,
+                    format!(
+                        "room `{}` is a floor whose walls have no height (a closed door or a lift at rest: floor and ceiling at one height); it has no air, so no cell",
+                        room.name
+                    ),
+                    self.loc(room.node).with_position((mean(tris.iter().flatten()) + origin).to_array()),
+                )
+                .hint("nothing to do for a closed door; if the room has air, give its walls their height"),
+            );
+            return;
+        }
         if floor_only(&tris, frame.up) {
             // Only floor (no wall, no ceiling): the room is its footprint, as Panda3D's
             // `cellN` meshes are even without the panda3d preset.
@@ -840,6 +857,49 @@ fn floor_only(tris: &[[DVec3; 3]], up: DVec3) -> bool {
         any = true;
     }
     any
+}
+
+/// Whether a floor's outline has walls of no height: zero-area triangles along its edges, as
+/// a Doom sector whose floor and ceiling meet (a closed door, a lift at rest) is written, its
+/// one-sided lines walls from the floor to a ceiling at the floor's height. Such a room has
+/// no air; a floor alone (Panda3D's footprints) has no walls and is extruded.
+fn walls_of_no_height(tris: &[[DVec3; 3]], eps: f64) -> bool {
+    let corners: Vec<DVec3> = tris.iter().flatten().copied().collect();
+    let welded = crate::geom::weld::weld(&corners, eps);
+    let key = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let edge = |a: DVec3, b: DVec3| {
+        let (ka, kb) = (key(a), key(b));
+        if ka < kb {
+            (ka, kb)
+        } else {
+            (kb, ka)
+        }
+    };
+    let mut floor: HashMap<([u64; 3], [u64; 3]), (usize, f64)> = HashMap::new();
+    // Edges of the walls of no height.
+    let mut flat: std::collections::HashSet<([u64; 3], [u64; 3])> = Default::default();
+    for t in welded.chunks_exact(3) {
+        let area2 = (t[1] - t[0]).cross(t[2] - t[0]).length();
+        let longest = (0..3)
+            .map(|i| t[i].distance(t[(i + 1) % 3]))
+            .fold(0.0, f64::max);
+        if area2 > eps * longest {
+            for i in 0..3 {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                floor.entry(edge(a, b)).or_insert((0, a.distance(b))).0 += 1;
+            }
+        } else {
+            for i in 0..3 {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                if key(a) != key(b) {
+                    flat.insert(edge(a, b));
+                }
+            }
+        }
+    }
+    floor
+        .iter()
+        .any(|(e, (count, len))| *count == 1 && *len > eps && flat.contains(e))
 }
 
 /// Whether a triangle lies on one face of the hull.

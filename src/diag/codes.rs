@@ -101,6 +101,7 @@ codes! {
     // --- cells ---
     TOLERANCE_CAPPED = Warning, "the input's precision is coarser than the largest tolerance allowed";
     CELL_ROOM_FROM_FLOOR = Info, "a room made only of floor was extruded upward like a footprint";
+    CELL_ROOM_ZERO_HEIGHT = Info, "a room of floor whose walls have no height (a closed door or lift, floor and ceiling at one height) has no air, so no cell";
     CELL_ROOM_EMPTY = Error, "a room has no geometry, bound or footprint to give it a volume";
     CELL_ROOM_DEGENERATE = Error, "a room's geometry has no volume (flat, a line or a point)";
     CELL_BOUND_NOT_CONVEX = Warning, "a bound mesh is not convex; its convex hull was used";
@@ -111,6 +112,7 @@ codes! {
     CELL_ROOM_NO_OCCUPANT = Warning, "a room of solid blocks with no occupant encloses several separate regions of air; all were kept";
     CELL_BLOCK_OPEN = Warning, "a mesh of a room of blocks is closed but for a few edges, so it is read as a surface and seals nothing";
     CELL_OCCUPANT_IN_SOLID = Info, "an occupant stands inside a solid block, so it marks no air";
+    CRACKS_CLOSED = Info, "gaps narrower than the crack width were closed (no cell, no leak, no portal through them); the widest is shown, so a level at the wrong scale shows";
 
     // --- annotated files ---
     ANNOTATION_INVALID = Error, "the file's PORTCULLIS_portals extension breaks its schema or refers to things that do not exist";

@@ -18,6 +18,56 @@ use robust::{orient2d, Coord};
 
 use super::partition::{ring_mean_width, Polygon2};
 
+/// The gaps narrower than the crack width that a stage closed: how many, and the widest with
+/// where it is, so that a level at the wrong scale (or a crack width set too wide) shows in
+/// `inspect` and `check` instead of losing openings without a word.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct ClosedGaps {
+    /// How many gaps were closed.
+    pub count: usize,
+    /// The widest closed gap's width (m) and a point in it (world coordinates).
+    pub widest: Option<(f64, glam::DVec3)>,
+}
+
+/// The share of the crack width under which a closed gap is not counted: blocks or walls
+/// meant to meet that miss by a rounding hair, not gaps anyone drew. Of the crack width, not
+/// the tolerance, so a tolerance four times coarser or finer counts the same gaps.
+const GAP_FLOOR: f64 = 0.1;
+
+/// Whether a gap `width` wide that a crack width of `crack` closed is counted (see
+/// [`GAP_FLOOR`]); never one within two tolerances.
+pub(crate) fn counts_as_gap(width: f64, crack: f64, eps: f64) -> bool {
+    width > (GAP_FLOOR * crack).max(2.0 * eps)
+}
+
+impl ClosedGaps {
+    /// Counts a gap `width` wide at `at`; of equal widths the first counted is kept, so a
+    /// tally made in a fixed order is the same on every run.
+    pub fn add(&mut self, width: f64, at: glam::DVec3) {
+        self.count += 1;
+        if self.widest.is_none_or(|(w, _)| width > w) {
+            self.widest = Some((width, at));
+        }
+    }
+
+    /// Both tallies, `self` first.
+    pub fn merged(mut self, other: &ClosedGaps) -> ClosedGaps {
+        self.count += other.count;
+        if let Some((w, at)) = other.widest {
+            if self.widest.is_none_or(|(v, _)| w > v) {
+                self.widest = Some((w, at));
+            }
+        }
+        self
+    }
+
+    /// The same gaps, their points moved by `by` (recentred readings back to the world).
+    pub fn moved(mut self, by: glam::DVec3) -> ClosedGaps {
+        self.widest = self.widest.map(|(w, at)| (w, at + by));
+        self
+    }
+}
+
 /// `p` without its cracks narrower than `width`: `None` when nothing else is left.
 pub(crate) fn without_cracks(p: &Polygon2, width: f64) -> Option<Polygon2> {
     if width <= 0.0 {

@@ -23,7 +23,7 @@
 pub mod aabb;
 pub(crate) mod boolean2;
 pub(crate) mod cover;
-pub(crate) mod crack;
+pub mod crack;
 pub(crate) mod exact;
 pub(crate) mod grid;
 pub(crate) mod hull;

@@ -37,7 +37,7 @@ use crate::config::PortalsConfig;
 use crate::geom::aabb::Aabb;
 use crate::geom::boolean2::{difference, intersection};
 use crate::geom::cover::{is_covered, Remainder};
-use crate::geom::crack::{holds_disc, without_cracks};
+use crate::geom::crack::{holds_disc, without_cracks, ClosedGaps};
 use crate::geom::exact::ExactVertices;
 use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
@@ -239,6 +239,9 @@ pub(crate) fn derive(
         })
         .collect();
     add_pair_portals(&mut set.portals, cells, &pairs, &mut found, &order);
+    set.closed = found
+        .iter()
+        .fold(ClosedGaps::default(), |t, f| t.merged(&f.closed));
     if !cfg.exterior {
         return;
     }
@@ -249,7 +252,8 @@ pub(crate) fn derive(
     };
     let exterior = exterior_openings(cells, &opaque, cfg, &k, &claimed, &generated);
     crate::free::drop_elsewhere((found, claims, opaque));
-    for (c, list) in exterior.into_iter().enumerate() {
+    for (c, (list, closed)) in exterior.into_iter().enumerate() {
+        set.closed = set.closed.merged(&closed);
         for (polygon, normal, area) in list {
             set.portals
                 .push(Portal::plain(c, None, polygon, normal, area, false, None));
@@ -375,7 +379,10 @@ struct ExteriorContext<'a> {
     generated: &'a [bool],
 }
 
-/// Every cell's openings to the exterior (polygon, normal, area), by cell.
+/// An opening of a cell to the exterior: its polygon, normal and area.
+type ExteriorOpening = (Vec<DVec3>, DVec3, f64);
+
+/// Every cell's openings to the exterior and the gaps to it closed as cracks, by cell.
 fn exterior_openings(
     cells: &CellSet,
     opaque: &Opaque,
@@ -383,7 +390,7 @@ fn exterior_openings(
     k: &Limits,
     claimed: &ClaimIndex,
     generated: &[bool],
-) -> Vec<Vec<(Vec<DVec3>, DVec3, f64)>> {
+) -> Vec<(Vec<ExteriorOpening>, ClosedGaps)> {
     let cx = ExteriorContext {
         opaque,
         cfg,
@@ -398,11 +405,11 @@ fn exterior_openings(
         .with_max_len(JOB)
         .map(|(c, cell)| {
             Shadows::with(|shadows| {
-                let mut out = Vec::new();
+                let (mut out, mut closed) = (Vec::new(), ClosedGaps::default());
                 for (i, face) in cell.poly.faces.iter().enumerate() {
-                    face_exterior(&cx, c, i, face, shadows, &mut out);
+                    face_exterior(&cx, c, i, face, shadows, (&mut out, &mut closed));
                 }
-                out
+                (out, closed)
             })
         })
         .collect()
@@ -416,7 +423,7 @@ fn face_exterior(
     i: usize,
     face: &crate::geom::polyhedron::Face,
     shadows: &mut Shadows,
-    out: &mut Vec<(Vec<DVec3>, DVec3, f64)>,
+    (out, closed): (&mut Vec<ExteriorOpening>, &mut ClosedGaps),
 ) {
     let (k, eps) = (cx.k, cx.k.eps);
     let f = Frame2::of_face(face);
@@ -465,10 +472,12 @@ fn face_exterior(
         grid,
     )
     .with_rings(std::iter::once(ring.as_slice()).chain(covered.iter().copied()));
-    for o in difference(&whole, &covered, grid)
-        .iter()
-        .filter_map(|o| opening(o, k, false, cx.generated[c]))
-    {
+    for region in &difference(&whole, &covered, grid) {
+        let kept = opening(region, k, false, cx.generated[c]);
+        if let Some(w) = closed_crack(region, kept.is_some(), false, k) {
+            closed.add(w, region_point(region, &f));
+        }
+        let Some(o) = kept else { continue };
         for piece in pieces(&o, cx.cfg.conservative, eps) {
             let piece = exact.restore(piece);
             let pts: Vec<DVec3> = piece.iter().map(|q| f.to3(*q, DVec3::ZERO)).collect();
@@ -530,6 +539,22 @@ impl Limits {
 struct PairOpenings {
     claims: Vec<(usize, usize, Vec<DVec2>)>,
     portals: Vec<(Vec<DVec3>, Vec<DVec3>, DVec3, f64)>,
+    /// The regions left open that were closed as cracks.
+    closed: ClosedGaps,
+}
+
+/// The width of a region left open that [`opening`] closed as a crack (its mean width), or
+/// `None` when it was kept, is a clear face's float noise, or is a hair between blockers
+/// meant to meet (`geom::crack::counts_as_gap`).
+fn closed_crack(o: &Polygon2, kept: bool, clear: bool, k: &Limits) -> Option<f64> {
+    let w = o.mean_width();
+    (!kept && !clear && crate::geom::crack::counts_as_gap(w, k.crack, k.eps)).then_some(w)
+}
+
+/// A point of a region in its face's frame (the mean of its outline), for where a gap is.
+fn region_point(o: &Polygon2, f: &Frame2) -> DVec3 {
+    let n = o.outer.len().max(1) as f64;
+    f.to3(o.outer.iter().copied().sum::<DVec2>() / n, DVec3::ZERO)
 }
 
 /// Whether some point of box `b` is within `pad` of `plane`.
@@ -854,7 +879,12 @@ impl<'f> FacePair<'f> {
         let exact = self.exact(blockers);
         let clear = self.gap <= eps && blockers.is_empty();
         let disc = cx.generated[self.a] && cx.generated[self.b];
-        for o in open.iter().filter_map(|o| opening(o, cx.k, clear, disc)) {
+        for region in &open {
+            let kept = opening(region, cx.k, clear, disc);
+            if let Some(w) = closed_crack(region, kept.is_some(), clear, cx.k) {
+                out.closed.add(w, region_point(region, &self.f));
+            }
+            let Some(o) = kept else { continue };
             for piece in pieces(&o, cx.cfg.conservative, eps) {
                 let piece = exact.restore(piece);
                 // CCW about na in 2D: seen from A (behind the plane) it turns the

@@ -19,7 +19,7 @@ use serde::Serialize;
 
 use crate::cells::CellSet;
 use crate::config::PortalsConfig;
-use crate::diag::Diagnostics;
+use crate::diag::{Code, Diagnostic, Diagnostics, Location};
 use crate::scene::{NodeId, Scene};
 use crate::tags::rules::PortalKind;
 use crate::tags::Tagging;
@@ -107,6 +107,8 @@ pub struct PortalSet {
     /// cells' numbers (the PVS flow's waves). Empty when not known (a stored annotation).
     #[serde(skip)]
     pub cell_rank: Vec<u32>,
+    /// The gaps between blockers narrower than the crack width that were closed: no portal.
+    pub closed: crate::geom::crack::ClosedGaps,
 }
 
 impl PortalSet {
@@ -128,7 +130,39 @@ pub fn build(scene: &Scene, tagging: &Tagging, cells: &CellSet, cfg: &PortalsCon
     derive::derive(scene, tagging, cells, cfg, &mut set);
     authored::link(scene, tagging, cells, cfg, &mut set);
     lend_gates(cells, &mut set);
+    if let Some(d) = cracks_closed(scene, cells, &set) {
+        set.diagnostics.push(d);
+    }
     set
+}
+
+/// `CRACKS_CLOSED`: what the crack width closed, among blocks and between the blockers of
+/// openings, with the widest gap and where it is. A level modelled at the wrong scale, or a
+/// crack width set too wide, loses openings as cracks; this says how many and how wide.
+fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diagnostic> {
+    let all = cells.closed.merged(&set.closed);
+    let (widest, at) = all.widest?;
+    // Millimetres to three significant digits, however small.
+    let mm = |m: f64| {
+        let mm = m * 1e3;
+        let digits = (2 - mm.abs().log10().floor() as i32).clamp(0, 12) as usize;
+        format!("{mm:.digits$} mm")
+    };
+    Some(
+        Diagnostic::new(
+            Code::CRACKS_CLOSED,
+            format!(
+                "the crack width ({}) closed {} gap(s) narrower than it ({} among solid blocks, {} between the blockers of openings); the widest, {} across, is here",
+                mm(cells.crack),
+                all.count,
+                cells.closed.count,
+                set.closed.count,
+                mm(widest)
+            ),
+            Location::file(&scene.path).with_position(at.to_array()),
+        )
+        .hint("nothing to do if these are cracks; if one is an opening, the level's scale is off (a level modelled at a thousandth of its size turns doorways into cracks: scale it, or set [import] map_scale for a brush map) or [cells] crack_width is too wide"),
+    )
 }
 
 /// A portal on the boundary of a gate's volume (in a cell of the gate on one side only) is
