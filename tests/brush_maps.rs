@@ -103,6 +103,36 @@ fn a_slot_through_a_brush_wall_leaks_from_the_player_start() {
     assert!(d.message.contains("from player start"), "{}", d.message);
 }
 
+/// A crate brush on the floor of a brush room, and a box in the middle of the air: world
+/// brushes, so structure as qbsp reads them, never props (a crate in glTF is one). No cell
+/// reaches into either, and the cells hold the room's air less theirs.
+#[test]
+fn a_loose_world_brush_is_structure_not_a_prop() {
+    let mut brushes = room_brushes(0.0, 16.0, None);
+    brushes += &box_brush([32.0, 32.0, 0.0], [96.0, 96.0, 48.0]);
+    brushes += &box_brush([160.0, 160.0, 40.0], [192.0, 192.0, 72.0]);
+    let (level, leak) = build(&map_text(&brushes, &[START]));
+    assert!(!leak, "{:?}", level.diagnostics);
+    assert!(level.cells.props.is_empty(), "{:?}", level.cells.props);
+    let inch = 0.0254f64;
+    let to_level = |[x, y, z]: [f64; 3]| glam::DVec3::new(x, z, -y) * inch;
+    for centre in [[64.0, 64.0, 24.0], [176.0, 176.0, 56.0]] {
+        let p = to_level(centre);
+        let c = (level.cells.cells.iter()).position(|c| c.poly.contains(p, 1e-6));
+        assert!(
+            c.is_none(),
+            "cell {c:?} holds the brush centred at {centre:?}"
+        );
+    }
+    let volume: f64 = level.cells.cells.iter().map(|c| c.volume).sum();
+    let air = 256.0 * 256.0 * 128.0 - 64.0 * 64.0 * 48.0 - 32.0f64.powi(3);
+    assert!(
+        (volume - air * inch.powi(3)).abs() < 1e-6,
+        "{volume} m³ of cells, {} of air",
+        air * inch.powi(3)
+    );
+}
+
 /// qbsp's verdicts on slits through 16 and 64 unit walls: a gap of 0.2 units or less is a
 /// crack (qbsp drops a portal with fewer than three edges longer), a wider one a leak.
 /// Measured with ericw-tools' qbsp (8b70fce): 0.1, 0.15 and 0.19 sealed; 0.21, 0.25, 0.3, 1
@@ -448,7 +478,8 @@ fn ericw_testmaps_give_the_verdicts_of_ericw_tools_tests() {
 
 /// The same brushes as glTF (one room of closed meshes, the map's entities as occupants, no
 /// structure tags; f32 positions) and as OBJ (objects named by the conventions, occupants as
-/// small `-occupant` objects): the same verdict, and the same cells within 1%.
+/// small `-occupant` objects), both with `[cells] detect_props = false` as a map has no props:
+/// the same verdict, and the same cells within 1%.
 #[test]
 fn a_brush_map_as_gltf_gives_the_same_answer() {
     let Some(dir) = testmaps() else { return };
@@ -462,6 +493,7 @@ fn a_brush_map_as_gltf_gives_the_same_answer() {
     ] {
         let (map, map_leak) = built(&dir.join(name));
         let tmp = tempfile::tempdir().unwrap();
+        common::testmaps::no_props(tmp.path());
         let gltf = common::testmaps::as_plain_gltf(&dir.join(name), tmp.path());
         let obj = common::testmaps::as_obj(&dir.join(name), tmp.path());
         // OBJ names tag rooms, detail and occupants but no doors: E1M1's doors are gates (cells
@@ -516,8 +548,9 @@ fn a_door_of_two_brushes_is_one_gate() {
 /// The same brushes as an independent greybox exporter writes them (tests/tools/map_to_gltf.py:
 /// every world brush a closed convex mesh of its own with unshared corners, f32 world
 /// positions in metres, one `world-room`, detail named `-detail`, liquids, tools and brush
-/// entities left out, only the player start): qbsp's verdict (sealed), and the cells of the
-/// .map that holds the same brushes and start, within 2%. Two readings of the f32 file are at
+/// entities left out, only the player start): qbsp's verdict (sealed) with the defaults, and,
+/// read as qbsp reads brushes (`[cells] detect_props = false`: no props), the cells of the
+/// .map holding the same brushes and start, within 2%. Two readings of the f32 file were at
 /// stake: corners a few ulps apart that close a brush (welded within the tolerance), and faces
 /// of two brushes meeting at a shallow angle, whose planes stay within the tolerance of each
 /// other over a strip where the gap beyond is thinner than the tolerance (e3m4: air does not
@@ -526,7 +559,8 @@ fn a_door_of_two_brushes_is_one_gate() {
 fn an_independent_plain_gltf_export_gives_qbsps_verdict() {
     let Some(dir) = testmaps() else { return };
     let tool = common::root().join("tests/tools/map_to_gltf.py");
-    let tmp = tempfile::tempdir().unwrap();
+    let (plain_dir, qbsp_dir) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    common::testmaps::no_props(qbsp_dir.path());
     let mut table = Vec::new();
     for name in [
         "E1M1-edited-ents.map",
@@ -534,29 +568,29 @@ fn an_independent_plain_gltf_export_gives_qbsps_verdict() {
         "retrojam1_ericw.map",
     ] {
         let stem = Path::new(name).file_stem().unwrap().to_string_lossy();
-        let gltf = tmp.path().join(format!("{stem}.gltf"));
-        let same = tmp.path().join(format!("{stem}.same.map"));
+        let gltf = plain_dir.path().join(format!("{stem}.gltf"));
+        let same = qbsp_dir.path().join(format!("{stem}.same.map"));
         let out = std::process::Command::new("python3")
             .arg(&tool)
             .args([dir.join(name), gltf.clone(), same.clone()])
             .output()
             .expect("the exporter needs python3 on PATH");
         assert!(out.status.success(), "{name}: {out:?}");
+        let as_qbsp = qbsp_dir.path().join(format!("{stem}.gltf"));
+        std::fs::copy(&gltf, &as_qbsp).unwrap();
         let (map, map_leak) = built(&dir.join(name));
         let (plain, plain_leak) = built(&gltf);
+        let (no_props, _) = built(&as_qbsp);
         let (same_map, _) = built(&same);
-        let (a, b, c) = (
-            map.cells.cells.len(),
-            plain.cells.cells.len(),
-            same_map.cells.cells.len(),
-        );
+        let count = |l: &portcullis::pipeline::Level| l.cells.cells.len();
+        let (b, c) = (count(&no_props), count(&same_map));
         table.push(format!(
-            "{name}: .map {a} cells, plain glTF {b}, .map of the same brushes {c}"
+            "{name}: .map {} cells; plain glTF {}, without props {b}; .map of the same brushes {c}",
+            count(&map),
+            count(&plain)
         ));
         assert!(!map_leak, "{name}: qbsp finds it sealed");
-        let leaks = plain
-            .diagnostics
-            .iter()
+        let leaks = (plain.diagnostics.iter())
             .filter(|d| d.code == Code::LEAK)
             .count();
         assert!(!plain_leak, "{name} as plain glTF: {leaks} leaks");

@@ -7,15 +7,17 @@
 //! joined by jamb-and-lintel doors through the walls between them, a wall listed by one room,
 //! by the other or split between both. Some outer walls have a floor-to-ceiling slit, either at
 //! most half the crack width wide (closed: no cell, no leak) or at least twice it (a leak, its
-//! air part of the cells). Rooms hold loose crates, stacked or not (props: their volume is the
-//! cell's), a hollow sealed box of six slabs (a pocket: filled when an occupant stands in the
-//! level, else kept), and, in glTF, a ground quad under the level. Some levels have a player
-//! start or another occupant; glTF levels are one room node per room or one for all.
+//! air part of the cells). Rooms hold loose crates, stacked or not (in glTF props, whose volume
+//! is the cell's; in a brush map structure, as qbsp reads every world brush), a hollow sealed
+//! box of six slabs (a pocket: filled when an occupant stands in the level, else kept), and, in
+//! glTF, a ground quad under the level. Some levels have a player start or another occupant;
+//! glTF levels are one room node per room or one for all.
 //!
 //! What the generator knows, sharing no code with the reader: the verdict (a leak exactly when
 //! an open slit exists) and the air volume (the rooms' boxes, the door reveals, open slits and
-//! props, less the hollow boxes' shells and, with an occupant, their insides). Every level must
-//! give that verdict and the cells' volumes must sum to the air within 0.1%.
+//! glTF's props, less a map's crates, the hollow boxes' shells and, with an occupant, their
+//! insides). Every level must give that verdict and the cells' volumes must sum to the air
+//! within 0.1%.
 
 mod common;
 
@@ -207,8 +209,12 @@ fn generate(seed: u64, crack: f64, map: bool) -> Spec {
             let Some((cx, cz)) = place(&mut r, i, size) else {
                 continue;
             };
-            // Props: rendered by the room's cell, whose box holds them already.
+            // In glTF props, rendered by the room's cell, whose box holds them already; in a
+            // map structure (qbsp has no props), carved out of the air.
             add(&mut s, i, [cx, 0.0, cz], [cx + size, tall, cz + size]);
+            if map {
+                s.air -= size * tall * size;
+            }
             if r.unit() < 0.5 {
                 // A smaller crate on top.
                 let t2 = uniform(&mut r, 0.1, tall);
@@ -219,6 +225,9 @@ fn generate(seed: u64, crack: f64, map: bool) -> Spec {
                     [cx + m, tall, cz + m],
                     [cx + size - m, tall + t2, cz + size - m],
                 );
+                if map {
+                    s.air -= (size - 2.0 * m).powi(2) * t2;
+                }
             }
         }
     }

@@ -32,6 +32,17 @@ pub fn maps_to_bench() -> Option<(PathBuf, Vec<String>)> {
     Some((dir, maps))
 }
 
+/// Writes `portcullis.toml` in `dir` with `[cells] detect_props = false`: a brush map has no
+/// props (qbsp reads every world brush as structure, and the map says what is detail), and
+/// the same brushes as untagged glTF or OBJ say so for the whole level.
+pub fn no_props(dir: &Path) {
+    std::fs::write(
+        dir.join("portcullis.toml"),
+        "[cells]\ndetect_props = false\n",
+    )
+    .unwrap();
+}
+
 /// A brush map written as the glTF level a DCC exporter would give of it, in `out`: one room
 /// of closed meshes (the world brushes, no `solid` or `structure` tag), detail, doors and area
 /// portals tagged as the importer tags them, the map's entities as nodes with their keys

@@ -234,10 +234,15 @@ impl<'a> Builder<'a> {
             let mesh = self.mesh(&b.faces, rings, b.line);
             let mut extras = Map::new();
             match role {
-                // A world brush is a solid block, judged as any level's blocks are: a loose
-                // one that separates no air is a prop (the same cells as the same brushes in
-                // glTF); `solid` keeps even a one-brush map solid.
-                Role::Structure => extras.insert("solid".into(), Value::Bool(true)),
+                // A world brush is structure, however loose it stands: qbsp has no props,
+                // every world brush carves its BSP and the map says what is detail
+                // (`func_detail`), so no cell may reach into one (a box on a floor or in a
+                // window slot read as a prop left cells up to 81 cm into it). `solid` keeps
+                // even a one-brush map solid.
+                Role::Structure => {
+                    extras.insert("structure".into(), Value::Bool(true));
+                    extras.insert("solid".into(), Value::Bool(true))
+                }
                 Role::Detail => extras.insert("detail".into(), Value::Bool(true)),
                 Role::Ignored => extras.insert("ignore".into(), Value::Bool(true)),
                 // A door's brushes are one door (its entity number says which): the cell
