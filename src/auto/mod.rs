@@ -11,7 +11,8 @@
 //! cells exactly, from its own planes, and gives each to the room whose boxes it overlaps
 //! most (`cells::generated`); every later stage (portals, checks, PVS, export) runs unchanged.
 //!
-//! Rooms are generated only in a level with no tagged room (`pipeline::load` decides).
+//! Rooms are generated where geometry lies in no tagged room (`pipeline::load` decides); in a
+//! level tagged in part, the tagged cells bound the generated ones (`cells::generated`).
 
 pub(crate) mod air;
 mod boxes;
@@ -221,7 +222,8 @@ fn oriented_box(grid: &voxels::Grid, b: &grow::GridBox) -> ConvexPolyhedron {
 }
 
 /// Appends one tagging room per generated room: its structure is every blocking node whose
-/// box comes within two voxels of the room's boxes.
+/// box comes within two voxels of the room's boxes, but for the tagged rooms' own: their
+/// cells stand for them (`cells::generated`).
 fn add_rooms(
     scene: &Scene,
     tagging: &mut Tagging,
@@ -235,6 +237,12 @@ fn add_rooms(
         .map(|t| Aabb::from_points(t.iter().flatten()))
         .collect();
     let mut placed = vec![false; scene.nodes.len()];
+    let mut tagged = vec![false; scene.nodes.len()];
+    for n in (tagging.rooms.iter()).flat_map(|r| r.structure.iter().chain(&r.detail)) {
+        if let Some(t) = tagged.get_mut(*n) {
+            *t = true;
+        }
+    }
     for (k, room_boxes) in boxes.iter().enumerate() {
         let b = room_boxes
             .iter()
@@ -243,7 +251,7 @@ fn add_rooms(
             (nb.min - 2.0 * h).cmple(b.max).all() && (nb.max + 2.0 * h).cmpge(b.min).all()
         };
         let structure: Vec<NodeId> = (nodes.iter().zip(&node_boxes))
-            .filter(|(_, nb)| !nb.is_empty() && near(nb))
+            .filter(|(&n, nb)| !tagged[n] && !nb.is_empty() && near(nb))
             .map(|(&n, _)| n)
             .collect();
         for &n in &structure {

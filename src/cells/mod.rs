@@ -419,17 +419,34 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
             None => interior::Reading::Room,
         },
     };
-    let (blocks, buried, closed) = b.read_blocks(tagging, &mut diags);
+    let (blocks, buried, gaps) = b.read_blocks(tagging, &mut diags);
     b.blocks = blocks;
-    b.generated = generated::build(&b, tagging);
     // Rooms are built on their own, in parallel, and their cells numbered in room order
-    // afterwards, so the result does not depend on the thread count.
-    let built: Vec<RoomCells> = tagging
-        .rooms
+    // afterwards, so the result does not depend on the thread count. Tagged rooms come
+    // first: the generated rooms' reading ends on their cells (`generated.rs`).
+    let first_generated = tagging
+        .generated
+        .as_deref()
+        .map_or(tagging.rooms.len(), |g| {
+            g.first_room.min(tagging.rooms.len())
+        });
+    let (tagged, untagged) = tagging.rooms.split_at(first_generated);
+    let mut built: Vec<RoomCells> = tagged
         .par_iter()
         .enumerate()
         .map(|(ri, room)| b.room(ri, room))
         .collect();
+    let closed: Vec<(ConvexPolyhedron, RoomId)> = (built.iter().flat_map(|r| &r.cells))
+        .map(|c| (c.poly.translated(-origin), c.room))
+        .collect();
+    b.generated = generated::build(&b, tagging, &closed);
+    built.extend(
+        untagged
+            .par_iter()
+            .enumerate()
+            .map(|(k, room)| b.room(first_generated + k, room))
+            .collect::<Vec<_>>(),
+    );
     for (ri, room) in built.into_iter().enumerate() {
         for c in room.cells {
             room_cells[ri].push(cells.len());
@@ -449,7 +466,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         prop_reasons,
         overlaps: Vec::new(),
         crack,
-        closed: closed.moved(origin),
+        closed: gaps.moved(origin),
         buried,
         diagnostics: diags,
     };
@@ -687,6 +704,19 @@ impl RoomBuilder<'_> {
         props: &mut Vec<(NodeId, PropReason)>,
         diags: &mut Vec<Diagnostic>,
     ) {
+        let out = (polys, gates, props, diags);
+        self.structure_polys_with(ri, room, &[], out);
+    }
+
+    /// [`Self::structure_polys`], with `extra` surfaces (recentred, facing the air) read as
+    /// part of the structure: the open faces of tagged cells, which generated cells end on.
+    fn structure_polys_with(
+        &self,
+        ri: RoomId,
+        room: &Room,
+        extra: &[[DVec3; 3]],
+        (polys, gates, props, diags): StructureOut,
+    ) {
         if let Some(bc) = self.blocks.get(ri).and_then(Option::as_ref) {
             for (c, g) in &bc.polys {
                 polys.push((c.clone(), bc.source));
@@ -715,7 +745,8 @@ impl RoomBuilder<'_> {
             );
             return;
         }
-        let tris = canonical_triangles(scene, &structure, origin);
+        let mut tris = canonical_triangles(scene, &structure, origin);
+        tris.extend_from_slice(extra);
         if floor_only(&tris, frame.up) && walls_of_no_height(&tris, eps) {
             diags.push(
                 Diagnostic::new(
@@ -813,6 +844,15 @@ impl RoomBuilder<'_> {
 fn extras_flag(scene: &Scene, n: NodeId, key: &str) -> bool {
     crate::tags::extras::read_bool(scene.nodes[n].extras.as_ref(), key).unwrap_or(false)
 }
+
+/// Where [`RoomBuilder::structure_polys`] puts what it finds: cells, each cell's gates, props,
+/// diagnostics.
+type StructureOut<'o> = (
+    &'o mut Vec<(ConvexPolyhedron, CellSource)>,
+    &'o mut Vec<Vec<Gate>>,
+    &'o mut Vec<(NodeId, PropReason)>,
+    &'o mut Vec<Diagnostic>,
+);
 
 /// One room's cells, with what building them reported and the props found in it.
 struct RoomCells {

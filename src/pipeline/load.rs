@@ -96,10 +96,10 @@ fn settings_bytes(config: &Config, rules: &RuleSet) -> Vec<u8> {
 pub fn tag(imported: import::Imported, config: Config, rules: RuleSet) -> Tagged {
     let mut tagging = tags::recognise(&imported.scene, &rules);
     tagging.settings = settings_bytes(&config, &rules);
-    // Rooms are generated only in a level nobody tagged: generated cells cut round tagged
-    // ones left slivers the PVS did not join to them (samples/arch.gltf missed 40 sightlines),
-    // so where a designer tagged rooms, their rooms are the level's.
-    if rules.generate && tagging.rooms.is_empty() {
+    // Rooms are generated where geometry is in no tagged room: in a level nobody tagged, and
+    // in the untagged rest of a level tagged in part. Tags win: the generated cells end on
+    // the tagged cells' faces (`cells::generated`).
+    if rules.generate && (tagging.rooms.is_empty() || !tagging.unassigned.is_empty()) {
         // Rooms are found, so not finding tagged ones is no news.
         (tagging.diagnostics.0).retain(|d| {
             d.code != crate::diag::Code::TAG_NO_ROOMS

@@ -620,7 +620,9 @@ fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) ->
             let centre = |pts: &[DVec3]| pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
             let gap = 0.5
                 * (fb.plane.distance(centre(&fa.points)) + fa.plane.distance(centre(&fb.points)));
-            if gap < -eps || gap > reach || (gap > eps && (cx.generated[a] || cx.generated[b])) {
+            // Two generated cells are never bridged (see `derive`); a tagged cell facing a
+            // generated one is, across the tagged room's wall, as between tagged rooms.
+            if gap < -eps || gap > reach || (gap > eps && cx.generated[a] && cx.generated[b]) {
                 continue;
             }
             let gap = gap.max(0.0);
