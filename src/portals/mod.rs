@@ -145,7 +145,10 @@ fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diag
     // Millimetres to three significant digits, however small.
     let mm = |m: f64| {
         let mm = m * 1e3;
-        let digits = (2 - mm.abs().log10().floor() as i32).clamp(0, 12) as usize;
+        if mm == 0.0 || !mm.is_finite() {
+            return format!("{mm} mm");
+        }
+        let digits = 2i32.saturating_sub(mm.abs().log10().floor() as i32).clamp(0, 12) as usize;
         format!("{mm:.digits$} mm")
     };
     Some(
@@ -153,7 +156,7 @@ fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diag
             Code::CRACKS_CLOSED,
             format!(
                 "the crack width ({}) closed {} gap(s) narrower than it ({} among solid blocks, {} between the blockers of openings); the widest, {} across, is here",
-                mm(cells.crack),
+                crack_named(cells.crack, 10.0 * cells.tolerance.distance, mm),
                 all.count,
                 cells.closed.count,
                 set.closed.count,
@@ -163,6 +166,17 @@ fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diag
         )
         .hint("nothing to do if these are cracks; if one is an opening, the level's scale is off (a level modelled at a thousandth of its size turns doorways into cracks: scale it, or set [import] map_scale for a brush map) or [cells] crack_width is too wide"),
     )
+}
+
+/// The width that closed gaps: the crack width, or the float-noise floor of ten tolerances
+/// under which no opening is kept (`portals/derive.rs`, `Limits`) where that is wider, so a
+/// zero crack width does not read as closing a gap wider than itself.
+fn crack_named(crack: f64, noise: f64, mm: impl Fn(f64) -> String) -> String {
+    if crack >= noise {
+        mm(crack)
+    } else {
+        format!("{}, raised to ten tolerances, {}", mm(crack), mm(noise))
+    }
 }
 
 /// A portal on the boundary of a gate's volume (in a cell of the gate on one side only) is
