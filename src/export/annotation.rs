@@ -412,6 +412,8 @@ fn build_with_hash<'a>(
             .rooms
             .iter()
             .zip(&cells.room_cells)
+            // A room of no cells (a floor whose walls have no height) is no room of the file.
+            .filter(|(_, c)| !c.is_empty())
             .map(|(r, c)| json!({"name": r.name, "cells": c}))
             .collect();
         root.insert("rooms".into(), Value::Array(rooms));
