@@ -5,7 +5,8 @@
 //! format, and this holds them together.
 
 use portcullis::format::{
-    Annotated, Bounds, CellRecord, GeneratedRecord, PortalRecord, RoomRecord,
+    Annotated, Bounds, CellRecord, GeneratedRecord, PortalRecord, RoomRecord, SplitPrimitive,
+    SplitRecord,
 };
 use portcullis::schema::{validate, Schema};
 use serde_json::{json, Value};
@@ -26,6 +27,7 @@ fn full() -> Annotated {
             max: [1.0, 1.0, 1.0],
         },
         nodes: vec![0],
+        draws: vec![[0, 0, 3]],
     };
     let mut identity = [0.0; 16];
     for i in 0..4 {
@@ -77,6 +79,15 @@ fn full() -> Annotated {
             },
         ],
         buried_occupants: vec![0],
+        split: Some(SplitRecord {
+            indices: 0,
+            primitives: vec![SplitPrimitive {
+                node: 0,
+                primitive: 0,
+                first: 0,
+                count: 3,
+            }],
+        }),
         visibility: Some(json!({"method": "full", "encoding": "lists", "lists": [[0, 1], [0, 1]]})),
     }
 }

@@ -260,6 +260,7 @@ impl Builder {
                 first_triangle: 0,
                 triangle_count: triangles.len(),
                 source: SourceRef::default(),
+                file: None,
             }],
             triangles,
             extras: None,

@@ -70,6 +70,7 @@ mod block_rooms;
 use block_rooms::BlockCells;
 mod blocks;
 mod bsp;
+pub mod draws;
 mod footprint;
 mod generated;
 mod interior;

@@ -46,6 +46,9 @@ pub struct Annotation<'a> {
     /// Bytes for a buffer view the root refers to (`visibility.bufferView`), appended by the
     /// writer, which sets the index.
     pub blob: Option<Vec<u8>>,
+    /// The split primitives' indices (`u32`, little-endian), appended by the writer as an
+    /// index buffer view and accessor, whose index it sets in `split.indices`.
+    pub indices: Option<Vec<u8>>,
     pub(crate) lazy: Lazy<'a>,
 }
 
@@ -55,6 +58,8 @@ pub(crate) struct Lazy<'a> {
     level: Option<(&'a CellSet, &'a Tagging, &'a PortalSet)>,
     /// Per cell, the glTF nodes it renders.
     cell_nodes: Vec<Vec<usize>>,
+    /// Per cell, its ranges of the split primitives (`[primitive, first, count]`).
+    cell_draws: Vec<Vec<[usize; 3]>>,
     /// Per portal, the glTF node it was authored as.
     portal_nodes: Vec<Option<usize>>,
     /// The input hash, when the root's `inputHash` holds `null` until it is known.
@@ -112,6 +117,7 @@ impl<'a> Annotation<'a> {
             root,
             nodes,
             blob,
+            indices: None,
             lazy: Lazy::default(),
         }
     }
@@ -174,6 +180,7 @@ impl<'r> Json<'r> {
                 cells,
                 tagging,
                 nodes: &lazy.cell_nodes,
+                draws: &lazy.cell_draws,
             }),
             ("portals", Value::Null) => Member::Portals(Portals {
                 portals,
@@ -227,10 +234,11 @@ pub(crate) struct Cells<'a> {
     cells: &'a CellSet,
     tagging: &'a Tagging,
     nodes: &'a [Vec<usize>],
+    draws: &'a [Vec<[usize; 3]>],
 }
 
 /// A cell as it is written: the record over the level's own data.
-type CellView<'a, P> = CellRecord<&'a str, Seq<P>, Num, &'a [usize]>;
+type CellView<'a, P> = CellRecord<&'a str, Seq<P>, Num, &'a [usize], &'a [[usize; 3]]>;
 
 impl<'a> Cells<'a> {
     /// How many cells are written.
@@ -255,6 +263,7 @@ impl<'a> Cells<'a> {
                 max: v3(c.bounds.max),
             },
             nodes,
+            draws: self.draws.get(i).map_or(&[][..], |d| &d[..]),
         }
     }
 }
@@ -352,7 +361,7 @@ pub fn build<'a>(
     // takes on a big level: it runs alongside (or here, if no thread can be had).
     std::thread::scope(|s| {
         let hashing = std::thread::Builder::new().spawn_scoped(s, || input_hash(scene, tagging));
-        let mut ann = build_with_hash(level, node_index);
+        let mut ann = build_with_hash(level, node_index, false);
         let hash = match hashing.map(|h| h.join()) {
             Ok(Ok(h)) => h,
             _ => input_hash(scene, tagging),
@@ -364,22 +373,38 @@ pub fn build<'a>(
     })
 }
 
+/// [`build`] with the cells' draw lists, its input hash a placeholder (for the writers' tests).
+#[cfg(test)]
+pub(crate) fn build_drawn<'a>(
+    level: &'a Level,
+    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
+) -> Annotation<'a> {
+    let mut ann = build_with_hash(level, node_index, true);
+    if let Some(root) = ann.root.as_object_mut() {
+        root.insert("inputHash".into(), json!("xxh3v2:0000000000000000"));
+    }
+    ann
+}
+
 /// [`build`] with the input hash still to come from `hash` (a thread computing it while the
 /// output is written): the root's `inputHash` holds `null` and is serialized from `hash`.
 pub(crate) fn build_deferred<'a>(
     hash: &'a (dyn HashOf + Sync + 'a),
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
+    draw_lists: bool,
 ) -> Annotation<'a> {
-    let mut ann = build_with_hash(level, node_index);
+    let mut ann = build_with_hash(level, node_index, draw_lists);
     ann.lazy.hash = Some(hash);
     ann
 }
 
-/// [`build`] but the input hash, whose place it holds.
+/// [`build`] but the input hash, whose place it holds; with the cells' draw lists when
+/// `draw_lists`.
 fn build_with_hash<'a>(
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
+    draw_lists: bool,
 ) -> Annotation<'a> {
     let (tagging, cells, portals) = (level.tagging(), &level.cells, &level.portals);
     let mut root = Map::new();
@@ -449,6 +474,16 @@ fn build_with_hash<'a>(
     if !buried.is_empty() {
         root.insert("buriedOccupants".into(), json!(buried));
     }
+    let split = match draw_lists {
+        true => split_by_cell(level, node_index),
+        false => Split::default(),
+    };
+    if !split.primitives.is_empty() {
+        root.insert(
+            "split".into(),
+            json!({"indices": null, "primitives": split.primitives}),
+        );
+    }
     let portal_nodes = portals
         .portals
         .iter()
@@ -469,11 +504,66 @@ fn build_with_hash<'a>(
         root: Value::Object(root),
         nodes,
         blob: None,
+        indices: (!split.primitives.is_empty()).then_some(split.indices),
         lazy: Lazy {
             level: Some((cells, tagging, portals)),
             cell_nodes,
+            cell_draws: split.cells,
             portal_nodes,
             hash: None,
         },
     }
+}
+
+/// The nodes split by cell, as written: the `split` member's primitives, the index bytes and
+/// each cell's ranges.
+#[derive(Default)]
+struct Split {
+    primitives: Vec<Value>,
+    indices: Vec<u8>,
+    cells: Vec<Vec<[usize; 3]>>,
+}
+
+/// What each cell draws of the nodes whose triangles lie in different cells
+/// (`cells::draws`), in the written file's terms: glTF nodes, index offsets, and of a cell's
+/// ranges of one primitive those that meet joined into one (one draw call).
+fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync)) -> Split {
+    let sealed = level.portals.portals.iter().all(|p| p.to.is_some());
+    let draws = crate::cells::draws::of(level.scene(), &level.cells, sealed);
+    let mut out = Split {
+        primitives: Vec::new(),
+        indices: Vec::new(),
+        cells: vec![Vec::new(); level.cells.cells.len()],
+    };
+    let mut split: Vec<(usize, &crate::cells::draws::NodeDraws)> = (draws.split.iter())
+        .filter_map(|d| Some((node_index(d.node)?, d)))
+        .collect();
+    split.sort_by_key(|&(n, _)| n);
+    let mut first = 0usize;
+    for (node, d) in split {
+        for p in &d.primitives {
+            let k = out.primitives.len();
+            let count = 3 * p.triangles.len();
+            out.primitives.push(
+                json!({"node": node, "primitive": p.primitive, "first": first, "count": count}),
+            );
+            for t in &p.triangles {
+                for i in t {
+                    out.indices.extend_from_slice(&i.to_le_bytes());
+                }
+            }
+            for r in &p.runs {
+                let (at, n) = (first + 3 * r.first as usize, 3 * r.count as usize);
+                for &c in &r.cells {
+                    let list = &mut out.cells[c as usize];
+                    match list.last_mut() {
+                        Some(last) if last[0] == k && last[1] + last[2] == at => last[2] += n,
+                        _ => list.push([k, at, n]),
+                    }
+                }
+            }
+            first += count;
+        }
+    }
+    out
 }

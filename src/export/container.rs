@@ -95,6 +95,78 @@ pub(crate) fn blob_view(at: (usize, usize), len: usize) -> Value {
     view
 }
 
+/// What an annotation appends to the buffers, one run of bytes: the PVS blob, then the split
+/// primitives' indices (4-aligned), with each part's offset and length in it.
+pub(crate) struct Appended {
+    pub bytes: Vec<u8>,
+    pub pvs: Option<(usize, usize)>,
+    pub indices: Option<(usize, usize)>,
+}
+
+impl Appended {
+    /// `None` when there is nothing to append.
+    pub(crate) fn of(pvs: Option<&[u8]>, indices: Option<&[u8]>) -> Option<Appended> {
+        if pvs.is_none() && indices.is_none() {
+            return None;
+        }
+        let mut bytes = Vec::new();
+        let mut part = |b: Option<&[u8]>| {
+            b.map(|b| {
+                bytes.resize(bytes.len().next_multiple_of(4), 0);
+                let at = bytes.len();
+                bytes.extend_from_slice(b);
+                (at, b.len())
+            })
+        };
+        let (pvs, indices) = (part(pvs), part(indices));
+        Some(Appended {
+            bytes,
+            pvs,
+            indices,
+        })
+    }
+
+    /// The buffer views of the parts, the bytes at `at` (buffer, offset), in order: the PVS's,
+    /// then the indices' (an index buffer view).
+    pub(crate) fn views(&self, at: (usize, usize)) -> Vec<Value> {
+        let view = |(off, len): (usize, usize)| blob_view((at.0, at.1 + off), len);
+        let mut out: Vec<Value> = self.pvs.map(view).into_iter().collect();
+        if let Some(p) = self.indices {
+            let mut v = view(p);
+            v["target"] = json!(34963);
+            out.push(v);
+        }
+        out
+    }
+
+    /// The indices' accessor, over buffer view `view`.
+    pub(crate) fn accessor(&self, view: usize) -> Option<Value> {
+        self.indices.map(|(_, len)| {
+            json!({"bufferView": view, "componentType": 5125, "count": len / 4, "type": "SCALAR"})
+        })
+    }
+
+    /// Points the root extension object `ours` at what was appended: the PVS's view, the
+    /// indices' accessor.
+    pub(crate) fn point(&self, ours: &mut Value, views: &[usize], accessor: Option<usize>) {
+        let mut views = views.iter();
+        if self.pvs.is_some() {
+            if let (Some(v), Some(&i)) = (
+                ours.get_mut("visibility").and_then(Value::as_object_mut),
+                views.next(),
+            ) {
+                v.insert("bufferView".into(), json!(i));
+            }
+        }
+        if let (Some(s), Some(a)) = (
+            ours.get_mut("split").and_then(Value::as_object_mut),
+            accessor,
+        ) {
+            s.insert("indices".into(), json!(a));
+        }
+    }
+}
+
 pub(crate) fn data_uri(bytes: &[u8]) -> String {
     format!(
         "data:application/octet-stream;base64,{}",

@@ -32,13 +32,15 @@ pub(crate) fn write_whole(
         None => from_scene(&super::bake::world_space(scene), format),
     };
     annotate(&mut doc, ann);
-    if let Some(blob) = &ann.blob {
-        let view = attach(&mut doc, &mut bin, format, blob);
-        if let Some(v) = doc
-            .pointer_mut(&format!("/extensions/{NAME}/visibility"))
-            .and_then(Value::as_object_mut)
-        {
-            v.insert("bufferView".into(), json!(view));
+    if let Some(app) = Appended::of(ann.blob.as_deref(), ann.indices.as_deref()) {
+        let at = attach(&mut doc, &mut bin, format, &app.bytes);
+        let views: Vec<usize> = (app.views(at).into_iter())
+            .map(|v| push(&mut doc, "bufferViews", v))
+            .collect();
+        let accessor = (app.accessor(views.last().copied().unwrap_or(0)))
+            .map(|a| push(&mut doc, "accessors", a));
+        if let Some(ours) = doc.pointer_mut(&format!("/extensions/{NAME}")) {
+            app.point(ours, &views, accessor);
         }
     }
     match format {
@@ -82,9 +84,14 @@ fn annotate(doc: &mut Value, ann: &Annotation) {
     }
 }
 
-/// Appends `blob` as a new buffer view and returns its index: in the BIN chunk (buffer 0) of a
-/// .glb, as a buffer of its own with a data: URI in a .gltf.
-fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &[u8]) -> usize {
+/// Appends `blob` to the buffers and returns where it starts (buffer, offset): in the BIN chunk
+/// (buffer 0) of a .glb, as a buffer of its own with a data: URI in a .gltf.
+fn attach(
+    doc: &mut Value,
+    bin: &mut Option<Vec<u8>>,
+    format: OutFormat,
+    blob: &[u8],
+) -> (usize, usize) {
     let buffer = match format {
         OutFormat::Glb => {
             let data = bin.get_or_insert_with(Vec::new);
@@ -114,14 +121,18 @@ fn attach(doc: &mut Value, bin: &mut Option<Vec<u8>>, format: OutFormat, blob: &
             }
         }
     };
-    let view = blob_view(buffer, blob.len());
-    match doc.get_mut("bufferViews").and_then(Value::as_array_mut) {
-        Some(v) => {
-            v.push(view);
-            v.len() - 1
+    buffer
+}
+
+/// Appends `v` to the root array `key` (making it if absent) and returns its index.
+fn push(doc: &mut Value, key: &str, v: Value) -> usize {
+    match doc.get_mut(key).and_then(Value::as_array_mut) {
+        Some(a) => {
+            a.push(v);
+            a.len() - 1
         }
         None => {
-            doc["bufferViews"] = json!([view]);
+            doc[key] = json!([v]);
             0
         }
     }

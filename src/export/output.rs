@@ -38,6 +38,9 @@ pub struct Output<'a> {
     pub target: Target,
     /// Where they go.
     pub to: Destination,
+    /// Whether a glTF output carries each cell's draw list of the nodes that reach into
+    /// several cells (the extension's `split` and `cells[].draws`; `convert --draw-lists`).
+    pub draw_lists: bool,
 }
 
 impl<'a> Output<'a> {
@@ -47,6 +50,7 @@ impl<'a> Output<'a> {
             path,
             target,
             to: Destination::File,
+            draw_lists: false,
         }
     }
 
@@ -64,7 +68,13 @@ impl<'a> Output<'a> {
             path: Path::new("-"),
             target,
             to: Destination::Stdout,
+            draw_lists: false,
         }
+    }
+
+    /// The same output, with or without the cells' draw lists.
+    pub fn with_draw_lists(self, draw_lists: bool) -> Output<'a> {
+        Output { draw_lists, ..self }
     }
 
     /// `path` as an annotated glTF, refused unless it is named .glb or .gltf.
@@ -100,13 +110,13 @@ pub fn level(
             match out.to {
                 Destination::File => super::atomic::write_with(
                     out.path,
-                    |f| gltf_to(level, pvs, out.path, format, f),
+                    |f| gltf_to(level, pvs, out, format, f),
                     |e| super::atomic::failed(out.path, e),
                 )
                 .map(|()| Vec::new()),
                 Destination::Memory | Destination::Stdout => {
                     let mut made = std::io::Cursor::new(Vec::new());
-                    gltf_to(level, pvs, out.path, format, &mut made)?;
+                    gltf_to(level, pvs, out, format, &mut made)?;
                     bytes(out, &made.into_inner())
                 }
             }
@@ -143,11 +153,12 @@ pub fn bytes(out: &Output, bytes: &[u8]) -> Result<Vec<u8>, Diagnostic> {
 fn gltf_to(
     level: &Level,
     pvs: Option<(&Pvs, Method)>,
-    out: &Path,
+    output: &Output,
     format: OutFormat,
     sink: &mut dyn super::sink::Sink,
 ) -> Result<(), Diagnostic> {
     use super::gltf_out;
+    let out = output.path;
     let scene = level.scene();
     let tagging = level.tagging();
     let made = match &scene.gltf {
@@ -175,7 +186,8 @@ fn gltf_to(
                 .and_then(|h| h.join().ok())
                 .unwrap_or_else(|| super::input_hash(scene, tagging))
         }));
-        let mut ann = super::build_deferred(&hash, level, &|n| gltf_out::node_index(scene, n));
+        let node_index = |n| gltf_out::node_index(scene, n);
+        let mut ann = super::build_deferred(&hash, level, &node_index, output.draw_lists);
         if let Some((p, m)) = pvs {
             ann.set_visibility(p, m);
         }

@@ -67,6 +67,7 @@ pub(crate) fn write<'s>(
         root: ours,
         nodes,
         blob,
+        indices,
         lazy,
     } = ann;
     let members = match members {
@@ -85,13 +86,18 @@ pub(crate) fn write<'s>(
     let mut bin = container_change(&mut root, src, format, out_dir, &base, bin_len)?;
     let per_node: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
     let annotated = add_annotation(&mut root, &per_node)?;
-    if let Some(blob) = blob.as_deref() {
+    let appended = out::Appended::of(blob.as_deref(), indices.as_deref());
+    if let Some(app) = &appended {
         bin |= format == OutFormat::Glb;
-        let view = attach_blob(&mut root, blob, format, &mut bin_len)?;
+        let at = attach_blob(&mut root, &app.bytes, format, &mut bin_len)?;
+        let views = (app.views(at).into_iter())
+            .map(|v| root.push("bufferViews", v))
+            .collect::<Result<Vec<usize>, Failed>>()?;
+        let accessor = (app.accessor(views.last().copied().unwrap_or(0)))
+            .map(|a| root.push("accessors", a))
+            .transpose()?;
         if annotated {
-            if let Some(v) = ours.get_mut("visibility").and_then(Value::as_object_mut) {
-                v.insert("bufferView".into(), json!(view));
-            }
+            app.point(ours, &views, accessor);
         }
     }
 
@@ -111,7 +117,7 @@ pub(crate) fn write<'s>(
                 src,
                 lens: &lens,
                 base: &base,
-                blob: blob.as_deref(),
+                blob: appended.as_ref().map(|a| &a.bytes[..]),
                 len: bin_len,
             });
             glb(&doc, bin, sink)
@@ -193,7 +199,7 @@ fn attach_blob(
     blob: &[u8],
     format: OutFormat,
     bin_len: &mut usize,
-) -> Result<usize, Failed> {
+) -> Result<(usize, usize), Failed> {
     let at = match format {
         OutFormat::Glb => {
             let offset = bin_len.next_multiple_of(4);
@@ -218,7 +224,7 @@ fn attach_blob(
             }
         }
     };
-    root.push_view(out::blob_view(at, blob.len()))
+    Ok(at)
 }
 
 /// What goes in the BIN chunk, written straight from the buffers (a released BIN chunk from
@@ -325,7 +331,7 @@ enum Slot<'a> {
         text: &'a str,
         edit: Edit<'a>,
         /// Appended after the streamed elements.
-        extra: Option<Value>,
+        extra: Vec<Value>,
     },
 }
 
@@ -393,35 +399,33 @@ impl<'a> Root<'a> {
                     self.0[i].1 = Slot::Stream {
                         text,
                         edit,
-                        extra: None,
+                        extra: Vec::new(),
                     };
                 }
             }
         }
     }
 
-    /// Appends a buffer view (or makes `bufferViews` hold only it, if it is not an array) and
-    /// returns its index.
-    fn push_view(&mut self, view: Value) -> Result<usize, Failed> {
-        self.stream("bufferViews", Edit::Copy);
-        let Some(i) = self.find("bufferViews") else {
-            self.0
-                .push(("bufferViews".into(), Slot::Parsed(json!([view]))));
+    /// Appends `value` to the root array `key` (or makes `key` hold only it, if it is not an
+    /// array) and returns its index.
+    fn push(&mut self, key: &str, value: Value) -> Result<usize, Failed> {
+        self.stream(key, Edit::Copy);
+        let Some(i) = self.find(key) else {
+            self.0.push((key.into(), Slot::Parsed(json!([value]))));
             return Ok(0);
         };
         match &mut self.0[i].1 {
-            Slot::Stream { text, extra, .. } if extra.is_none() => {
+            Slot::Stream { text, extra, .. } => {
                 let n = json_text::array_len(text).ok_or(Failed::Declined)?;
-                *extra = Some(view);
-                Ok(n)
+                extra.push(value);
+                Ok(n + extra.len() - 1)
             }
             Slot::Parsed(Value::Array(a)) => {
-                a.push(view);
+                a.push(value);
                 Ok(a.len() - 1)
             }
-            Slot::Stream { .. } => Err(Failed::Declined),
             slot => {
-                *slot = Slot::Parsed(json!([view]));
+                *slot = Slot::Parsed(json!([value]));
                 Ok(0)
             }
         }
@@ -448,7 +452,7 @@ impl Serialize for Document<'_, '_> {
                     let stream = Stream {
                         text,
                         edit: *edit,
-                        extra: extra.as_ref(),
+                        extra,
                     };
                     map.serialize_entry(k, &stream)?
                 }
@@ -480,7 +484,7 @@ impl<'r> Document<'r, '_> {
                 }
                 (_, Slot::Text(t), _) => {
                     let text = *t;
-                    v.extend(array(text, Edit::Copy, None).unwrap_or_else(|| {
+                    v.extend(array(text, Edit::Copy, &[]).unwrap_or_else(|| {
                         vec![Source::Job(Box::new(move |b| {
                             serde_json::to_writer(b, &Transcode(text))
                         }))]
@@ -488,7 +492,7 @@ impl<'r> Document<'r, '_> {
                 }
                 (_, Slot::Parsed(x), _) => v.push(Source::value(x)),
                 (_, Slot::Stream { text, edit, extra }, _) => {
-                    let (text, edit, extra) = (*text, *edit, extra.as_ref());
+                    let (text, edit, extra) = (*text, *edit, &extra[..]);
                     v.extend(array(text, edit, extra).unwrap_or_else(|| {
                         vec![Source::Job(Box::new(move |b| {
                             serde_json::to_writer(b, &Stream { text, edit, extra })
@@ -504,7 +508,7 @@ impl<'r> Document<'r, '_> {
 
 /// An array's text as sources, each element through `edit` as [`StreamVisitor`] does it, then
 /// `extra`; `None` if the text is not an array.
-fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<Vec<Source<'r>>> {
+fn array<'r>(text: &'r str, edit: Edit<'r>, extra: &'r [Value]) -> Option<Vec<Source<'r>>> {
     let elements = Elements::of(text)?;
     let render: RenderText<'r> = match edit {
         Edit::Copy => Box::new(|_, e, b| transcode::write_compact(e, b)),
@@ -535,7 +539,18 @@ fn array<'r>(text: &'r str, edit: Edit<'r>, extra: Option<&'r Value>) -> Option<
         Source::Text {
             elements,
             render: std::sync::Arc::new(render),
-            tail: extra.map(|x| -> Render<'r> { Box::new(move |b| serde_json::to_writer(b, x)) }),
+            // The appended elements as one tail, commas between them.
+            tail: (!extra.is_empty()).then(|| -> Render<'r> {
+                Box::new(move |b| {
+                    for (i, x) in extra.iter().enumerate() {
+                        if i > 0 {
+                            b.push(b',');
+                        }
+                        serde_json::to_writer(&mut *b, x)?;
+                    }
+                    Ok(())
+                })
+            }),
         },
         Source::bytes(b"]"),
     ])
@@ -633,7 +648,7 @@ impl Serialize for WithOurs<'_> {
 struct Stream<'r> {
     text: &'r str,
     edit: Edit<'r>,
-    extra: Option<&'r Value>,
+    extra: &'r [Value],
 }
 
 impl Serialize for Stream<'_> {
@@ -678,7 +693,7 @@ impl<'de, S: Serializer> Visitor<'de> for StreamVisitor<'_, S> {
                 }
             }
         }
-        if let Some(e) = self.stream.extra {
+        for e in self.stream.extra {
             out.serialize_element(e).map_err(de::Error::custom)?;
         }
         out.end().map_err(de::Error::custom)
@@ -770,6 +785,14 @@ mod tests {
             let what = f.display().to_string();
             assert_same(scene, &with_pvs(ann_clone(&ann)), &what);
             assert_same(scene, &ann, &what);
+            let drawn =
+                extension::annotation::build_drawn(&level, &|n| gltf_out::node_index(scene, n));
+            assert_same(
+                scene,
+                &with_pvs(ann_clone(&drawn)),
+                &format!("{what}, draw lists"),
+            );
+            assert_same(scene, &drawn, &format!("{what}, draw lists"));
         }
     }
 
@@ -778,6 +801,7 @@ mod tests {
             root: a.root.clone(),
             nodes: a.nodes.clone(),
             blob: a.blob.clone(),
+            indices: a.indices.clone(),
             lazy: a.lazy.clone(),
         }
     }

@@ -22,7 +22,10 @@ pub mod visibility;
 pub use error::FormatError;
 pub use pvs::{Method, Pvs, DEFAULT_TRANSFORM_DEPTH};
 pub use read::{annotation, consistency};
-pub use records::{Annotated, Bounds, CellRecord, GeneratedRecord, PortalRecord, RoomRecord};
+pub use records::{
+    Annotated, Bounds, CellRecord, GeneratedRecord, PortalRecord, RoomRecord, SplitPrimitive,
+    SplitRecord,
+};
 
 /// The extension's name, in `extensionsUsed` and as the key of its objects.
 pub const NAME: &str = "PORTCULLIS_portals";

@@ -41,6 +41,9 @@ pub struct Annotated {
     /// no leak search, as qbsp skips them, so a check of the file reads them as its source did.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub buried_occupants: Vec<usize>,
+    /// The nodes split by cell, when some node's triangles lie in different cells.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split: Option<SplitRecord>,
     /// The stored PVS, encoded (see [`super::visibility`]); [`super::read::visibility`]
     /// decodes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -93,22 +96,60 @@ pub struct Bounds<F = f64> {
 #[serde(
     deny_unknown_fields,
     bound(
-        serialize = "Text: Serialize, Planes: Serialize, F: Serialize, Nodes: Serialize + IsEmpty"
+        serialize = "Text: Serialize, Planes: Serialize, F: Serialize, Nodes: Serialize + IsEmpty, Draws: Serialize + IsEmpty"
     )
 )]
-pub struct CellRecord<Text = String, Planes = Vec<[f64; 4]>, F = f64, Nodes = Vec<usize>> {
+pub struct CellRecord<
+    Text = String,
+    Planes = Vec<[f64; 4]>,
+    F = f64,
+    Nodes = Vec<usize>,
+    Draws = Vec<[usize; 3]>,
+> {
     /// The room the cell belongs to.
     pub room: Text,
     /// Where rooms nest, the higher wins a point both hold (absent: 0).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub priority: i64,
-    /// `[nx, ny, nz, d]`, outward unit normals, `n · p + d <= 0` inside.
+    /// `[nx, ny, nz, d]`, outward unit normals, `n · p <= d` inside.
     pub planes: Planes,
     /// The cell's bounding box.
     pub bounds: Bounds<F>,
     /// The glTF nodes whose geometry the cell draws.
     #[serde(default, skip_serializing_if = "IsEmpty::is_empty")]
     pub nodes: Nodes,
+    /// Of the nodes split by cell ([`SplitRecord`]), what the cell draws: `[primitive, first,
+    /// count]`, a range of [`SplitRecord::indices`] over the vertices of
+    /// `split.primitives[primitive]`, ascending.
+    #[serde(default, skip_serializing_if = "IsEmpty::is_empty")]
+    pub draws: Draws,
+}
+
+/// The primitives of nodes whose triangles lie in different cells, each primitive's triangles
+/// copied into one index accessor sorted by the cells they lie in, so a cell draws a range of
+/// it (`CellRecord::draws`) over the primitive's own vertex attributes. A node split here is
+/// drawn only through those ranges; every other node of a cell's `nodes` is drawn whole.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SplitRecord {
+    /// The accessor (`SCALAR`, `UNSIGNED_INT`) holding every split primitive's indices.
+    pub indices: usize,
+    /// The split primitives, by glTF node and primitive index in its mesh.
+    pub primitives: Vec<SplitPrimitive>,
+}
+
+/// One split primitive: where its triangles lie in [`SplitRecord::indices`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SplitPrimitive {
+    /// The glTF node.
+    pub node: usize,
+    /// The primitive's index in the node's mesh.
+    pub primitive: usize,
+    /// Its first index in the accessor.
+    pub first: usize,
+    /// How many indices (three per triangle).
+    pub count: usize,
 }
 
 /// A portal: a convex polygon from one cell into another (or to the outside).

@@ -382,6 +382,7 @@ impl<'a> Reader<'a> {
                 first_triangle: b.triangles.len(),
                 triangle_count: 0,
                 source: SourceRef::line(prim_line),
+                file: None,
             });
         }
         for t in &tris {

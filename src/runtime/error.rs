@@ -119,6 +119,18 @@ pub enum LevelError {
     /// A portal transform that cannot be inverted.
     #[error("/portals/{0}: the transform cannot be inverted")]
     Singular(usize),
+    /// A cell's draw range outside its split primitive, or naming none.
+    #[error(
+        "/cells/{cell}/draws/{draw}: the range is not within split primitive {primitive}'s indices"
+    )]
+    DrawOutOfRange {
+        /// The cell's index.
+        cell: usize,
+        /// The range's index in the cell's `draws`.
+        draw: usize,
+        /// The split primitive it names.
+        primitive: usize,
+    },
     /// The PVS given does not have one row per cell.
     #[error("the visibility does not have one row per cell")]
     PvsRows,

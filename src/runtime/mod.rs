@@ -47,6 +47,7 @@
 //! level moved with the camera.
 
 mod clip;
+mod draw;
 mod error;
 mod load;
 mod locate;
@@ -57,6 +58,7 @@ use std::path::Path;
 
 use glam::{DMat4, DVec3};
 
+pub use draw::{DrawList, DrawRange};
 pub use error::{LevelError, LoadError};
 pub use locate::Location;
 pub use trace::{Stats, Trace, TraceOptions, View, ViewError, Visible};
@@ -94,6 +96,8 @@ pub struct Level {
     link_start: Vec<u32>,
     pvs: Option<Pvs>,
     grid: locate::Grid,
+    /// What each cell draws (`cells[].nodes`, `cells[].draws`, `split`).
+    draw: draw::Draws,
 }
 
 struct Cell {
@@ -177,6 +181,7 @@ impl Level {
             link_start: Vec::new(),
             pvs,
             grid: locate::Grid::default(),
+            draw: draw::Draws::read(a)?,
         };
         let (mut a_buf, mut b_buf) = (Vec::new(), Vec::new());
         for (i, c) in a.cells.iter().enumerate() {

@@ -195,6 +195,21 @@ pub struct Primitive {
     pub triangle_count: usize,
     /// Where the primitive is in the file.
     pub source: SourceRef,
+    /// A glTF primitive's triangles as the file indexes them, for writing what each cell
+    /// draws in the primitive's own indices (`None`: other formats, whose output is written
+    /// from the scene's triangles).
+    pub file: Option<Box<FileTriangles>>,
+}
+
+/// A glTF primitive's triangles as its file indexes them (strips and fans unrolled into
+/// lists, in the specification's vertex order), each with the scene triangle it became.
+#[derive(Debug, Clone, Default)]
+pub struct FileTriangles {
+    /// Indices into the primitive's own vertex attributes.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per file triangle, its index into [`Mesh::triangles`], or `u32::MAX` when it was
+    /// dropped (a repeated corner, a non-finite position).
+    pub scene: Vec<u32>,
 }
 
 /// Triangles in mesh-local space, stored once however many nodes draw them.

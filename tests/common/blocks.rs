@@ -69,6 +69,7 @@ impl Builder {
                     first_triangle: 0,
                     triangle_count: tris.len(),
                     source: SourceRef::default(),
+                    file: None,
                 }],
                 extras: None,
                 source: SourceRef::default(),

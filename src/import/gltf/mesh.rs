@@ -10,7 +10,7 @@ use super::accessor::Reader;
 use super::schema::{index, Doc};
 use super::Ctx;
 use crate::diag::{Code, Diagnostic, Diagnostics};
-use crate::scene::{Mesh, Primitive, SourceRef};
+use crate::scene::{FileTriangles, Mesh, Primitive, SourceRef};
 
 /// One POSITION accessor's vertices as stored in the mesh: glTF vertex index to mesh index,
 /// `None` for a dropped non-finite vertex.
@@ -259,7 +259,7 @@ impl<'a> Builder<'a> {
         let indices = self.indices(prim, p, &pp, label, vertices.remap.len())?;
         let out = &mut b.out;
         let first_triangle = out.triangles.len();
-        let (dropped, degenerate) = add_triangles(mode, &indices, vertices, out);
+        let (dropped, degenerate, file) = add_triangles(mode, &indices, vertices, out);
         if degenerate > 0 {
             tally.degenerate += degenerate;
             tally.first_degenerate.get_or_insert_with(|| pp.clone());
@@ -283,6 +283,7 @@ impl<'a> Builder<'a> {
             first_triangle,
             triangle_count: out.triangles.len() - first_triangle,
             source: SourceRef::pointer(pp),
+            file: Some(Box::new(file)),
         });
         Ok(())
     }
@@ -421,25 +422,38 @@ fn add_triangles(
     indices: &[u32],
     vertices: &Vertices,
     out: &mut Mesh,
-) -> (usize, usize) {
-    out.triangles.reserve_exact(match mode {
+) -> (usize, usize, FileTriangles) {
+    let count = match mode {
         4 => indices.len() / 3,
         _ => indices.len().saturating_sub(2),
-    });
+    };
+    out.triangles.reserve_exact(count);
+    let mut file = FileTriangles {
+        triangles: Vec::with_capacity(count),
+        scene: Vec::with_capacity(count),
+    };
     let mut dropped = 0usize;
     let mut degenerate = 0usize;
     for [a, b, c] in assemble(mode, indices) {
+        file.triangles.push([a, b, c]);
         if a == b || b == c || a == c {
             degenerate += 1;
+            file.scene.push(u32::MAX);
             continue;
         }
         let r = |i: u32| vertices.remap.get(i);
         match (r(a), r(b), r(c)) {
-            (Some(a), Some(b), Some(c)) => out.triangles.push([a, b, c]),
-            _ => dropped += 1,
+            (Some(a), Some(b), Some(c)) => {
+                file.scene.push(out.triangles.len() as u32);
+                out.triangles.push([a, b, c]);
+            }
+            _ => {
+                dropped += 1;
+                file.scene.push(u32::MAX);
+            }
         }
     }
-    (dropped, degenerate)
+    (dropped, degenerate, file)
 }
 
 /// Triangles of an index list in `mode` 4 (list), 5 (strip) or 6 (fan), following the vertex

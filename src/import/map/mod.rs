@@ -310,6 +310,7 @@ impl<'a> Builder<'a> {
                 first_triangle: triangles.len(),
                 triangle_count: tris.len(),
                 source: SourceRef::line(line),
+                file: None,
             });
             triangles.extend(tris);
         }

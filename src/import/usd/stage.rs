@@ -351,6 +351,7 @@ pub(crate) fn build_mesh(
                 first_triangle: out.triangles.len(),
                 triangle_count: 0,
                 source: SourceRef::default(),
+                file: None,
             });
         }
         for [a, b, c] in tris {

@@ -1,0 +1,575 @@
+//! Triangles drawn per view, judged as an engine programmer would: the converted file read by
+//! a glTF reader of this test's own (node transforms, accessors, the split indices), cameras
+//! at the cells' centres (four looks, 75° field of view, 16:9), the runtime's visible cells
+//! and their draw lists, frustum culling by each node's box on top. A triangle *lies in* a
+//! cell when one of 16 points spread over it is inside the cell's planes (the file's
+//! tolerance), code that shares nothing with the split. What the draw lists submit must hold
+//! every triangle lying in a visible cell and be at most 1.1 times as many.
+//!
+//! The shared levels take minutes in a debug build: `cargo test --release --test draws --
+//! --ignored --nocapture`.
+
+mod common;
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+use glam::{DMat4, DQuat, DVec3};
+use portcullis::runtime::{Doors, DrawList, Level, Trace, TraceOptions, View};
+use serde_json::Value;
+
+/// A triangle of the file: node, primitive, its three indices into the primitive's vertices.
+type TriId = (usize, usize, [u32; 3]);
+
+/// A primitive's world positions and triangles.
+type Prim = (Vec<DVec3>, Vec<[u32; 3]>);
+
+/// The file as a plain reader sees it.
+struct Plain {
+    /// Per (node, primitive): world positions of its vertices and its triangles.
+    prims: HashMap<(usize, usize), Prim>,
+    /// Per node with a mesh: its world box.
+    boxes: HashMap<usize, (DVec3, DVec3)>,
+    /// The split indices accessor's values.
+    split: Vec<u32>,
+    doc: Value,
+}
+
+fn accessor(doc: &Value, bin: &[u8], i: usize) -> Vec<Vec<f64>> {
+    let a = &doc["accessors"][i];
+    let count = a["count"].as_u64().unwrap() as usize;
+    let comps = match a["type"].as_str().unwrap() {
+        "SCALAR" => 1,
+        "VEC2" => 2,
+        "VEC3" => 3,
+        "VEC4" => 4,
+        t => panic!("accessor type {t}"),
+    };
+    let ct = a["componentType"].as_u64().unwrap();
+    let size = match ct {
+        5120 | 5121 => 1,
+        5122 | 5123 => 2,
+        5125 | 5126 => 4,
+        _ => panic!("component type {ct}"),
+    };
+    let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
+    assert_eq!(v["buffer"].as_u64().unwrap_or(0), 0, "one BIN buffer");
+    let base = v["byteOffset"].as_u64().unwrap_or(0) as usize
+        + a["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let stride = v["byteStride"]
+        .as_u64()
+        .map_or(comps * size, |s| s as usize);
+    (0..count)
+        .map(|k| {
+            (0..comps)
+                .map(|c| {
+                    let o = base + k * stride + c * size;
+                    let b = &bin[o..o + size];
+                    match ct {
+                        5121 => b[0] as f64,
+                        5123 => u16::from_le_bytes([b[0], b[1]]) as f64,
+                        5125 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                        5126 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                        _ => panic!("component type {ct} for positions or indices"),
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn local(n: &Value) -> DMat4 {
+    if let Some(m) = n["matrix"].as_array() {
+        let m: Vec<f64> = m.iter().map(|x| x.as_f64().unwrap()).collect();
+        return DMat4::from_cols_slice(&m);
+    }
+    let v = |k: &str, d: &[f64]| -> Vec<f64> {
+        n[k].as_array()
+            .map(|a| a.iter().map(|x| x.as_f64().unwrap()).collect())
+            .unwrap_or(d.to_vec())
+    };
+    let (t, r, s) = (
+        v("translation", &[0.0; 3]),
+        v("rotation", &[0.0, 0.0, 0.0, 1.0]),
+        v("scale", &[1.0; 3]),
+    );
+    DMat4::from_scale_rotation_translation(
+        DVec3::new(s[0], s[1], s[2]),
+        DQuat::from_xyzw(r[0], r[1], r[2], r[3]),
+        DVec3::new(t[0], t[1], t[2]),
+    )
+}
+
+fn read_plain(path: &Path) -> Plain {
+    let (doc, bin) = common::read_gltf(&std::fs::read(path).unwrap());
+    let bin = bin.unwrap_or_default();
+    let mut world = HashMap::new();
+    let mut stack: Vec<(usize, DMat4)> = doc["scenes"][doc["scene"].as_u64().unwrap_or(0) as usize]
+        ["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| (n.as_u64().unwrap() as usize, DMat4::IDENTITY))
+        .collect();
+    while let Some((n, up)) = stack.pop() {
+        let node = &doc["nodes"][n];
+        let m = up * local(node);
+        world.insert(n, m);
+        for c in node["children"].as_array().into_iter().flatten() {
+            stack.push((c.as_u64().unwrap() as usize, m));
+        }
+    }
+    let mut prims = HashMap::new();
+    let mut boxes = HashMap::new();
+    for (&n, m) in &world {
+        let Some(mesh) = doc["nodes"][n]["mesh"].as_u64() else {
+            continue;
+        };
+        let mut b = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+        for (k, p) in doc["meshes"][mesh as usize]["primitives"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+        {
+            let mode = p["mode"].as_u64().unwrap_or(4);
+            let pos: Vec<DVec3> = accessor(
+                &doc,
+                &bin,
+                p["attributes"]["POSITION"].as_u64().unwrap() as usize,
+            )
+            .into_iter()
+            .map(|v| m.transform_point3(DVec3::new(v[0], v[1], v[2])))
+            .collect();
+            let idx: Vec<u32> = match p["indices"].as_u64() {
+                Some(a) => accessor(&doc, &bin, a as usize)
+                    .into_iter()
+                    .map(|v| v[0] as u32)
+                    .collect(),
+                None => (0..pos.len() as u32).collect(),
+            };
+            let tris: Vec<[u32; 3]> = match mode {
+                4 => idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
+                5 => (0..idx.len().saturating_sub(2))
+                    .map(|i| {
+                        if i % 2 == 0 {
+                            [idx[i], idx[i + 1], idx[i + 2]]
+                        } else {
+                            [idx[i + 1], idx[i], idx[i + 2]]
+                        }
+                    })
+                    .collect(),
+                6 => (1..idx.len().saturating_sub(1))
+                    .map(|i| [idx[i], idx[i + 1], idx[0]])
+                    .collect(),
+                _ => Vec::new(),
+            };
+            for t in &tris {
+                for &i in t {
+                    b.0 = b.0.min(pos[i as usize]);
+                    b.1 = b.1.max(pos[i as usize]);
+                }
+            }
+            prims.insert((n, k), (pos, tris));
+        }
+        if b.0.x <= b.1.x {
+            boxes.insert(n, b);
+        }
+    }
+    let ext = &doc["extensions"]["PORTCULLIS_portals"];
+    let split = match ext["split"]["indices"].as_u64() {
+        Some(a) => accessor(&doc, &bin, a as usize)
+            .into_iter()
+            .map(|v| v[0] as u32)
+            .collect(),
+        None => Vec::new(),
+    };
+    Plain {
+        prims,
+        boxes,
+        split,
+        doc,
+    }
+}
+
+/// A cell's planes `[n, d]` (`n · p <= d` inside).
+fn planes(doc: &Value) -> Vec<Vec<(DVec3, f64)>> {
+    doc["extensions"]["PORTCULLIS_portals"]["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            c["planes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| {
+                    let p: Vec<f64> = p
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(|x| x.as_f64().unwrap())
+                        .collect();
+                    (DVec3::new(p[0], p[1], p[2]), p[3])
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The centre of a cell: the mean of its corners, found plane triple by plane triple.
+fn centre(planes: &[(DVec3, f64)], tol: f64) -> Option<DVec3> {
+    let mut corners: Vec<DVec3> = Vec::new();
+    for i in 0..planes.len() {
+        for j in i + 1..planes.len() {
+            for k in j + 1..planes.len() {
+                let (a, b, c) = (planes[i], planes[j], planes[k]);
+                let det = a.0.dot(b.0.cross(c.0));
+                if det.abs() < 1e-9 {
+                    continue;
+                }
+                let p = (b.0.cross(c.0) * a.1 + c.0.cross(a.0) * b.1 + a.0.cross(b.0) * c.1) / det;
+                if planes.iter().all(|(n, d)| n.dot(p) - d <= tol) {
+                    corners.push(p);
+                }
+            }
+        }
+    }
+    (!corners.is_empty()).then(|| corners.iter().sum::<DVec3>() / corners.len() as f64)
+}
+
+/// 16 points over a triangle: corners, the barycentric quarter grid, the centroid.
+fn samples(t: [DVec3; 3]) -> impl Iterator<Item = DVec3> {
+    let grid = (0..=4).flat_map(move |i| (0..=4 - i).map(move |j| (i, j)));
+    grid.map(move |(i, j)| {
+        let (a, b) = (i as f64 / 4.0, j as f64 / 4.0);
+        t[0] * a + t[1] * b + t[2] * (1.0 - a - b)
+    })
+    .chain(std::iter::once((t[0] + t[1] + t[2]) / 3.0))
+}
+
+/// The frustum's side planes (inward normals through the eye) and the near plane.
+fn frustum(eye: DVec3, look: DVec3, fov_y: f64, aspect: f64) -> Vec<(DVec3, f64)> {
+    let f = look.normalize();
+    let r = f.cross(DVec3::Y).normalize();
+    let u = r.cross(f);
+    let ty = (fov_y.to_radians() / 2.0).tan();
+    let tx = ty * aspect;
+    let mut out = Vec::new();
+    for (side, t) in [(r, tx), (-r, tx), (u, ty), (-u, ty)] {
+        // Inward: a point p is inside when n · (p - eye) >= 0.
+        let n = (f * t - side).normalize();
+        out.push((n, n.dot(eye)));
+    }
+    out.push((f, f.dot(eye) + 0.05));
+    out
+}
+
+fn box_in(fr: &[(DVec3, f64)], b: (DVec3, DVec3)) -> bool {
+    fr.iter().all(|&(n, d)| {
+        let p = DVec3::new(
+            if n.x >= 0.0 { b.1.x } else { b.0.x },
+            if n.y >= 0.0 { b.1.y } else { b.0.y },
+            if n.z >= 0.0 { b.1.z } else { b.0.z },
+        );
+        n.dot(p) >= d - 1e-9
+    })
+}
+
+/// What the views judged.
+#[derive(Debug, Default)]
+struct Judged {
+    views: usize,
+    /// Triangles lying in the visible cells, summed over the views.
+    inside: usize,
+    /// Triangles the draw lists submit.
+    submitted: usize,
+    /// Triangles the nodes of the visible cells hold (today's whole-node drawing).
+    whole: usize,
+    /// Triangles of the level in the frustum (frustum culling alone).
+    frustum: usize,
+    /// Draw calls submitted.
+    calls: usize,
+    /// Triangles lying in a visible cell the draw lists left out.
+    missed: usize,
+    /// Views that see exactly two cells, and of them those whose draw lists (no frustum
+    /// culling) hold more triangles than lie in the two cells.
+    two_cells: usize,
+    two_cells_over: usize,
+    /// Submitted triangles lying in no cell at all.
+    no_cell: usize,
+    /// Submitted triangles lying in cells, none of them visible.
+    elsewhere: usize,
+    triangles: usize,
+}
+
+fn convert(input: &Path, preset: Option<&str>, out: &Path) {
+    let mut cmd = assert_cmd::Command::cargo_bin("portcullis").unwrap();
+    cmd.arg("convert")
+        .arg(input)
+        .arg("-o")
+        .arg(out)
+        .arg("--draw-lists");
+    if let Some(p) = preset {
+        cmd.args(["--tags", p]);
+    }
+    common::succeeds(&mut cmd);
+}
+
+fn judge(path: &Path) -> Judged {
+    let plain = read_plain(path);
+    let level = Level::load(path).unwrap();
+    let cells = planes(&plain.doc);
+    let tol = level.tolerance();
+    let mut keys: Vec<&(usize, usize)> = plain.prims.keys().collect();
+    keys.sort();
+    // Every triangle with its cells by the sample points.
+    let mut tris: Vec<(TriId, Vec<usize>)> = Vec::new();
+    for &&(n, k) in &keys {
+        let (pos, ts) = &plain.prims[&(n, k)];
+        for t in ts {
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                continue;
+            }
+            let w = t.map(|i| pos[i as usize]);
+            let (lo, hi) = (w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2]));
+            let inside: Vec<usize> = (0..level.cells())
+                .filter(|&c| {
+                    let (cmin, cmax) = level.bounds(c);
+                    let (cmin, cmax) = (DVec3::from(cmin), DVec3::from(cmax));
+                    (lo - tol).cmple(cmax).all() && (hi + tol).cmpge(cmin).all()
+                })
+                .filter(|&c| {
+                    samples(w).any(|p| cells[c].iter().all(|(n, d)| n.dot(p) - d <= 0.5 * tol))
+                })
+                .collect();
+            tris.push(((n, k, *t), inside));
+        }
+    }
+    let split: HashMap<(usize, usize), ()> = plain.doc["extensions"]["PORTCULLIS_portals"]["split"]
+        ["primitives"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|p| {
+            (
+                (
+                    p["node"].as_u64().unwrap() as usize,
+                    p["primitive"].as_u64().unwrap() as usize,
+                ),
+                (),
+            )
+        })
+        .collect();
+    let doors = Doors::new(&level);
+    let (opts, mut trace, mut list) = (
+        TraceOptions::default(),
+        Trace::default(),
+        DrawList::default(),
+    );
+    let mut j = Judged {
+        triangles: tris.len(),
+        ..Default::default()
+    };
+    let node_tris: HashMap<usize, usize> = keys.iter().fold(HashMap::new(), |mut m, &&(n, k)| {
+        *m.entry(n).or_default() += plain.prims[&(n, k)].1.len();
+        m
+    });
+    for cell in &cells {
+        let Some(eye) = centre(cell, tol) else {
+            continue;
+        };
+        for look in [DVec3::X, DVec3::Z, -DVec3::X, -DVec3::Z] {
+            let view = View::new(
+                eye.to_array(),
+                look.to_array(),
+                [0.0, 1.0, 0.0],
+                75.0,
+                16.0 / 9.0,
+                0.05,
+            )
+            .unwrap();
+            level.trace(&view, &doors, &opts, &mut trace);
+            if trace.location.cell().is_none() {
+                continue;
+            }
+            j.views += 1;
+            let fr = frustum(eye, look, 75.0, 16.0 / 9.0);
+            let in_view = |n: usize| plain.boxes.get(&n).is_some_and(|&b| box_in(&fr, b));
+            let visible: Vec<usize> = trace.visible().iter().filter_map(|v| v.cell).collect();
+            let seen: HashSet<usize> = visible.iter().copied().collect();
+            level.draw_list(visible.iter().copied(), &mut list);
+            if seen.len() == 2 {
+                j.two_cells += 1;
+                let listed = list.ranges.iter().map(|r| r.count / 3).sum::<usize>()
+                    + list
+                        .nodes
+                        .iter()
+                        .map(|n| node_tris.get(n).copied().unwrap_or(0))
+                        .sum::<usize>();
+                let lying = (tris.iter())
+                    .filter(|(_, inside)| inside.iter().any(|c| seen.contains(c)))
+                    .count();
+                if listed > lying {
+                    j.two_cells_over += 1;
+                }
+            }
+            let mut drawn: HashSet<TriId> = HashSet::new();
+            for &n in &list.nodes {
+                if in_view(n) {
+                    j.calls += 1;
+                    for &(nn, k) in keys.iter().copied() {
+                        if nn == n {
+                            drawn.extend(plain.prims[&(n, k)].1.iter().map(|t| (n, k, *t)));
+                            j.submitted += plain.prims[&(n, k)].1.len();
+                        }
+                    }
+                }
+            }
+            for r in &list.ranges {
+                assert!(split.contains_key(&(r.node, r.primitive)));
+                if in_view(r.node) {
+                    j.calls += 1;
+                    j.submitted += r.count / 3;
+                    for t in plain.split[r.first..r.first + r.count].chunks_exact(3) {
+                        drawn.insert((r.node, r.primitive, [t[0], t[1], t[2]]));
+                    }
+                }
+            }
+            let mut whole: HashSet<usize> = HashSet::new();
+            for &c in &visible {
+                let nodes =
+                    plain.doc["extensions"]["PORTCULLIS_portals"]["cells"][c]["nodes"].as_array();
+                whole.extend(
+                    nodes
+                        .into_iter()
+                        .flatten()
+                        .map(|n| n.as_u64().unwrap() as usize),
+                );
+            }
+            j.whole += whole
+                .iter()
+                .filter(|&&n| in_view(n))
+                .map(|n| node_tris.get(n).copied().unwrap_or(0))
+                .sum::<usize>();
+            j.frustum += node_tris
+                .iter()
+                .filter(|(&n, _)| in_view(n))
+                .map(|(_, &t)| t)
+                .sum::<usize>();
+            for (id, inside) in &tris {
+                if !in_view(id.0) {
+                    continue;
+                }
+                if inside.iter().any(|c| seen.contains(c)) {
+                    j.inside += 1;
+                    if !drawn.contains(id) {
+                        j.missed += 1;
+                    }
+                } else if drawn.contains(id) {
+                    if inside.is_empty() {
+                        j.no_cell += 1;
+                    } else {
+                        j.elsewhere += 1;
+                    }
+                }
+            }
+        }
+    }
+    j
+}
+
+/// The output passes the Khronos glTF-Validator with no error and the extension's schema.
+fn valid(out: &Path, name: &str) {
+    if let Some(report) = common::khronos_validate(out) {
+        let errors = report["issues"]["numErrors"].as_u64().unwrap();
+        assert_eq!(errors, 0, "{name}: {}", report["issues"]["messages"]);
+    }
+    let (doc, _) = common::read_gltf(&std::fs::read(out).unwrap());
+    let errs = portcullis::schema::validate(
+        portcullis::schema::Schema::Portals,
+        &doc["extensions"]["PORTCULLIS_portals"],
+    );
+    assert!(errs.is_empty(), "{name}: {errs:?}");
+}
+
+fn judged(name: &str, input: &Path, preset: Option<&str>) -> Judged {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.glb");
+    convert(input, preset, &out);
+    valid(&out, name);
+    let j = judge(&out);
+    eprintln!(
+        "{name}: {} views, {} triangles; per view: frustum only {:.1}, whole nodes {:.1}, draw lists {:.1} in {:.1} calls, lying in the visible cells {:.1}; ratio {:.3}; missed {}; submitted in no cell {:.1}, in cells not visible {:.1}",
+        j.views,
+        j.triangles,
+        j.frustum as f64 / j.views as f64,
+        j.whole as f64 / j.views as f64,
+        j.submitted as f64 / j.views as f64,
+        j.calls as f64 / j.views as f64,
+        j.inside as f64 / j.views as f64,
+        j.submitted as f64 / j.inside as f64,
+        j.missed,
+        j.no_cell as f64 / j.views as f64,
+        j.elsewhere as f64 / j.views as f64,
+    );
+    assert!(j.views > 0 && j.inside > 0, "{name}: nothing judged");
+    assert_eq!(j.missed, 0, "{name}: triangles in visible cells left out");
+    assert!(
+        j.submitted as f64 <= 1.1 * j.inside as f64,
+        "{name}: {} submitted > 1.1 × {} in the visible cells",
+        j.submitted,
+        j.inside
+    );
+    j
+}
+
+/// `pillar_room`'s `Floor`, `Walls` and `Ceiling` are one node each, in all four cells: drawn
+/// whole, culling saved nothing. A view from a corner cell that sees two cells draws no more
+/// than the triangles lying in those two.
+#[test]
+fn pillar_room_and_a_generated_building_draw_what_their_visible_cells_hold() {
+    let j = judged("pillar_room", &common::sample("pillar_room.gltf"), None);
+    assert!(j.views >= 16, "{j:?}");
+    assert!(j.whole > j.submitted, "{j:?}");
+    assert!(j.two_cells > 0, "no view sees just two cells: {j:?}");
+    assert_eq!(j.two_cells_over, 0, "{j:?}");
+    let dir = tempfile::tempdir().unwrap();
+    let g = common::generated_building(dir.path(), 40, 1);
+    let j = judged("building of 40 rooms", &g, None);
+    assert!(j.views > 100, "{j:?}");
+}
+
+fn shared(rel: &str) -> Option<PathBuf> {
+    let p = common::root().join("../shared/levels").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!("skipping {rel}: ../shared is missing");
+        None
+    }
+}
+
+#[test]
+#[ignore = "minutes: run with --release --ignored"]
+fn shared_levels_draw_what_their_visible_cells_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = common::generated_building(dir.path(), 300, 1);
+    let j = judged("building of 300 rooms", &g, None);
+    assert!(j.views > 1000, "{j:?}");
+    for (rel, preset) in [
+        ("ericw-tools/testmaps/E1M1-edited-ents.map", None),
+        (
+            "ericw-tools/testmaps/LibreQuake/lq1/maps/src/e3/e3m4.map",
+            None,
+        ),
+        ("ericw-tools/testmaps/retrojam1_ericw.map", None),
+        ("freedoom/freedoom2_MAP01.glb", Some("doom")),
+        ("freedoom/freedoom1_E1M2.glb", Some("doom")),
+        ("freedoom/freedoom1_E3M3.glb", Some("doom")),
+    ] {
+        if let Some(p) = shared(rel) {
+            judged(rel, &p, preset);
+        }
+    }
+}
