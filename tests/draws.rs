@@ -573,3 +573,24 @@ fn shared_levels_draw_what_their_visible_cells_hold() {
         }
     }
 }
+
+/// The PVS rows carry the outside: both of the courtyard's cells may see the sky, neither of
+/// two closed rooms does.
+#[test]
+fn pvs_rows_say_which_cells_see_the_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    for (sample, sees) in [("courtyard.gltf", true), ("two_rooms.gltf", false)] {
+        let out = dir.path().join(format!("{sample}.glb"));
+        convert(&common::sample(sample), None, &out);
+        let level = Level::load(&out).unwrap();
+        assert_eq!(level.cells(), 2, "{sample}");
+        let (doc, _) = common::read_gltf(&std::fs::read(&out).unwrap());
+        let listed = doc["extensions"]["PORTCULLIS_portals"]["visibility"]["outside"]
+            .as_array()
+            .map(Vec::len);
+        assert_eq!(listed, sees.then_some(2), "{sample}");
+        for c in 0..level.cells() {
+            assert_eq!(level.sees_outside(c), sees, "{sample}: cell {c}");
+        }
+    }
+}

@@ -122,9 +122,18 @@ impl<'a> Annotation<'a> {
         }
     }
 
-    /// Stores the PVS (left out for a level of one cell).
+    /// Stores the PVS (left out for a level of one cell), with the cells that see the outside.
     pub(crate) fn set_visibility(&mut self, pvs: &crate::vis::Pvs, method: crate::vis::Method) {
-        if let Some(e) = crate::format::visibility::encode(pvs, method) {
+        if let Some(mut e) = crate::format::visibility::encode(pvs, method) {
+            let outside = self
+                .lazy
+                .level
+                .map(|(_, _, portals)| sees_outside(pvs, portals));
+            if let (Some(o), Some(outside)) = (e.json.as_object_mut(), outside) {
+                if !outside.is_empty() {
+                    o.insert("outside".into(), json!(outside));
+                }
+            }
             if let Some(o) = self.root.as_object_mut() {
                 o.insert("visibility".into(), e.json);
             }
@@ -566,4 +575,20 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
         }
     }
     out
+}
+
+/// The cells that may see the outside (the sky, the void past an opening): those whose PVS
+/// holds a cell with an opening to the exterior, itself included. A superset, as the PVS is:
+/// an engine may skip its sky pass for a cell not listed, never for one listed wrongly.
+fn sees_outside(pvs: &crate::vis::Pvs, portals: &PortalSet) -> Vec<usize> {
+    let cells = pvs.cells();
+    let mut open = vec![false; cells];
+    for p in &portals.portals {
+        if p.to.is_none() && p.from < cells {
+            open[p.from] = true;
+        }
+    }
+    (0..cells)
+        .filter(|&c| open[c] || pvs.visible(c).any(|v| open.get(v) == Some(&true)))
+        .collect()
 }

@@ -131,6 +131,9 @@ pub enum LevelError {
         /// The split primitive it names.
         primitive: usize,
     },
+    /// `visibility.outside` names something that is no cell.
+    #[error("visibility: outside names {0}, which is no cell")]
+    OutsideCell(String),
     /// The PVS given does not have one row per cell.
     #[error("the visibility does not have one row per cell")]
     PvsRows,

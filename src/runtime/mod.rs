@@ -98,6 +98,9 @@ pub struct Level {
     grid: locate::Grid,
     /// What each cell draws (`cells[].nodes`, `cells[].draws`, `split`).
     draw: draw::Draws,
+    /// Per cell, whether it may see the outside (`visibility.outside`; all, when the file
+    /// stores no PVS).
+    outside: Vec<bool>,
 }
 
 struct Cell {
@@ -182,6 +185,7 @@ impl Level {
             pvs,
             grid: locate::Grid::default(),
             draw: draw::Draws::read(a)?,
+            outside: Vec::new(),
         };
         let (mut a_buf, mut b_buf) = (Vec::new(), Vec::new());
         for (i, c) in a.cells.iter().enumerate() {
@@ -191,6 +195,21 @@ impl Level {
             level.add_portal(i, p)?;
         }
         let cells = level.cells.len();
+        level.outside = match a.visibility.as_ref().map(|v| v.get("outside")) {
+            // No PVS stored: nothing is known.
+            None => vec![true; cells],
+            Some(None) => vec![false; cells],
+            Some(Some(list)) => {
+                let mut out = vec![false; cells];
+                for c in list.as_array().into_iter().flatten() {
+                    match c.as_u64().map(|c| c as usize).filter(|&c| c < cells) {
+                        Some(c) => out[c] = true,
+                        None => return Err(LevelError::OutsideCell(c.to_string())),
+                    }
+                }
+                out
+            }
+        };
         level.link_regions();
         if level.pvs.as_ref().is_some_and(|p| p.cells() != cells) {
             return Err(LevelError::PvsRows);
@@ -391,6 +410,13 @@ impl Level {
     /// The kind of portal `p`.
     pub fn portal_kind(&self, p: usize) -> Kind {
         self.portals[p].kind
+    }
+
+    /// Whether cell `c` may see the outside (the sky, the void past an opening to the
+    /// exterior): the PVS row's `outside` flag, true when the file stores no PVS. An engine
+    /// skips its sky pass when no visible cell may see the outside.
+    pub fn sees_outside(&self, c: usize) -> bool {
+        self.outside.get(c).copied().unwrap_or(true)
     }
 
     /// Whether the stored PVS lets cell `from` see cell `to` (true when none is stored).
