@@ -148,7 +148,9 @@ fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diag
         if mm == 0.0 || !mm.is_finite() {
             return format!("{mm} mm");
         }
-        let digits = 2i32.saturating_sub(mm.abs().log10().floor() as i32).clamp(0, 12) as usize;
+        let digits = 2i32
+            .saturating_sub(mm.abs().log10().floor() as i32)
+            .clamp(0, 12) as usize;
         format!("{mm:.digits$} mm")
     };
     Some(
