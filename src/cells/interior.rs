@@ -43,6 +43,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
@@ -123,15 +124,21 @@ impl Surface {
             eps,
             &mut leaves,
         );
+        // Leaves are judged on their own, in parallel (the order kept): the winding number,
+        // a pass over every triangle, is most of a level's reading (gi_zdm2, cut by its walls
+        // first: 34,346 leaves, over 10,000 winding numbers), and is found once a leaf.
         leaves
-            .into_iter()
+            .into_par_iter()
             .filter(|(leaf, boundary)| {
-                thickness(leaf) > 2.0 * eps
-                    && (((is_air(leaf, boundary, tris, self.sense)
-                        || self.holds_detail(leaf, eps))
-                        && (enclosed(leaf, boundary, hull, eps)
-                            || -self.sense * winding_number(tris, leaf.interior_point()) > 0.5))
-                        || self.rays_see_air(leaf, tris, eps))
+                if thickness(leaf) <= 2.0 * eps {
+                    return false;
+                }
+                let at = leaf.interior_point();
+                let wn = std::cell::OnceCell::new();
+                let winding = || *wn.get_or_init(|| winding_number(tris, at));
+                ((is_air(leaf, boundary, tris, self.sense) || self.holds_detail(leaf, eps))
+                    && (enclosed(leaf, boundary, hull, eps) || -self.sense * winding() > 0.5))
+                    || (self.rays_see_air(at, eps) && winding() < 0.5)
             })
             .map(|(leaf, _)| leaf)
             .collect()
@@ -295,12 +302,12 @@ impl Surface {
     /// over a roof whose walls were left out above it (Doom's sky hack) is air by it, as a
     /// ray from a ledge down past the roof's edge crosses it; open sky over the ground alone
     /// is not. Nor is the inside of a closed solid (winding number +1), where the rays may
-    /// meet the fronts of other solids overlapping it (the six slabs of a closet).
-    fn rays_see_air(&self, leaf: &ConvexPolyhedron, tris: &[[DVec3; 3]], eps: f64) -> bool {
+    /// meet the fronts of other solids overlapping it (the six slabs of a closet): the caller
+    /// asks that of the winding number at `at`, a leaf's interior point.
+    fn rays_see_air(&self, at: DVec3, eps: f64) -> bool {
         let Some((mesh, axes)) = &self.rays else {
             return false;
         };
-        let at = leaf.interior_point();
         let (mut front, mut back) = (0, 0);
         for dir in axes.iter().flat_map(|a| [*a, -*a]) {
             match first_met(mesh, at, dir, eps) {
@@ -309,7 +316,7 @@ impl Surface {
                 None => {}
             }
         }
-        crate::auto::air::by_first_hits(front, back) && winding_number(tris, at) < 0.5
+        crate::auto::air::by_first_hits(front, back)
     }
 
     /// Whether some detail triangle reaches more than the tolerance into `leaf`.
