@@ -229,19 +229,6 @@ fn shared_levels_rays_find_no_cell_the_pvs_misses() {
     }
 }
 
-/// The level's world triangles written as an OBJ (one object): a merged level the CLI reads.
-fn write_obj(scene: &portcullis::scene::Scene, path: &Path) {
-    use std::fmt::Write;
-    let (mut v, mut f) = (String::from("o level\n"), String::new());
-    for (k, t) in world_triangles(scene).iter().enumerate() {
-        for p in t {
-            writeln!(v, "v {} {} {}", p.x, p.y, p.z).unwrap();
-        }
-        writeln!(f, "f {} {} {}", 3 * k + 1, 3 * k + 2, 3 * k + 3).unwrap();
-    }
-    std::fs::write(path, v + &f).unwrap();
-}
-
 fn convert(input: &Path, preset: Option<&str>, out: &Path) -> portcullis::runtime::Level {
     let mut cmd = assert_cmd::Command::cargo_bin("portcullis").unwrap();
     cmd.arg("convert").arg(input).arg("-o").arg(out);
@@ -253,24 +240,27 @@ fn convert(input: &Path, preset: Option<&str>, out: &Path) -> portcullis::runtim
     portcullis::runtime::Level::load(out).unwrap()
 }
 
-/// The share of a level's cell volume the runtime returns, averaged over the views, and the
-/// views whose eye lies in no cell.
-fn drawn_share(
+/// The share of a level's cell volume the runtime returns in each view (`None` where the eye
+/// lies in no cell). Each eye looks along ±x and ±z with y up, every direction and the eye
+/// moved by `m` (the level's own motion).
+fn drawn_shares(
     level: &portcullis::runtime::Level,
     volumes: &[f64],
     eyes: &[DVec3],
-) -> (f64, usize) {
+    m: DMat4,
+) -> Vec<Option<f64>> {
     use portcullis::runtime::{Doors, Trace, TraceOptions, View};
     assert_eq!(level.cells(), volumes.len(), "runtime and library cells");
     let total: f64 = volumes.iter().sum();
     let (doors, opts, mut t) = (Doors::new(level), TraceOptions::default(), Trace::default());
-    let (mut sum, mut views, mut outside) = (0.0, 0usize, 0usize);
+    let mut shares = Vec::new();
+    let up = m.transform_vector3(DVec3::Y);
     for eye in eyes {
         for look in [DVec3::X, DVec3::Z, -DVec3::X, -DVec3::Z] {
             let view = View::new(
-                eye.to_array(),
-                look.to_array(),
-                [0.0, 1.0, 0.0],
+                m.transform_point3(*eye).to_array(),
+                m.transform_vector3(look).to_array(),
+                up.to_array(),
                 90.0,
                 16.0 / 9.0,
                 0.05,
@@ -278,25 +268,86 @@ fn drawn_share(
             .unwrap();
             level.trace(&view, &doors, &opts, &mut t);
             if t.location.cell().is_none() {
-                outside += 1;
+                shares.push(None);
                 continue;
             }
             let seen: std::collections::BTreeSet<usize> =
                 t.visible().iter().filter_map(|v| v.cell).collect();
-            sum += seen.iter().map(|&c| volumes[c]).sum::<f64>() / total;
-            views += 1;
+            shares.push(Some(seen.iter().map(|&c| volumes[c]).sum::<f64>() / total));
         }
     }
-    (sum / views.max(1) as f64, outside)
+    shares
+}
+
+/// The mean of the views' shares where `with` places the eye too, and the views left out.
+fn mean_share(shares: &[Option<f64>], with: &[Option<f64>]) -> (f64, usize) {
+    let kept: Vec<f64> = (shares.iter().zip(with))
+        .filter_map(|(s, w)| w.and(*s))
+        .collect();
+    let mean = kept.iter().sum::<f64>() / kept.len().max(1) as f64;
+    (mean, shares.len() - kept.len())
+}
+
+/// The level's world triangles, its mesh nodes taken in the order `seed` shuffles them
+/// (`None`: as they come), every point moved by `m`.
+fn merged_triangles(path: &Path, seed: Option<u64>, m: DMat4) -> Vec<[DVec3; 3]> {
+    let scene = portcullis::import::import_path(path, &Default::default())
+        .expect("imports")
+        .scene;
+    let mut nodes: Vec<usize> = (scene.walk().into_iter())
+        .filter(|&n| scene.nodes[n].mesh.is_some())
+        .collect();
+    if let Some(seed) = seed {
+        common::rng::SplitMix64::new(seed).shuffle(&mut nodes);
+    }
+    let mut tris = Vec::new();
+    for n in nodes {
+        let m_n = scene.nodes[n].mesh.unwrap();
+        let w = scene.world_positions(n);
+        let flip = scene.nodes[n].world.determinant() < 0.0;
+        for t in &scene.meshes[m_n].triangles {
+            let [a, b, c] = t.map(|i| m.transform_point3(w[i as usize]));
+            tris.push(if flip { [a, c, b] } else { [a, b, c] });
+        }
+    }
+    tris
+}
+
+/// Triangles written as an OBJ of one object (shortest round-trip decimals: exact f64).
+fn write_triangles(tris: &[[DVec3; 3]], path: &Path) {
+    use std::fmt::Write;
+    let (mut v, mut f) = (String::from("o level\n"), String::new());
+    for (k, t) in tris.iter().enumerate() {
+        for p in t {
+            writeln!(v, "v {} {} {}", p.x, p.y, p.z).unwrap();
+        }
+        writeln!(f, "f {} {} {}", 3 * k + 1, 3 * k + 2, 3 * k + 3).unwrap();
+    }
+    std::fs::write(path, v + &f).unwrap();
 }
 
 /// The acceptance's drawn share: from the designer's own cell centres, four views each, the
-/// share of the level's cell volume the runtime returns with generated cells is at most 1.5
-/// times the share it returns with the designer's.
+/// share of the level's cell volume the runtime returns with generated cells is at most 1.3
+/// times the share it returns with the designer's, on each map merged into one untagged mesh
+/// three ways: as its meshes come, in a shuffled order, and turned 37° about (1, 2, 3) and
+/// moved 1e5 m (the eyes and views moved along). A view whose eye lies in no generated cell
+/// (a designer's outdoor cell reaching up into the void over the merged mesh's roofs) is left
+/// out of the generated mean; the ratio is also judged over only the views both readings
+/// place, so leaving views out cannot pass it.
 #[test]
 #[ignore = "minutes: run with --ignored"]
-fn doom_maps_drawn_share_is_within_one_and_a_half_times_the_designers() {
+fn doom_maps_drawn_share_is_within_1_3_times_the_designers_merged_shuffled_and_turned() {
     let dir = tempfile::tempdir().unwrap();
+    let turned = DMat4::from_rotation_translation(
+        glam::DQuat::from_axis_angle(DVec3::new(1.0, 2.0, 3.0).normalize(), 37f64.to_radians()),
+        DVec3::splat(1e5),
+    );
+    let variants = [
+        ("merged", None, DMat4::IDENTITY),
+        ("shuffled", Some(0x5eed_0066), DMat4::IDENTITY),
+        ("turned and moved", None, turned),
+    ];
+    let mut over = Vec::new();
     for (designer, plain) in [
         ("freedoom/MAP01_godot.glb", "freedoom/freedoom2_MAP01.glb"),
         ("freedoom/E1M2_godot.glb", "freedoom/freedoom1_E1M2.glb"),
@@ -312,27 +363,37 @@ fn doom_maps_drawn_share_is_within_one_and_a_half_times_the_designers() {
                 v.iter().sum::<DVec3>() / v.len() as f64
             })
             .collect();
+        assert!(eyes.len() > 50, "{designer}: only {} eyes", eyes.len());
         let dv: Vec<f64> = built.cells.cells.iter().map(|c| c.volume).collect();
         let tagged = convert(&d, None, &dir.path().join("designer.glb"));
-        let obj = dir.path().join("merged.obj");
-        write_obj(&merged(&p), &obj);
-        let auto = common::built(&obj, Some("auto"));
-        let av: Vec<f64> = auto.cells.cells.iter().map(|c| c.volume).collect();
-        let generated = convert(&obj, Some("auto"), &dir.path().join("auto.glb"));
-        let (ds, dout) = drawn_share(&tagged, &dv, &eyes);
-        let (gs, gout) = drawn_share(&generated, &av, &eyes);
-        eprintln!(
-            "{designer}: designer share {ds:.3} ({} cells, {dout} views outside), generated {gs:.3} ({} cells, {gout} views outside), ratio {:.2}",
-            dv.len(),
-            av.len(),
-            gs / ds
-        );
-        assert!(eyes.len() > 50, "{designer}: only {} eyes", eyes.len());
-        assert!(
-            gs <= 1.5 * ds,
-            "{designer}: generated share {gs:.3} > 1.5 × {ds:.3}"
-        );
+        let d_shares = drawn_shares(&tagged, &dv, &eyes, DMat4::IDENTITY);
+        let (ds, dout) = mean_share(&d_shares, &d_shares);
+        for (variant, seed, m) in variants {
+            let obj = dir.path().join("merged.obj");
+            write_triangles(&merged_triangles(&p, seed, m), &obj);
+            let auto = common::built(&obj, Some("auto"));
+            let av: Vec<f64> = auto.cells.cells.iter().map(|c| c.volume).collect();
+            let generated = convert(&obj, Some("auto"), &dir.path().join("auto.glb"));
+            let g_shares = drawn_shares(&generated, &av, &eyes, m);
+            let (gs, gout) = mean_share(&g_shares, &g_shares);
+            // The same views on both sides: those the generated cells place.
+            let (ds_same, _) = mean_share(&d_shares, &g_shares);
+            let (ratio, same) = (gs / ds, gs / ds_same);
+            eprintln!(
+                "{designer}, {variant}: designer share {ds:.3} ({} cells, {dout} views outside), generated {gs:.3} ({} cells, {gout} views of {} outside), ratio {ratio:.2} ({same:.2} over the same views)",
+                dv.len(),
+                av.len(),
+                g_shares.len(),
+            );
+            if ratio.max(same) > 1.3 {
+                over.push(format!("{designer}, {variant}: {ratio:.2} ({same:.2})"));
+            }
+        }
     }
+    assert!(
+        over.is_empty(),
+        "generated share over 1.3 × the designer's: {over:?}"
+    );
 }
 
 /// Rooms, cells and PVS pairs of a level under `--tags auto`, every node moved by `m`.
