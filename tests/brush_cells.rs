@@ -178,22 +178,7 @@ fn brush(faces: &[Face], line: usize) -> Brush {
             (n, n.dot(p1))
         })
         .collect();
-    let mut corners = Vec::new();
-    for i in 0..planes.len() {
-        for j in i + 1..planes.len() {
-            for k in j + 1..planes.len() {
-                let (a, b, c) = (planes[i], planes[j], planes[k]);
-                let det = a.0.dot(b.0.cross(c.0));
-                if det.abs() < 1e-9 {
-                    continue;
-                }
-                let p = (b.0.cross(c.0) * a.1 + c.0.cross(a.0) * b.1 + a.0.cross(b.0) * c.1) / det;
-                if planes.iter().all(|(n, d)| n.dot(p) <= d + 1e-6) {
-                    corners.push(p);
-                }
-            }
-        }
-    }
+    let corners = common::corners(&planes, 1e-6);
     assert!(
         corners.len() >= 4,
         "the brush at line {line} encloses nothing"

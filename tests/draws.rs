@@ -219,22 +219,7 @@ fn planes(doc: &Value) -> Vec<Vec<(DVec3, f64)>> {
 
 /// The centre of a cell: the mean of its corners, found plane triple by plane triple.
 fn centre(planes: &[(DVec3, f64)], tol: f64) -> Option<DVec3> {
-    let mut corners: Vec<DVec3> = Vec::new();
-    for i in 0..planes.len() {
-        for j in i + 1..planes.len() {
-            for k in j + 1..planes.len() {
-                let (a, b, c) = (planes[i], planes[j], planes[k]);
-                let det = a.0.dot(b.0.cross(c.0));
-                if det.abs() < 1e-9 {
-                    continue;
-                }
-                let p = (b.0.cross(c.0) * a.1 + c.0.cross(a.0) * b.1 + a.0.cross(b.0) * c.1) / det;
-                if planes.iter().all(|(n, d)| n.dot(p) - d <= tol) {
-                    corners.push(p);
-                }
-            }
-        }
-    }
+    let corners = common::corners(planes, tol);
     (!corners.is_empty()).then(|| corners.iter().sum::<DVec3>() / corners.len() as f64)
 }
 

@@ -372,3 +372,26 @@ pub fn tagged_with(
     };
     portcullis::pipeline::tag(imported, config, rules)
 }
+
+/// The corners of the convex region `n · p <= d` of `planes` (within `tol`): every three
+/// planes' meeting point that lies behind the rest, found by Cramer's rule, sharing no code
+/// with the library's polyhedra.
+pub fn corners(planes: &[(glam::DVec3, f64)], tol: f64) -> Vec<glam::DVec3> {
+    let mut out = Vec::new();
+    for i in 0..planes.len() {
+        for j in i + 1..planes.len() {
+            for k in j + 1..planes.len() {
+                let (a, b, c) = (planes[i], planes[j], planes[k]);
+                let det = a.0.dot(b.0.cross(c.0));
+                if det.abs() < 1e-9 {
+                    continue;
+                }
+                let p = (b.0.cross(c.0) * a.1 + c.0.cross(a.0) * b.1 + a.0.cross(b.0) * c.1) / det;
+                if planes.iter().all(|(n, d)| n.dot(p) - d <= tol) {
+                    out.push(p);
+                }
+            }
+        }
+    }
+    out
+}
