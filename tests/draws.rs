@@ -2,8 +2,9 @@
 //! a glTF reader of this test's own (node transforms, accessors, the split indices), cameras
 //! at the cells' centres (four looks, 75° field of view, 16:9), the runtime's visible cells
 //! and their draw lists, frustum culling by each node's box on top. A triangle *lies in* a
-//! cell when one of 16 points spread over it is inside the cell's planes (the file's
-//! tolerance), code that shares nothing with the split. What the draw lists submit must hold
+//! cell when one of the points of a barycentric grid over it, clear of its edges, is inside the
+//! cell's planes (the file's tolerance), and, drawn from its front only, the cell does not lie
+//! wholly behind it: code that shares nothing with the split. What the draw lists submit must hold
 //! every triangle lying in a visible cell and be at most 1.1 times as many.
 //!
 //! The shared levels take minutes in a debug build: `cargo test --release --test draws --
@@ -21,8 +22,15 @@ use serde_json::Value;
 /// A triangle of the file: node, primitive, its three indices into the primitive's vertices.
 type TriId = (usize, usize, [u32; 3]);
 
-/// A primitive's world positions and triangles.
-type Prim = (Vec<DVec3>, Vec<[u32; 3]>);
+/// A primitive's world positions, its triangles, and whether only their fronts are drawn
+/// (glTF's rule: a material without `doubleSided`, or none), and whether the node's transform
+/// mirrors, turning the front from counter-clockwise to clockwise.
+struct Prim {
+    pos: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    one_sided: bool,
+    mirrored: bool,
+}
 
 /// The file as a plain reader sees it.
 struct Plain {
@@ -125,6 +133,11 @@ fn read_plain(path: &Path) -> Plain {
         let Some(mesh) = doc["nodes"][n]["mesh"].as_u64() else {
             continue;
         };
+        // What no cell renders (a portal's or a bound's mesh) an engine following the
+        // extension draws for no view: the node carries no `cell` or `cells`.
+        if doc["nodes"][n]["extensions"]["PORTCULLIS_portals"].is_null() {
+            continue;
+        }
         let mut b = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
         for (k, p) in doc["meshes"][mesh as usize]["primitives"]
             .as_array()
@@ -170,7 +183,18 @@ fn read_plain(path: &Path) -> Plain {
                     b.1 = b.1.max(pos[i as usize]);
                 }
             }
-            prims.insert((n, k), (pos, tris));
+            let one_sided = !p["material"]
+                .as_u64()
+                .is_some_and(|i| doc["materials"][i as usize]["doubleSided"] == true);
+            prims.insert(
+                (n, k),
+                Prim {
+                    pos,
+                    tris,
+                    one_sided,
+                    mirrored: m.determinant() < 0.0,
+                },
+            );
         }
         if b.0.x <= b.1.x {
             boxes.insert(n, b);
@@ -223,14 +247,33 @@ fn centre(planes: &[(DVec3, f64)], tol: f64) -> Option<DVec3> {
     (!corners.is_empty()).then(|| corners.iter().sum::<DVec3>() / corners.len() as f64)
 }
 
-/// 16 points over a triangle: corners, the barycentric quarter grid, the centroid.
-fn samples(t: [DVec3; 3]) -> impl Iterator<Item = DVec3> {
-    let grid = (0..=4).flat_map(move |i| (0..=4 - i).map(move |j| (i, j)));
-    grid.map(move |(i, j)| {
-        let (a, b) = (i as f64 / 4.0, j as f64 / 4.0);
-        t[0] * a + t[1] * b + t[2] * (1.0 - a - b)
-    })
-    .chain(std::iter::once((t[0] + t[1] + t[2]) / 3.0))
+/// Points of a triangle that say which cells it lies in: those of the barycentric eighth grid
+/// and the centroid at least `margin` from every edge's line, or all of them when none is (a
+/// triangle too thin or too small to have such a point).
+fn samples(t: [DVec3; 3], margin: f64) -> Vec<DVec3> {
+    let grid = (0..=8).flat_map(move |i| (0..=8 - i).map(move |j| (i, j)));
+    let all: Vec<DVec3> = grid
+        .map(move |(i, j)| {
+            let (a, b) = (i as f64 / 8.0, j as f64 / 8.0);
+            t[0] * a + t[1] * b + t[2] * (1.0 - a - b)
+        })
+        .chain(std::iter::once((t[0] + t[1] + t[2]) / 3.0))
+        .collect();
+    let normal = (t[1] - t[0]).cross(t[2] - t[0]);
+    let far = |p: &DVec3| {
+        (0..3).all(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let along = (b - a).normalize_or_zero();
+            let off = (*p - a) - along * (*p - a).dot(along);
+            off.length() >= margin
+        })
+    };
+    let inner: Vec<DVec3> = all.iter().copied().filter(far).collect();
+    if normal.length() > 0.0 && !inner.is_empty() {
+        inner
+    } else {
+        all
+    }
 }
 
 /// The frustum's side planes (inward normals through the eye) and the near plane.
@@ -301,6 +344,10 @@ fn convert(input: &Path, preset: Option<&str>, out: &Path) {
     common::succeeds(&mut cmd);
 }
 
+/// How far in front of a single-sided triangle's plane, in tolerances, a cell must reach to
+/// see it (see `judge`).
+const FACING: f64 = 64.0;
+
 fn judge(path: &Path) -> Judged {
     let plain = read_plain(path);
     let level = Level::load(path).unwrap();
@@ -308,15 +355,20 @@ fn judge(path: &Path) -> Judged {
     let tol = level.tolerance();
     let mut keys: Vec<&(usize, usize)> = plain.prims.keys().collect();
     keys.sort();
+    let corners: Vec<Vec<DVec3>> = cells.iter().map(|c| common::corners(c, tol)).collect();
     // Every triangle with its cells by the sample points.
     let mut tris: Vec<(TriId, Vec<usize>)> = Vec::new();
     for &&(n, k) in &keys {
-        let (pos, ts) = &plain.prims[&(n, k)];
+        let prim = &plain.prims[&(n, k)];
+        let (pos, ts) = (&prim.pos, &prim.tris);
         for t in ts {
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 continue;
             }
             let w = t.map(|i| pos[i as usize]);
+            // A triangle lies in a cell by its points clear of its own edges (the extension's
+            // rule: a wall whose top edge meets the floor of the cell above is not that cell's).
+            let inner = samples(w, 2.5 * tol);
             let (lo, hi) = (w[0].min(w[1]).min(w[2]), w[0].max(w[1]).max(w[2]));
             let inside: Vec<usize> = (0..level.cells())
                 .filter(|&c| {
@@ -325,7 +377,22 @@ fn judge(path: &Path) -> Judged {
                     (lo - tol).cmple(cmax).all() && (hi + tol).cmpge(cmin).all()
                 })
                 .filter(|&c| {
-                    samples(w).any(|p| cells[c].iter().all(|(n, d)| n.dot(p) - d <= 0.5 * tol))
+                    inner
+                        .iter()
+                        .any(|&p| cells[c].iter().all(|(n, d)| n.dot(p) - d <= 0.5 * tol))
+                })
+                // A triangle seen from its front only is not the cell's that lies wholly
+                // behind it (a ceiling on the floor of the cell above). Corners found again
+                // from the written planes carry rounding of several tolerances (up to 7.5 on
+                // e3m4), so a cell reaching less than `FACING` tolerances in front is behind.
+                .filter(|&c| {
+                    let front = (w[1] - w[0]).cross(w[2] - w[0]);
+                    let front = if prim.mirrored { -front } else { front }.normalize_or_zero();
+                    !prim.one_sided
+                        || front == DVec3::ZERO
+                        || corners[c]
+                            .iter()
+                            .any(|&p| front.dot(p - w[0]) > FACING * tol)
                 })
                 .collect();
             tris.push(((n, k, *t), inside));
@@ -357,7 +424,7 @@ fn judge(path: &Path) -> Judged {
         ..Default::default()
     };
     let node_tris: HashMap<usize, usize> = keys.iter().fold(HashMap::new(), |mut m, &&(n, k)| {
-        *m.entry(n).or_default() += plain.prims[&(n, k)].1.len();
+        *m.entry(n).or_default() += plain.prims[&(n, k)].tris.len();
         m
     });
     for cell in &cells {
@@ -405,8 +472,8 @@ fn judge(path: &Path) -> Judged {
                     j.calls += 1;
                     for &(nn, k) in keys.iter().copied() {
                         if nn == n {
-                            drawn.extend(plain.prims[&(n, k)].1.iter().map(|t| (n, k, *t)));
-                            j.submitted += plain.prims[&(n, k)].1.len();
+                            drawn.extend(plain.prims[&(n, k)].tris.iter().map(|t| (n, k, *t)));
+                            j.submitted += plain.prims[&(n, k)].tris.len();
                         }
                     }
                 }

@@ -200,6 +200,7 @@ impl Builder {
             scene.materials.push(Material {
                 name: Some(name.into()),
                 extras: None,
+                double_sided: false,
                 source: SourceRef::default(),
             });
         }

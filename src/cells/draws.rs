@@ -7,9 +7,12 @@
 //! so an engine draws of a node only the runs of the cells it sees (dmap cuts surfaces by
 //! area, qbsp lists each leaf's faces; here the cut is by index, not by geometry).
 //!
-//! The rule (the extension's page states it): a triangle *lies in* a cell when it touches the
-//! cell's closed volume grown by the tolerance (a floor on a cell's bottom face, a wall whose
-//! foot stands on it, a triangle crossing it); a triangle in no cell (a jamb in a wall, trim
+//! The rule (the extension's page states it): a triangle *lies in* a cell when, shrunk
+//! inward by a little more than the tolerance, it touches the cell's closed volume grown by
+//! the tolerance (a floor on a cell's bottom face, a wall whose foot stands on it, a triangle
+//! crossing it, but not a wall whose top edge meets the floor of the cell above), and, when
+//! it is drawn from its front only, the cell reaches in front of its plane (a ceiling is not
+//! the cell's above whose floor it lies on). A triangle in no cell (a jamb in a wall, trim
 //! buried in it, a triangle dropped as degenerate) is drawn by the cells that draw its node.
 //! In a sealed brush map a triangle in no cell is drawn by none: the cells are qbsp's air
 //! leaves, and a face that borders no air leaf (one facing the void, one against another
@@ -117,8 +120,83 @@ fn written(scene: &Scene, n: NodeId) -> Vec<Written> {
     out
 }
 
+/// Whether a triangle lies in a convex cell: whether the triangle with its edges moved
+/// [`INSET`] tolerances inward touches the cell grown by `eps`, so that a wall whose top edge
+/// meets the floor of the cell above (or whose side edge meets the room next door) is not the
+/// upper cell's; a triangle too thin to have such an inset, by whether it touches at all.
+fn lies_in(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
+    let (a, b, c) = (
+        (t[1] - t[2]).length(),
+        (t[2] - t[0]).length(),
+        (t[0] - t[1]).length(),
+    );
+    let perimeter = a + b + c;
+    let area = 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length();
+    let inradius = 2.0 * area / perimeter;
+    let inset = INSET * eps;
+    if inradius.is_nan() || inradius <= inset {
+        return touches(t, cell, eps);
+    }
+    let centre = (t[0] * a + t[1] * b + t[2] * c) / perimeter;
+    let k = (inradius - inset) / inradius;
+    touches(&t.map(|p| centre + (p - centre) * k), cell, eps)
+}
+
+/// Past how many cells near a node its triangles' cells are looked up in the grid rather
+/// than among the node's.
+const NEAR_BY_GRID: usize = 32;
+
+/// How far inward, in tolerances, a triangle's edges move before it is judged against a cell
+/// ([`lies_in`]): past the tolerance a cell is grown by, and one more for the rounding of a
+/// point placed on an edge.
+const INSET: f64 = 2.0;
+
+/// Per triangle of node `n`'s mesh, whether only its front is drawn: a glTF material without
+/// `doubleSided` (or no material in a glTF file), a brush face but a liquid's.
+fn one_sided(scene: &Scene, n: NodeId) -> Vec<bool> {
+    let Some(mesh) = scene.nodes[n].mesh.map(|m| &scene.meshes[m]) else {
+        return Vec::new();
+    };
+    let unstated = !matches!(
+        scene.format,
+        crate::scene::Format::Gltf | crate::scene::Format::Glb
+    );
+    let mut out = vec![false; mesh.triangles.len()];
+    for p in &mesh.primitives {
+        let both = p
+            .material
+            .and_then(|m| scene.materials.get(m))
+            .map_or(unstated, |m| m.double_sided);
+        let end = (p.first_triangle + p.triangle_count).min(out.len());
+        out[p.first_triangle.min(end)..end].fill(!both);
+    }
+    out
+}
+
+/// Whether a cell lies wholly behind the plane through `at` facing `front` (within `eps`):
+/// from no point of it, and through no point of it, is that side of the plane seen, so a
+/// triangle drawn from its front only is never the cell's to draw, though it touch the cell
+/// (a ceiling lying on the floor of the cell above, a wall backing onto the room next door).
+fn behind(cell: &ConvexPolyhedron, front: DVec3, at: DVec3, eps: f64) -> bool {
+    (cell.faces.iter())
+        .flat_map(|f| &f.points)
+        .all(|&p| front.dot(p - at) <= eps)
+}
+
 /// Whether a triangle touches a convex cell grown by `eps`.
 fn touches(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
+    // Most triangles are wholly inside a cell or wholly beyond one of its faces: no clipping.
+    let mut inside = true;
+    for f in &cell.faces {
+        let out = t.map(|p| f.plane.normal.dot(p) > f.plane.d + eps);
+        if out.iter().all(|&o| o) {
+            return false;
+        }
+        inside &= !out.iter().any(|&o| o);
+    }
+    if inside {
+        return true;
+    }
     let mut poly = t.to_vec();
     for f in &cell.faces {
         poly = clip_polygon(&poly, f.plane.normal, f.plane.d + eps);
@@ -142,8 +220,10 @@ pub fn of(scene: &Scene, set: &CellSet, sealed: bool) -> Draws {
             whole[n].push(c as u32);
         }
     }
+    // What no cell renders (a portal's or a bound's mesh, geometry reported in no cell) no
+    // cell draws, in part or whole.
     let nodes: Vec<NodeId> = (0..scene.nodes.len())
-        .filter(|&n| scene.nodes[n].mesh.is_some())
+        .filter(|&n| scene.nodes[n].mesh.is_some() && !whole[n].is_empty())
         .collect();
     let found: Vec<(NodeId, Vec<u32>, Option<NodeDraws>)> = nodes
         .par_iter()
@@ -176,26 +256,56 @@ fn node(
     eps: f64,
 ) -> (NodeId, Vec<u32>, Option<NodeDraws>) {
     let world = scene.world_positions(n);
+    let winding = scene.winding(n);
+    // A node in one cell that no other cell comes near is that cell's whole: each of its
+    // triangles touches that cell or none (and then goes to the cells listing it).
+    let near = grid.query(&Aabb::from_points(world.iter()), eps);
+    if let [only] = whole {
+        if orphans == whole && near.iter().all(|&c| c as u32 == *only) {
+            return (n, whole.to_vec(), None);
+        }
+    }
+    // The cells near a triangle: from the node's few near cells by box, or, for a node
+    // spanning many (a sector's floor), from the grid.
+    let near_triangle = |b: &Aabb| -> Vec<usize> {
+        if near.len() > NEAR_BY_GRID {
+            return grid.query(b, eps);
+        }
+        (near.iter().copied())
+            .filter(|&c| {
+                let cb = &set.cells[c].bounds;
+                (b.min - eps).cmple(cb.max).all() && (b.max + eps).cmpge(cb.min).all()
+            })
+            .collect()
+    };
     let mesh = scene.nodes[n].mesh.map(|m| &scene.meshes[m]);
     let scene_tris = mesh.map_or(&[][..], |m| &m.triangles[..]);
-    let cells_of = |t: &[u32; 3]| -> Vec<u32> {
-        let Some(tri) =
-            (t.iter().map(|&i| world.get(i as usize).copied())).collect::<Option<Vec<DVec3>>>()
-        else {
+    let one_sided = one_sided(scene, n);
+    let cells_of = |(k, t): (usize, &[u32; 3])| -> Vec<u32> {
+        let Some(tri) = (winding
+            .order(*t)
+            .iter()
+            .map(|&i| world.get(i as usize).copied()))
+        .collect::<Option<Vec<DVec3>>>() else {
             return orphans.to_vec();
         };
         let tri = [tri[0], tri[1], tri[2]];
+        let front = one_sided[k]
+            .then(|| (tri[1] - tri[0]).cross(tri[2] - tri[0]).try_normalize())
+            .flatten();
         let b = Aabb::from_points(tri.iter());
-        let mut cs: Vec<u32> = (grid.query(&b, eps).into_iter())
-            .filter(|&c| touches(&tri, &set.cells[c].poly, eps))
+        let mut cs: Vec<u32> = (near_triangle(&b).into_iter())
+            .filter(|&c| lies_in(&tri, &set.cells[c].poly, eps))
+            .filter(|&c| front.is_none_or(|f| !behind(&set.cells[c].poly, f, tri[0], eps)))
             .map(|c| c as u32)
             .collect();
+        cs.sort_unstable();
         if cs.is_empty() {
             cs = orphans.to_vec();
         }
         cs
     };
-    let per_scene: Vec<Vec<u32>> = scene_tris.iter().map(cells_of).collect();
+    let per_scene: Vec<Vec<u32>> = scene_tris.iter().enumerate().map(cells_of).collect();
     let prims: Vec<(Written, Vec<Vec<u32>>)> = written(scene, n)
         .into_iter()
         .map(|w| {

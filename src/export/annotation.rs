@@ -46,10 +46,36 @@ pub struct Annotation<'a> {
     /// Bytes for a buffer view the root refers to (`visibility.bufferView`), appended by the
     /// writer, which sets the index.
     pub blob: Option<Vec<u8>>,
-    /// The split primitives' indices (`u32`, little-endian), appended by the writer as an
-    /// index buffer view and accessor, whose index it sets in `split.indices`.
-    pub indices: Option<Vec<u8>>,
+    /// The split primitives' indices, appended by the writer as an index buffer view and
+    /// accessor, whose index it sets in `split.indices`.
+    pub indices: Option<Indices>,
     pub(crate) lazy: Lazy<'a>,
+}
+
+/// Index bytes, little-endian, of `size` bytes each: 2 when every index fits below 65,535
+/// (the primitive-restart value WebGL 2 reserves), else 4; half the bytes on most levels.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Indices {
+    pub bytes: Vec<u8>,
+    pub size: usize,
+}
+
+impl Indices {
+    fn of(all: &[u32]) -> Indices {
+        let size = if all.iter().all(|&i| i < u16::MAX as u32) {
+            2
+        } else {
+            4
+        };
+        let mut bytes = Vec::with_capacity(all.len() * size);
+        for &i in all {
+            match size {
+                2 => bytes.extend_from_slice(&(i as u16).to_le_bytes()),
+                _ => bytes.extend_from_slice(&i.to_le_bytes()),
+            }
+        }
+        Indices { bytes, size }
+    }
 }
 
 /// What the `cells` and `portals` members are serialized from.
@@ -513,7 +539,7 @@ fn build_with_hash<'a>(
         root: Value::Object(root),
         nodes,
         blob: None,
-        indices: (!split.primitives.is_empty()).then_some(split.indices),
+        indices: (!split.primitives.is_empty()).then(|| Indices::of(&split.indices)),
         lazy: Lazy {
             level: Some((cells, tagging, portals)),
             cell_nodes,
@@ -529,7 +555,7 @@ fn build_with_hash<'a>(
 #[derive(Default)]
 struct Split {
     primitives: Vec<Value>,
-    indices: Vec<u8>,
+    indices: Vec<u32>,
     cells: Vec<Vec<[usize; 3]>>,
 }
 
@@ -556,11 +582,7 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
             out.primitives.push(
                 json!({"node": node, "primitive": p.primitive, "first": first, "count": count}),
             );
-            for t in &p.triangles {
-                for i in t {
-                    out.indices.extend_from_slice(&i.to_le_bytes());
-                }
-            }
+            out.indices.extend(p.triangles.iter().flatten());
             for r in &p.runs {
                 let (at, n) = (first + 3 * r.first as usize, 3 * r.count as usize);
                 for &c in &r.cells {

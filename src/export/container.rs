@@ -8,6 +8,7 @@ use std::path::{Component, Path, PathBuf};
 use base64::Engine;
 use serde_json::{json, Map, Value};
 
+use super::annotation::Indices;
 use crate::format::NAME;
 
 /// A GLB container from a JSON document and a BIN chunk.
@@ -100,12 +101,13 @@ pub(crate) fn blob_view(at: (usize, usize), len: usize) -> Value {
 pub(crate) struct Appended {
     pub bytes: Vec<u8>,
     pub pvs: Option<(usize, usize)>,
-    pub indices: Option<(usize, usize)>,
+    /// Offset, length and index size.
+    pub indices: Option<((usize, usize), usize)>,
 }
 
 impl Appended {
     /// `None` when there is nothing to append.
-    pub(crate) fn of(pvs: Option<&[u8]>, indices: Option<&[u8]>) -> Option<Appended> {
+    pub(crate) fn of(pvs: Option<&[u8]>, indices: Option<&Indices>) -> Option<Appended> {
         if pvs.is_none() && indices.is_none() {
             return None;
         }
@@ -118,11 +120,11 @@ impl Appended {
                 (at, b.len())
             })
         };
-        let (pvs, indices) = (part(pvs), part(indices));
+        let (pvs, at) = (part(pvs), part(indices.map(|i| &i.bytes[..])));
         Some(Appended {
             bytes,
             pvs,
-            indices,
+            indices: at.zip(indices.map(|i| i.size)),
         })
     }
 
@@ -131,7 +133,7 @@ impl Appended {
     pub(crate) fn views(&self, at: (usize, usize)) -> Vec<Value> {
         let view = |(off, len): (usize, usize)| blob_view((at.0, at.1 + off), len);
         let mut out: Vec<Value> = self.pvs.map(view).into_iter().collect();
-        if let Some(p) = self.indices {
+        if let Some((p, _)) = self.indices {
             let mut v = view(p);
             v["target"] = json!(34963);
             out.push(v);
@@ -141,8 +143,9 @@ impl Appended {
 
     /// The indices' accessor, over buffer view `view`.
     pub(crate) fn accessor(&self, view: usize) -> Option<Value> {
-        self.indices.map(|(_, len)| {
-            json!({"bufferView": view, "componentType": 5125, "count": len / 4, "type": "SCALAR"})
+        self.indices.map(|((_, len), size)| {
+            let kind = if size == 2 { 5123 } else { 5125 };
+            json!({"bufferView": view, "componentType": kind, "count": len / size, "type": "SCALAR"})
         })
     }
 

@@ -196,9 +196,16 @@ pub(crate) fn from_scene(scene: &Scene, format: OutFormat) -> (Value, Option<Vec
     let materials: Vec<Value> = scene
         .materials
         .iter()
-        .map(|m| match &m.name {
-            Some(n) => json!({"name": n}),
-            None => json!({}),
+        .map(|m| {
+            let mut v = match &m.name {
+                Some(n) => json!({"name": n}),
+                None => json!({}),
+            };
+            // A face the source draws from both sides (an OBJ's, a liquid's) stays so.
+            if m.double_sided {
+                v["doubleSided"] = json!(true);
+            }
+            v
         })
         .collect();
     let mut doc = json!({

@@ -32,7 +32,7 @@ pub(crate) fn write_whole(
         None => from_scene(&super::bake::world_space(scene), format),
     };
     annotate(&mut doc, ann);
-    if let Some(app) = Appended::of(ann.blob.as_deref(), ann.indices.as_deref()) {
+    if let Some(app) = Appended::of(ann.blob.as_deref(), ann.indices.as_ref()) {
         let at = attach(&mut doc, &mut bin, format, &app.bytes);
         let views: Vec<usize> = (app.views(at).into_iter())
             .map(|v| push(&mut doc, "bufferViews", v))

@@ -86,7 +86,7 @@ pub(crate) fn write<'s>(
     let mut bin = container_change(&mut root, src, format, out_dir, &base, bin_len)?;
     let per_node: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
     let annotated = add_annotation(&mut root, &per_node)?;
-    let appended = out::Appended::of(blob.as_deref(), indices.as_deref());
+    let appended = out::Appended::of(blob.as_deref(), indices.as_ref());
     if let Some(app) = &appended {
         bin |= format == OutFormat::Glb;
         let at = attach_blob(&mut root, &app.bytes, format, &mut bin_len)?;

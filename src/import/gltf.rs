@@ -144,6 +144,7 @@ pub fn import(
         .map(|(i, m)| Material {
             name: m.name.clone(),
             extras: m.extras.clone(),
+            double_sided: m.double_sided,
             source: SourceRef::pointer(format!("/materials/{i}")),
         })
         .collect();

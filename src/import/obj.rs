@@ -520,6 +520,7 @@ impl<'a> Reader<'a> {
                 self.scene.materials.push(Material {
                     name: Some(name.clone()),
                     extras: None,
+                    double_sided: true,
                     source: SourceRef::line(line),
                 });
                 self.materials_by_name.insert(name, id);

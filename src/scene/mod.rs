@@ -236,6 +236,10 @@ pub struct Material {
     pub name: Option<String>,
     /// The material's extras, as parsed JSON.
     pub extras: Option<serde_json::Value>,
+    /// Whether both faces of its triangles are drawn. `false` only where the format says the
+    /// back is culled (glTF's `doubleSided`, a brush face but a liquid's): which cells draw a
+    /// triangle depends on it (`cells::draws`).
+    pub double_sided: bool,
     /// Where the material is in the file.
     pub source: SourceRef,
 }

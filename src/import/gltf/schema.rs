@@ -116,6 +116,7 @@ pub(crate) struct Buffer {
 pub struct Material {
     pub name: Option<String>,
     pub extras: Option<Value>,
+    pub double_sided: bool,
 }
 
 /// The typed view of the document the importer works from.

@@ -332,6 +332,8 @@ impl<'a> Builder<'a> {
         self.scene.materials.push(Material {
             name: Some(texture.to_string()),
             extras: None,
+            // A liquid's surface is seen from under it too; every other face from its front.
+            double_sided: texture.starts_with('*'),
             source: SourceRef::default(),
         });
         let m = self.scene.materials.len() - 1;

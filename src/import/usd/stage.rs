@@ -103,6 +103,7 @@ pub fn build(path: &Path, raw: RawStage) -> Imported {
         scene.materials.push(Material {
             name: Some(name.clone()),
             extras: None,
+            double_sided: true,
             source: prim_ref(p),
         });
     }
