@@ -16,7 +16,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use glam::{DMat4, DQuat, DVec3};
-use portcullis::runtime::{Doors, DrawList, Level, Trace, TraceOptions, View};
+use portcullis::runtime::{Doors, DrawList, Level, Meshes, Trace, TraceOptions, View, ViewCost};
 use serde_json::Value;
 
 /// A triangle of the file: node, primitive, its three indices into the primitive's vertices.
@@ -329,15 +329,13 @@ struct Judged {
     /// Submitted triangles lying in cells, none of them visible.
     elsewhere: usize,
     triangles: usize,
+    /// The runtime's own pricing of the same views (`Level::cost`).
+    runtime: ViewCost,
 }
 
 fn convert(input: &Path, preset: Option<&str>, out: &Path) {
     let mut cmd = assert_cmd::Command::cargo_bin("portcullis").unwrap();
-    cmd.arg("convert")
-        .arg(input)
-        .arg("-o")
-        .arg(out)
-        .arg("--draw-lists");
+    cmd.arg("convert").arg(input).arg("-o").arg(out);
     if let Some(p) = preset {
         cmd.args(["--tags", p]);
     }
@@ -414,6 +412,7 @@ fn judge(path: &Path) -> Judged {
         })
         .collect();
     let doors = Doors::new(&level);
+    let (meshes, mut scratch) = (Meshes::load(path).unwrap(), DrawList::default());
     let (opts, mut trace, mut list) = (
         TraceOptions::default(),
         Trace::default(),
@@ -450,6 +449,7 @@ fn judge(path: &Path) -> Judged {
             let in_view = |n: usize| plain.boxes.get(&n).is_some_and(|&b| box_in(&fr, b));
             let visible: Vec<usize> = trace.visible().iter().filter_map(|v| v.cell).collect();
             let seen: HashSet<usize> = visible.iter().copied().collect();
+            j.runtime += level.cost(&meshes, &view, &trace, &mut scratch);
             level.draw_list(visible.iter().copied(), &mut list);
             if seen.len() == 2 {
                 j.two_cells += 1;
@@ -469,9 +469,9 @@ fn judge(path: &Path) -> Judged {
             let mut drawn: HashSet<TriId> = HashSet::new();
             for &n in &list.nodes {
                 if in_view(n) {
-                    j.calls += 1;
                     for &(nn, k) in keys.iter().copied() {
                         if nn == n {
+                            j.calls += 1;
                             drawn.extend(plain.prims[&(n, k)].tris.iter().map(|t| (n, k, *t)));
                             j.submitted += plain.prims[&(n, k)].tris.len();
                         }
@@ -564,6 +564,24 @@ fn judged(name: &str, input: &Path, preset: Option<&str>) -> Judged {
         j.missed,
         j.no_cell as f64 / j.views as f64,
         j.elsewhere as f64 / j.views as f64,
+    );
+    // The runtime prices the same views from the file's JSON alone (accessor bounds and
+    // counts, which the validator holds to the data): the same figures as read here.
+    let r = j.runtime;
+    assert_eq!(
+        (
+            r.frustum.triangles,
+            r.nodes.triangles,
+            r.lists.triangles,
+            r.lists.calls
+        ),
+        (
+            j.frustum as u64,
+            j.whole as u64,
+            j.submitted as u64,
+            j.calls as u64
+        ),
+        "{name}: Level::cost against the test's own count (frustum, nodes, lists, list calls)"
     );
     assert!(j.views > 0 && j.inside > 0, "{name}: nothing judged");
     assert_eq!(j.missed, 0, "{name}: triangles in visible cells left out");

@@ -1149,6 +1149,66 @@ fn cull_reports_each_camera_as_json_and_as_text() {
     );
 }
 
+/// `cull --stats` prices each view three ways; on pillar_room (Floor, Walls and Ceiling one
+/// node each, in all four cells) the draw lists submit less than the whole nodes, which
+/// submit no more than frustum culling alone.
+#[test]
+fn cull_stats_price_each_view_by_draw_lists_whole_nodes_and_frustum() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = convert(&common::sample("pillar_room.gltf"), None, dir.path());
+    let level = Level::load(&glb).unwrap();
+    let cams = dir.path().join("cams.jsonl");
+    let mut lines = String::new();
+    for c in 0..level.cells() {
+        let (lo, hi) = level.bounds(c);
+        let eye: Vec<f64> = (0..3).map(|i| (lo[i] + hi[i]) / 2.0).collect();
+        for look in ["[1,0,0]", "[0,0,1]", "[-1,0,0]", "[0,0,-1]"] {
+            lines += &format!("{{\"eye\":{eye:?},\"look\":{look},\"fov_y\":75}}\n");
+        }
+    }
+    std::fs::write(&cams, lines).unwrap();
+    let cull = |extra: &[&str]| {
+        let mut c = cull_cmd();
+        c.arg("cull")
+            .arg(&glb)
+            .arg("--cameras")
+            .arg(&cams)
+            .arg("--stats")
+            .args(extra);
+        common::succeeds(&mut c).stdout
+    };
+    let r: Value = serde_json::from_slice(&cull(&["--format", "json"])).unwrap();
+    let r = r.as_array().unwrap();
+    assert_eq!(r.len(), 4 * level.cells());
+    let tri = |v: &Value, k: &str| v["submitted"][k]["triangles"].as_u64().unwrap();
+    let mut fewer = 0;
+    for v in r {
+        let (lists, nodes, frustum) = (tri(v, "lists"), tri(v, "nodes"), tri(v, "frustum"));
+        assert!(
+            0 < lists && lists <= nodes && nodes <= frustum && frustum <= 64,
+            "{v}"
+        );
+        fewer += usize::from(lists < nodes);
+        let own: u64 = (v["visible"].as_array().unwrap().iter())
+            .map(|c| c["triangles"].as_u64().unwrap())
+            .sum();
+        assert!(
+            own >= lists,
+            "the visible cells' own triangles hold what is drawn: {v}"
+        );
+    }
+    assert!(
+        fewer * 2 >= r.len(),
+        "draw lists drew less in only {fewer} views"
+    );
+    let text = String::from_utf8(cull(&[])).unwrap();
+    assert!(text.contains("  submitted: draw lists "), "{text}");
+    assert!(
+        text.contains(&format!("{} views of a level of 64 triangles", r.len())),
+        "{text}"
+    );
+}
+
 #[test]
 fn cull_refuses_bad_input_with_what_where_and_how() {
     let dir = tempfile::tempdir().unwrap();

@@ -42,12 +42,12 @@ pub struct ConvertArgs {
     #[arg(long)]
     pub in_place: bool,
 
-    /// Write each cell's draw list: the triangles of every node that reaches into several
-    /// cells, copied into one index buffer sorted by cell, and each cell's ranges of it
-    /// (the extension's `split` and `cells[].draws`), so an engine draws only what its
-    /// visible cells hold. Not yet for a file annotated before (`--in-place` on its output).
+    /// Leave out the cells' draw lists: by default the triangles of every node that reaches
+    /// into several cells are copied into one index buffer sorted by cell, and each cell names
+    /// its ranges of it (the extension's `split` and `cells[].draws`), so an engine draws
+    /// only what its visible cells hold. Without them a cell names whole nodes only.
     #[arg(long)]
-    pub draw_lists: bool,
+    pub no_draw_lists: bool,
 
     /// Also write a debug glTF (.glb) of the cells (translucent, per room) and portals
     /// (coloured by kind and direction), for any glTF viewer. One input only.
@@ -180,7 +180,7 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
             out.display()
         )
     } else {
-        let to = output_of(&out, target).with_draw_lists(a.draw_lists);
+        let to = output_of(&out, target).with_draw_lists(!a.no_draw_lists);
         output::level(&level, stored, &to)?;
         if let Some((path, text)) = &prt {
             output::bytes(&Output::file(path, Target::Prt), text.as_bytes())?;

@@ -10,7 +10,9 @@ use serde_json::{json, Value};
 
 use portcullis::diag::{Code, Diagnostic, Location as At};
 use portcullis::report::{human, style::Style};
-use portcullis::runtime::{Doors, Level, Location, Trace, TraceOptions, View};
+use portcullis::runtime::{
+    Doors, DrawList, Level, Location, Meshes, Trace, TraceOptions, View, ViewCost,
+};
 
 /// How `cull` writes its answers, each as soon as its camera is traced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -64,6 +66,13 @@ pub struct CullArgs {
     /// Walk every portal without the stored PVS as a prefilter (for comparing).
     #[arg(long)]
     pub no_pvs: bool,
+
+    /// Also price each view as an engine would draw it: triangles and draw calls submitted
+    /// by the visible cells' draw lists, by their nodes drawn whole, and by frustum culling
+    /// alone (each node's box culled against the view in all three), and per visible cell
+    /// the triangles of its draw list; a summary per view at the end (human format).
+    #[arg(long)]
+    pub stats: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -228,8 +237,25 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
         Ok(l) => l,
         Err(d) => return fail(d, style),
     };
+    let meshes = match a.stats.then(|| Meshes::load(&a.level)).transpose() {
+        Ok(m) => m,
+        Err(e) => {
+            let d = Diagnostic::new(
+                Code::CULL_NOT_CONVERTED,
+                format!("the level's meshes: {}", e.kind),
+                At::file(&e.path),
+            );
+            return fail(d.hint(e.hint), style);
+        }
+    };
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    match stream(a, &level, &doors, &opts, lines, &mut out) {
+    let scene = Scene {
+        level: &level,
+        doors: &doors,
+        opts: &opts,
+        meshes: meshes.as_ref(),
+    };
+    match stream(a, &scene, lines, &mut out) {
         Ok(Ok(())) => 0,
         Ok(Err(d)) => {
             let _ = out.flush();
@@ -254,13 +280,19 @@ pub fn run(a: &CullArgs, style: &Style) -> i32 {
 /// checked first).
 fn stream(
     a: &CullArgs,
-    level: &Level,
-    doors: &Doors,
-    opts: &TraceOptions,
+    scene: &Scene,
     lines: Box<dyn BufRead>,
     out: &mut dyn Write,
 ) -> std::io::Result<Result<(), Diagnostic>> {
+    let Scene {
+        level,
+        doors,
+        opts,
+        meshes,
+    } = *scene;
     let mut trace = Trace::default();
+    let mut list = DrawList::default();
+    let mut total = ViewCost::default();
     let mut n = 0;
     if a.format == CullFormat::Json {
         out.write_all(b"[")?;
@@ -276,7 +308,17 @@ fn stream(
             Err(d) => return Ok(Err(d)),
         };
         level.trace(&view, doors, opts, &mut trace);
-        let r = report(&trace);
+        let mut r = report(&trace);
+        if let Some(m) = meshes {
+            let cost = level.cost(m, &view, &trace, &mut list);
+            total += cost;
+            r["submitted"] = json!(cost);
+            for v in r["visible"].as_array_mut().into_iter().flatten() {
+                if let Some(c) = v["cell"].as_u64() {
+                    v["triangles"] = json!(level.cell_cost(m, c as usize, &mut list).triangles);
+                }
+            }
+        }
         n += 1;
         match a.format {
             // As serde_json's pretty array: each element indented by two spaces.
@@ -304,8 +346,46 @@ fn stream(
     if a.format == CullFormat::Json {
         out.write_all(if n == 0 { b"]\n" } else { b"\n]\n" })?;
     }
+    if let (Some(m), CullFormat::Human, true) = (meshes, a.format, n > 0) {
+        summary(out, m, &total, n)?;
+    }
     out.flush()?;
     Ok(Ok(()))
+}
+
+/// What every camera is traced against.
+#[derive(Clone, Copy)]
+struct Scene<'a> {
+    level: &'a Level,
+    doors: &'a Doors,
+    opts: &'a TraceOptions,
+    /// With `--stats`.
+    meshes: Option<&'a Meshes>,
+}
+
+/// `--stats`' last lines: the mean per view of each way of drawing.
+fn summary(out: &mut dyn Write, m: &Meshes, t: &ViewCost, views: usize) -> std::io::Result<()> {
+    let all = m.triangles().max(1) as f64;
+    let v = views as f64;
+    writeln!(
+        out,
+        "{views} views of a level of {} triangles; submitted per view:",
+        m.triangles()
+    )?;
+    for (what, s) in [
+        ("draw lists", t.lists),
+        ("whole nodes", t.nodes),
+        ("frustum only", t.frustum),
+    ] {
+        writeln!(
+            out,
+            "  {what:<12}  {:>10.1} triangles ({:.2}%)  {:>8.1} draw calls",
+            s.triangles as f64 / v,
+            100.0 * s.triangles as f64 / v / all,
+            s.calls as f64 / v
+        )?;
+    }
+    Ok(())
 }
 
 /// One camera's result as `cull --format json` prints it.
@@ -372,6 +452,17 @@ fn human(out: &mut dyn Write, level: &Level, number: usize, r: &Value) -> std::i
             visible.len(),
             r["stats"]["portals_tested"]
         )?;
+        if let Some(s) = r.get("submitted") {
+            let part =
+                |k: &str| format!("{} triangles in {} calls", s[k]["triangles"], s[k]["calls"]);
+            writeln!(
+                out,
+                "  submitted: draw lists {}; whole nodes {}; frustum only {}",
+                part("lists"),
+                part("nodes"),
+                part("frustum")
+            )?;
+        }
         for v in visible {
             let rect: Vec<String> = v["rect"]
                 .as_array()
@@ -393,6 +484,9 @@ fn human(out: &mut dyn Write, level: &Level, number: usize, r: &Value) -> std::i
             );
             if !via.is_empty() {
                 line += &format!("  via {}", via.join(" "));
+            }
+            if let Some(t) = v.get("triangles") {
+                line += &format!("  {t} triangles");
             }
             if v.get("transform").is_some() {
                 line += if v["mirrored"] == json!(true) {

@@ -386,7 +386,7 @@ impl<I: Iterator<Item = T>, T: Serialize> Serialize for Seq<I> {
     }
 }
 
-/// Builds the extension. `node_index` maps a scene node to its index in the written glTF.
+/// Builds the extension, with the cells' draw lists. `node_index` maps a scene node to its index in the written glTF.
 pub fn build<'a>(
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
@@ -396,7 +396,7 @@ pub fn build<'a>(
     // takes on a big level: it runs alongside (or here, if no thread can be had).
     std::thread::scope(|s| {
         let hashing = std::thread::Builder::new().spawn_scoped(s, || input_hash(scene, tagging));
-        let mut ann = build_with_hash(level, node_index, false);
+        let mut ann = build_with_hash(level, node_index, true);
         let hash = match hashing.map(|h| h.join()) {
             Ok(Ok(h)) => h,
             _ => input_hash(scene, tagging),
@@ -406,19 +406,6 @@ pub fn build<'a>(
         }
         ann
     })
-}
-
-/// [`build`] with the cells' draw lists, its input hash a placeholder (for the writers' tests).
-#[cfg(test)]
-pub(crate) fn build_drawn<'a>(
-    level: &'a Level,
-    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
-) -> Annotation<'a> {
-    let mut ann = build_with_hash(level, node_index, true);
-    if let Some(root) = ann.root.as_object_mut() {
-        root.insert("inputHash".into(), json!("xxh3v2:0000000000000000"));
-    }
-    ann
 }
 
 /// [`build`] with the input hash still to come from `hash` (a thread computing it while the

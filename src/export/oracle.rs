@@ -145,6 +145,13 @@ fn from_gltf(
     out_dir: &Path,
 ) -> std::io::Result<(Value, Option<Vec<u8>>)> {
     let mut doc = src.document()?;
+    if let (Some(e), Some(o)) = (src.earlier, doc.as_object_mut()) {
+        for key in ["bufferViews", "accessors", "buffers"] {
+            if o.get_mut(key).is_some_and(|v| e.drop_from(key, v)) {
+                o.shift_remove(key);
+            }
+        }
+    }
     if let Some(images) = doc.get_mut("images").and_then(Value::as_array_mut) {
         for v in images {
             rebase_item(v, &src.base_dir, out_dir);

@@ -39,7 +39,8 @@ pub struct Output<'a> {
     /// Where they go.
     pub to: Destination,
     /// Whether a glTF output carries each cell's draw list of the nodes that reach into
-    /// several cells (the extension's `split` and `cells[].draws`; `convert --draw-lists`).
+    /// several cells (the extension's `split` and `cells[].draws`; off with `convert
+    /// --no-draw-lists`).
     pub draw_lists: bool,
 }
 
@@ -50,7 +51,7 @@ impl<'a> Output<'a> {
             path,
             target,
             to: Destination::File,
-            draw_lists: false,
+            draw_lists: true,
         }
     }
 
@@ -68,7 +69,7 @@ impl<'a> Output<'a> {
             path: Path::new("-"),
             target,
             to: Destination::Stdout,
-            draw_lists: false,
+            draw_lists: true,
         }
     }
 

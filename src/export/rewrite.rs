@@ -82,6 +82,13 @@ pub(crate) fn write<'s>(
             .collect(),
     );
 
+    if let Some(e) = src.earlier {
+        for key in ["bufferViews", "accessors", "buffers"] {
+            if root.parsed(key)?.is_some_and(|v| e.drop_from(key, v)) {
+                root.remove(key);
+            }
+        }
+    }
     let (base, mut bin_len) = out::glb_layout(&lens);
     let mut bin = container_change(&mut root, src, format, out_dir, &base, bin_len)?;
     let per_node: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
@@ -154,6 +161,10 @@ fn container_change<'a>(
         }
         OutFormat::Glb => {
             root.stream("bufferViews", Edit::Views(base));
+            // Parsed when an earlier annotation's views were dropped from them.
+            if let Some(views) = root.parsed("bufferViews")?.and_then(Value::as_array_mut) {
+                views.iter_mut().for_each(|v| out::rebase_view(v, base));
+            }
             if base.is_empty() {
                 root.swap_remove("buffers");
                 return Ok(false);
@@ -374,6 +385,13 @@ impl<'a> Root<'a> {
         match self.find(key) {
             Some(i) => self.0[i].1 = slot,
             None => self.0.push((key.to_string(), slot)),
+        }
+    }
+
+    /// `map.shift_remove(key)`: the members after it keep their order.
+    fn remove(&mut self, key: &str) {
+        if let Some(i) = self.find(key) {
+            self.0.remove(i);
         }
     }
 
@@ -785,14 +803,30 @@ mod tests {
             let what = f.display().to_string();
             assert_same(scene, &with_pvs(ann_clone(&ann)), &what);
             assert_same(scene, &ann, &what);
-            let drawn =
-                extension::annotation::build_drawn(&level, &|n| gltf_out::node_index(scene, n));
-            assert_same(
-                scene,
-                &with_pvs(ann_clone(&drawn)),
-                &format!("{what}, draw lists"),
-            );
-            assert_same(scene, &drawn, &format!("{what}, draw lists"));
+            // Written and read again: the earlier annotation's tail is dropped the same way.
+            for format in FORMATS {
+                let dir = tempfile::tempdir().unwrap();
+                let out = dir.path().join(match format {
+                    OutFormat::Glb => "level.glb",
+                    OutFormat::Gltf => "level.gltf",
+                });
+                let ann = with_pvs(ann_clone(&ann));
+                let bytes =
+                    crate::export::oracle::write_whole(scene, &ann, &out, dir.path(), format);
+                std::fs::write(&out, bytes.unwrap()).unwrap();
+                let again = crate::pipeline::load(&out, &Default::default()).unwrap();
+                let src = again.scene().gltf.as_ref().unwrap();
+                assert!(
+                    src.earlier.is_some(),
+                    "{what} ({format:?}): no earlier tail found"
+                );
+                let ann = extension::build(&again, &|n| gltf_out::node_index(again.scene(), n));
+                assert_same(
+                    again.scene(),
+                    &with_pvs(ann),
+                    &format!("{what}, written again"),
+                );
+            }
         }
     }
 
@@ -816,6 +850,7 @@ mod tests {
             base_dir: PathBuf::from("/nonexistent/in"),
             bin_file: None,
             members_at: None,
+            earlier: None,
         });
         scene
     }

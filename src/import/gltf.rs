@@ -26,6 +26,7 @@ use crate::scene::{json_text, Format, GltfSource, Material, Scene, SourceRef, Te
 
 mod accessor;
 mod buffers;
+mod earlier;
 mod graph;
 mod mesh;
 mod schema;
@@ -162,6 +163,11 @@ pub fn import(
         )?;
         meshes.finish(tally, &mut diagnostics);
     }
+    let (mut buffers, mut bin_file) = (buffers, bin_file);
+    let earlier = earlier::of(&doc, &buffers.iter().map(Vec::len).collect::<Vec<_>>());
+    if let Some(e) = &earlier {
+        e.drop_bytes(&mut buffers, &mut bin_file);
+    }
     scene.gltf = Some(GltfSource {
         json: text,
         json_file: text_in_file,
@@ -170,6 +176,7 @@ pub fn import(
         base_dir: base_dir.to_path_buf(),
         bin_file,
         members_at: Some(members_at),
+        earlier,
     });
     Ok(Imported { scene, diagnostics })
 }

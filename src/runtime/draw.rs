@@ -8,6 +8,11 @@ use crate::format::Annotated;
 /// The draw data of a level, as its extension has it.
 #[derive(Default)]
 pub(super) struct Draws {
+    /// Per cell, its `nodes`.
+    listed: Vec<Vec<u32>>,
+    /// Every node some cell names, ascending: the level's geometry (not its portals' or
+    /// bounds' meshes).
+    named: Vec<u32>,
     /// Per cell, its `nodes` that are not split, ascending.
     whole: Vec<Vec<u32>>,
     /// Per cell, its ranges (`[primitive, first, count]`).
@@ -19,6 +24,16 @@ pub(super) struct Draws {
 }
 
 impl Draws {
+    /// Every node some cell names, ascending.
+    pub(super) fn named(&self) -> &[u32] {
+        &self.named
+    }
+
+    /// Cell `c`'s `nodes` as the file lists them (empty for a cell out of range).
+    pub(super) fn listed(&self, c: usize) -> &[u32] {
+        self.listed.get(c).map_or(&[], Vec::as_slice)
+    }
+
     pub(super) fn read(a: &Annotated) -> Result<Draws, LevelError> {
         let split = a.split.as_ref();
         let prims = split.map_or(&[][..], |s| &s.primitives[..]);
@@ -37,6 +52,8 @@ impl Draws {
                 .filter(|n| split_nodes.binary_search(n).is_err())
                 .map(|&n| n as u32);
             out.whole.push(whole.collect());
+            out.listed
+                .push(cell.nodes.iter().map(|&n| n as u32).collect());
             let mut ranges = Vec::with_capacity(cell.draws.len());
             for (i, &[k, first, count]) in cell.draws.iter().enumerate() {
                 let bad = LevelError::DrawOutOfRange {
@@ -53,6 +70,9 @@ impl Draws {
             }
             out.ranges.push(ranges);
         }
+        out.named = out.listed.iter().flatten().copied().collect();
+        out.named.sort_unstable();
+        out.named.dedup();
         Ok(out)
     }
 }

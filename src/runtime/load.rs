@@ -69,7 +69,7 @@ pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
 }
 
 /// The JSON text and the BIN chunk of a .glb, or the whole text of a .gltf.
-fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), LevelError> {
+pub(super) fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), LevelError> {
     use crate::format::glb;
     if !glb::is_glb(bytes) {
         return Ok((bytes, None));

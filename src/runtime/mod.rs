@@ -47,6 +47,7 @@
 //! level moved with the camera.
 
 mod clip;
+mod cost;
 mod draw;
 mod error;
 mod load;
@@ -58,6 +59,7 @@ use std::path::Path;
 
 use glam::{DMat4, DVec3};
 
+pub use cost::{Meshes, Submitted, ViewCost};
 pub use draw::{DrawList, DrawRange};
 pub use error::{LevelError, LoadError};
 pub use locate::Location;

@@ -111,6 +111,35 @@ impl View {
         self.near * (1.0 + self.tan_x * self.tan_x + self.tan_y * self.tan_y).sqrt()
     }
 
+    /// Whether any of the box `min..max` may lie in the view's frustum (beyond the near
+    /// plane, within the four sides): false only when one plane has all eight corners
+    /// outside. An unbounded box is always seen.
+    pub fn sees_box(&self, min: DVec3, max: DVec3) -> bool {
+        if !(min.is_finite() && max.is_finite()) {
+            return true;
+        }
+        // Outward normals through the eye of the four sides, and the near plane's.
+        let sides = [
+            self.right - self.forward * self.tan_x,
+            -self.right - self.forward * self.tan_x,
+            self.up - self.forward * self.tan_y,
+            -self.up - self.forward * self.tan_y,
+        ];
+        let nearest = |n: DVec3| {
+            // The corner furthest inside (least along n).
+            DVec3::new(
+                if n.x > 0.0 { min.x } else { max.x },
+                if n.y > 0.0 { min.y } else { max.y },
+                if n.z > 0.0 { min.z } else { max.z },
+            )
+        };
+        if sides.iter().any(|&n| n.dot(nearest(n) - self.eye) > 0.0) {
+            return false;
+        }
+        let n = -self.forward;
+        n.dot(nearest(n) - self.eye) <= -self.near
+    }
+
     /// The near plane, inside beyond it.
     fn near_plane(&self) -> Half {
         Half {

@@ -267,6 +267,66 @@ pub struct GltfSource {
     /// The root members as [`GltfSource::members`] gives them, as byte ranges of `json`,
     /// when the importer found them (so the export does not scan the text again).
     pub members_at: Option<Vec<(String, std::ops::Range<usize>)>>,
+    /// What an earlier annotation by portcullis appended, left out of `buffers` already and
+    /// dropped from the document when it is written again.
+    pub(crate) earlier: Option<Earlier>,
+}
+
+/// The tail an earlier annotation appended (see `import::gltf::earlier`): buffer views and
+/// accessors from an index on, and their bytes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Earlier {
+    /// The first of the annotation's buffer views; all after it are its too.
+    pub views: usize,
+    /// The first of its accessors (the document's length when it has none).
+    pub accessors: usize,
+    /// The buffer holding its bytes and where they start in it, or `None` when the buffer
+    /// holds nothing else (and is the last).
+    pub cut: (usize, Option<usize>),
+}
+
+impl Earlier {
+    /// Drops the tail from the root member `key` (`bufferViews`, `accessors` or `buffers`);
+    /// whether that left it an empty array, which glTF does not allow (the caller removes it).
+    pub(crate) fn drop_from(&self, key: &str, v: &mut serde_json::Value) -> bool {
+        let Some(a) = v.as_array_mut() else {
+            return false;
+        };
+        match key {
+            "bufferViews" => a.truncate(self.views),
+            "accessors" => a.truncate(self.accessors),
+            "buffers" => match self.cut {
+                (b, None) => a.truncate(b),
+                (b, Some(len)) => {
+                    if let Some(o) = a.get_mut(b).and_then(serde_json::Value::as_object_mut) {
+                        o.insert("byteLength".into(), len.into());
+                    }
+                }
+            },
+            _ => {}
+        }
+        a.is_empty()
+    }
+
+    /// Drops the tail's bytes from the buffers' data.
+    pub(crate) fn drop_bytes(&self, buffers: &mut Vec<Vec<u8>>, bin: &mut Option<BinInFile>) {
+        match self.cut {
+            (b, None) => {
+                buffers.truncate(b);
+                if b == 0 {
+                    *bin = None;
+                }
+            }
+            (b, Some(len)) => {
+                if let Some(data) = buffers.get_mut(b) {
+                    data.truncate(len);
+                }
+                if let Some(f) = bin.as_mut().filter(|_| b == 0) {
+                    f.len = f.len.min(len);
+                }
+            }
+        }
+    }
 }
 
 /// The JSON text of a glTF as it lies in the input file, and its hash: the importer lets the
@@ -355,6 +415,7 @@ impl GltfSource {
             base_dir: base_dir.to_path_buf(),
             bin_file: None,
             members_at: None,
+            earlier: None,
         }
     }
 

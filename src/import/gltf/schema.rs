@@ -125,6 +125,8 @@ pub struct Doc {
     pub scene: Option<u64>,
     /// The `tags` of a portcullis annotation in the root's extensions.
     pub stored_tags: Option<String>,
+    /// What that annotation appended: the PVS's buffer view, the split indices' accessor.
+    pub stored_appended: (Option<u64>, Option<u64>),
     pub scenes: Vec<SceneDef>,
     pub nodes: Vec<Node>,
     pub meshes: Vec<Mesh>,
@@ -195,9 +197,11 @@ impl Doc {
                 )
             },
         );
+        let stored = stored(root);
         Ok(Doc {
             scene,
-            stored_tags: stored_tags(root),
+            stored_tags: stored.0,
+            stored_appended: stored.1,
             scenes: scenes?,
             nodes: nodes?,
             meshes: meshes?,
@@ -209,9 +213,12 @@ impl Doc {
     }
 }
 
-/// The `tags` of the root's `PORTCULLIS_portals`, read past everything else in the extension
-/// without building it (a big level's annotation is most of its JSON).
-fn stored_tags(root: &Root) -> Option<String> {
+/// The `tags` of the root's `PORTCULLIS_portals`, and the buffer view of its `visibility` and
+/// the accessor of its `split` indices, read past everything else in the extension without
+/// building it (a big level's annotation is most of its JSON).
+type Stored = (Option<String>, (Option<u64>, Option<u64>));
+
+fn stored(root: &Root) -> Stored {
     #[derive(Deserialize)]
     struct Extensions {
         #[serde(rename = "PORTCULLIS_portals")]
@@ -220,9 +227,26 @@ fn stored_tags(root: &Root) -> Option<String> {
     #[derive(Deserialize)]
     struct Annotation {
         tags: Option<String>,
+        visibility: Option<Pointing>,
+        split: Option<Split>,
     }
-    let ext: Extensions = serde_json::from_str(root.get("extensions")?.get()).ok()?;
-    ext.portals?.tags
+    #[derive(Deserialize)]
+    struct Pointing {
+        #[serde(rename = "bufferView")]
+        buffer_view: Option<u64>,
+    }
+    #[derive(Deserialize)]
+    struct Split {
+        indices: Option<u64>,
+    }
+    let Some(ext) = root.get("extensions") else {
+        return Default::default();
+    };
+    let Ok(Extensions { portals: Some(a) }) = serde_json::from_str(ext.get()) else {
+        return Default::default();
+    };
+    let view = a.visibility.and_then(|v| v.buffer_view);
+    (a.tags, (view, a.split.and_then(|s| s.indices)))
 }
 
 /// Deserializes the top-level array `key` item by item so an error names the item.
