@@ -73,6 +73,9 @@ struct Row {
     peak_rss_bytes: Option<u64>,
     /// Peak memory once every PVS method ran too.
     peak_with_pvs_bytes: Option<u64>,
+    /// Views priced (cameras at cell centres, four looks each) and their sums.
+    views: usize,
+    draw: portcullis::runtime::ViewCost,
 }
 
 /// The process's peak resident memory (Linux `VmHWM`), if the platform says.
@@ -247,6 +250,7 @@ fn one(
     row.cpu = cpu;
     // The convert's peak (no PVS), then the PVS methods' on top of it.
     row.peak_rss_bytes = peak_rss();
+    (row.views, row.draw) = priced(&out)?;
     let graph = portcullis::vis::VisGraph::from_portal_set(
         level.cells.cells.len(),
         &level.portals,
@@ -264,6 +268,75 @@ fn one(
     drop(graph);
     row.peak_with_pvs_bytes = peak_rss();
     Ok(row)
+}
+
+/// At most this many cells' centres are cameras (evenly spread over the cell indices).
+const PRICED_CELLS: usize = 2500;
+
+/// What the written level costs to draw ([`portcullis::runtime::Level::cost`]) from cameras at
+/// cell centres (the centre of the cell's box), looking along ±x and ±z, fov 75°, 16:9: the
+/// views whose camera lies in a cell, and their sums.
+fn priced(out: &Path) -> Result<(usize, portcullis::runtime::ViewCost), String> {
+    use portcullis::runtime::{
+        Doors, DrawList, Level, Meshes, Trace, TraceOptions, View, ViewCost,
+    };
+    let level = Level::load(out).map_err(|e| e.to_string())?;
+    let meshes = Meshes::load(out).map_err(|e| e.to_string())?;
+    let doors = Doors::new(&level);
+    let (mut trace, mut list, mut sum, mut views) = (
+        Trace::default(),
+        DrawList::default(),
+        ViewCost::default(),
+        0,
+    );
+    let step = level.cells().div_ceil(PRICED_CELLS).max(1);
+    for c in (0..level.cells()).step_by(step) {
+        let (lo, hi) = level.bounds(c);
+        let eye = [0, 1, 2].map(|i| (lo[i] + hi[i]) / 2.0);
+        for look in [
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 0.0, -1.0],
+        ] {
+            let view = View::new(eye, look, [0.0, 1.0, 0.0], 75.0, 16.0 / 9.0, 0.05)
+                .map_err(|e| e.to_string())?;
+            level.trace(&view, &doors, &TraceOptions::default(), &mut trace);
+            if trace.location.cell().is_none() {
+                continue;
+            }
+            sum += level.cost(&meshes, &view, &trace, &mut list);
+            views += 1;
+        }
+    }
+    Ok((views, sum))
+}
+
+/// The draw table: per size, what a view submits by the draw lists, the visible cells' nodes
+/// drawn whole, and frustum culling alone.
+fn print_draw_table(rows: &[Row]) {
+    println!("\nTriangles and draw calls submitted per view (cameras at up to {PRICED_CELLS} cell centres, four looks each, fov 75°, 16:9; every node's box frustum-culled): the draw lists, the visible cells' nodes whole, frustum culling alone.\n");
+    println!("| rooms | triangles | views | draw lists | whole nodes | frustum only | whole / lists |\n|---|---|---|---|---|---|---|");
+    for r in rows {
+        let v = r.views.max(1) as f64;
+        let s = |x: portcullis::runtime::Submitted| {
+            format!(
+                "{:.1} tris, {:.1} calls",
+                x.triangles as f64 / v,
+                x.calls as f64 / v
+            )
+        };
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {:.2} |",
+            r.rooms,
+            r.triangles,
+            r.views,
+            s(r.draw.lists),
+            s(r.draw.nodes),
+            s(r.draw.frustum),
+            r.draw.nodes.triangles as f64 / r.draw.lists.triangles.max(1) as f64
+        );
+    }
 }
 
 /// Each time the fastest of two runs', each peak the lower.
@@ -413,6 +486,7 @@ fn run_in(a: &BenchArgs, dir: &Path) -> i32 {
         a.runs
     );
     print!("{}", table(&rows));
+    print_draw_table(&rows);
     if let Some(line) = one_room {
         println!("\n{line}");
     }

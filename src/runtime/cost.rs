@@ -34,7 +34,7 @@ pub struct Meshes {
 }
 
 /// What is submitted to draw.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, Deserialize)]
 pub struct Submitted {
     /// Triangles.
     pub triangles: u64,
@@ -50,7 +50,7 @@ impl std::ops::AddAssign for Submitted {
 }
 
 /// One view priced three ways (see the module).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, Deserialize)]
 pub struct ViewCost {
     /// Every node of the scene whose box is in view.
     pub frustum: Submitted,
