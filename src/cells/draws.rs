@@ -120,11 +120,11 @@ fn written(scene: &Scene, n: NodeId) -> Vec<Written> {
     out
 }
 
-/// Whether a triangle lies in a convex cell: whether the triangle with its edges moved
-/// [`INSET`] tolerances inward touches the cell grown by `eps`, so that a wall whose top edge
-/// meets the floor of the cell above (or whose side edge meets the room next door) is not the
-/// upper cell's; a triangle too thin to have such an inset, by whether it touches at all.
-fn lies_in(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
+/// The triangle a cell must touch (grown by `eps`) for `t` to lie in it: `t` with its edges
+/// moved [`INSET`] tolerances inward, so that a wall whose top edge meets the floor of the
+/// cell above (or whose side edge meets the room next door) is not the upper cell's; a
+/// triangle too thin to have such an inset, itself.
+fn inset(t: &[DVec3; 3], eps: f64) -> [DVec3; 3] {
     let (a, b, c) = (
         (t[1] - t[2]).length(),
         (t[2] - t[0]).length(),
@@ -135,11 +135,11 @@ fn lies_in(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
     let inradius = 2.0 * area / perimeter;
     let inset = INSET * eps;
     if inradius.is_nan() || inradius <= inset {
-        return touches(t, cell, eps);
+        return *t;
     }
     let centre = (t[0] * a + t[1] * b + t[2] * c) / perimeter;
     let k = (inradius - inset) / inradius;
-    touches(&t.map(|p| centre + (p - centre) * k), cell, eps)
+    t.map(|p| centre + (p - centre) * k)
 }
 
 /// Past how many cells near a node its triangles' cells are looked up in the grid rather
@@ -147,7 +147,7 @@ fn lies_in(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
 const NEAR_BY_GRID: usize = 32;
 
 /// How far inward, in tolerances, a triangle's edges move before it is judged against a cell
-/// ([`lies_in`]): past the tolerance a cell is grown by, and one more for the rounding of a
+/// ([`inset`]): past the tolerance a cell is grown by, and one more for the rounding of a
 /// point placed on an edge.
 const INSET: f64 = 2.0;
 
@@ -294,8 +294,9 @@ fn node(
             .then(|| (tri[1] - tri[0]).cross(tri[2] - tri[0]).try_normalize())
             .flatten();
         let b = Aabb::from_points(tri.iter());
+        let inner = inset(&tri, eps);
         let mut cs: Vec<u32> = (near_triangle(&b).into_iter())
-            .filter(|&c| lies_in(&tri, &set.cells[c].poly, eps))
+            .filter(|&c| touches(&inner, &set.cells[c].poly, eps))
             .filter(|&c| front.is_none_or(|f| !behind(&set.cells[c].poly, f, tri[0], eps)))
             .map(|c| c as u32)
             .collect();
