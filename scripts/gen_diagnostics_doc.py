@@ -27,6 +27,8 @@ COMMANDS = {
     "OUTPUT_FAILED": ["convert", "two_rooms.gltf", "-o", "/proc/out.glb"],
     "OUTPUT_WOULD_OVERWRITE_INPUT": ["convert", "two_rooms.gltf", "-o", "two_rooms.gltf"],
     "OUTPUT_FORMAT_UNKNOWN": ["convert", "two_rooms.gltf", "-o", "out.fbx"],
+    # A level written by `convert --split-by-cell` (pillar_split.glb, made before the command).
+    "CONVERT_SPLIT_INPUT": ["convert", "pillar_split.glb", "-o", "again.glb"],
 }
 # Portal files written into the command's folder as bad.prt (the .prt codes).
 PRT_TEXT = {
@@ -98,7 +100,7 @@ def example(code):
     if code in COMMANDS:
         with tempfile.TemporaryDirectory() as d:
             (Path(d) / "two_rooms.gltf").write_bytes((ROOT / "samples" / "two_rooms.gltf").read_bytes())
-            for name in ("teleporter.gltf", "stair_hall.gltf"):
+            for name in ("teleporter.gltf", "stair_hall.gltf", "pillar_room.gltf"):
                 (Path(d) / name).write_bytes((ROOT / "samples" / name).read_bytes())
             if code in PRT_TEXT:
                 (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
@@ -107,6 +109,9 @@ def example(code):
                                capture_output=True, check=True)
                 (Path(d) / "cams.jsonl").write_text(CAMERA + "\n")
                 (Path(d) / "bad.jsonl").write_text(CAMERA + '\n{"eye":[2,1.6],"look":[1,0,0]}\n')
+            if code == "CONVERT_SPLIT_INPUT":
+                subprocess.run([EXE, "convert", "pillar_room.gltf", "--split-by-cell", "-o", "pillar_split.glb"],
+                               cwd=d, capture_output=True, check=True)
             if code == "SIGHTLINES_THROUGH_CRACKS":
                 sys.path.insert(0, str(ROOT / "scripts"))
                 import make_broken

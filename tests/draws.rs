@@ -15,7 +15,8 @@ mod common;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
-use glam::{DMat4, DQuat, DVec3};
+use common::plain::{accessor, triangles};
+use glam::{DMat4, DVec3};
 use portcullis::runtime::{Doors, DrawList, Level, Meshes, Trace, TraceOptions, View, ViewCost};
 use serde_json::Value;
 
@@ -43,90 +44,18 @@ struct Plain {
     doc: Value,
 }
 
-fn accessor(doc: &Value, bin: &[u8], i: usize) -> Vec<Vec<f64>> {
-    let a = &doc["accessors"][i];
-    let count = a["count"].as_u64().unwrap() as usize;
-    let comps = match a["type"].as_str().unwrap() {
-        "SCALAR" => 1,
-        "VEC2" => 2,
-        "VEC3" => 3,
-        "VEC4" => 4,
-        t => panic!("accessor type {t}"),
-    };
-    let ct = a["componentType"].as_u64().unwrap();
-    let size = match ct {
-        5120 | 5121 => 1,
-        5122 | 5123 => 2,
-        5125 | 5126 => 4,
-        _ => panic!("component type {ct}"),
-    };
-    let v = &doc["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
-    assert_eq!(v["buffer"].as_u64().unwrap_or(0), 0, "one BIN buffer");
-    let base = v["byteOffset"].as_u64().unwrap_or(0) as usize
-        + a["byteOffset"].as_u64().unwrap_or(0) as usize;
-    let stride = v["byteStride"]
-        .as_u64()
-        .map_or(comps * size, |s| s as usize);
-    (0..count)
-        .map(|k| {
-            (0..comps)
-                .map(|c| {
-                    let o = base + k * stride + c * size;
-                    let b = &bin[o..o + size];
-                    match ct {
-                        5121 => b[0] as f64,
-                        5123 => u16::from_le_bytes([b[0], b[1]]) as f64,
-                        5125 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                        5126 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                        _ => panic!("component type {ct} for positions or indices"),
-                    }
-                })
-                .collect()
-        })
-        .collect()
-}
-
-fn local(n: &Value) -> DMat4 {
-    if let Some(m) = n["matrix"].as_array() {
-        let m: Vec<f64> = m.iter().map(|x| x.as_f64().unwrap()).collect();
-        return DMat4::from_cols_slice(&m);
-    }
-    let v = |k: &str, d: &[f64]| -> Vec<f64> {
-        n[k].as_array()
-            .map(|a| a.iter().map(|x| x.as_f64().unwrap()).collect())
-            .unwrap_or(d.to_vec())
-    };
-    let (t, r, s) = (
-        v("translation", &[0.0; 3]),
-        v("rotation", &[0.0, 0.0, 0.0, 1.0]),
-        v("scale", &[1.0; 3]),
-    );
-    DMat4::from_scale_rotation_translation(
-        DVec3::new(s[0], s[1], s[2]),
-        DQuat::from_xyzw(r[0], r[1], r[2], r[3]),
-        DVec3::new(t[0], t[1], t[2]),
-    )
-}
-
 fn read_plain(path: &Path) -> Plain {
     let (doc, bin) = common::read_gltf(&std::fs::read(path).unwrap());
     let bin = bin.unwrap_or_default();
-    let mut world = HashMap::new();
-    let mut stack: Vec<(usize, DMat4)> = doc["scenes"][doc["scene"].as_u64().unwrap_or(0) as usize]
-        ["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| (n.as_u64().unwrap() as usize, DMat4::IDENTITY))
+    let world: HashMap<usize, DMat4> = common::plain::world(&doc).into_iter().collect();
+    let parts: HashSet<usize> = (doc["nodes"].as_array().into_iter().flatten())
+        .flat_map(|n| {
+            let p = n["extensions"]["PORTCULLIS_portals"]["parts"].as_array();
+            p.into_iter()
+                .flatten()
+                .map(|i| i.as_u64().unwrap() as usize)
+        })
         .collect();
-    while let Some((n, up)) = stack.pop() {
-        let node = &doc["nodes"][n];
-        let m = up * local(node);
-        world.insert(n, m);
-        for c in node["children"].as_array().into_iter().flatten() {
-            stack.push((c.as_u64().unwrap() as usize, m));
-        }
-    }
     let mut prims = HashMap::new();
     let mut boxes = HashMap::new();
     for (&n, m) in &world {
@@ -134,8 +63,9 @@ fn read_plain(path: &Path) -> Plain {
             continue;
         };
         // What no cell renders (a portal's or a bound's mesh) an engine following the
-        // extension draws for no view: the node carries no `cell` or `cells`.
-        if doc["nodes"][n]["extensions"]["PORTCULLIS_portals"].is_null() {
+        // extension draws for no view: the node carries no `cell` or `cells`. A part of a
+        // node split by cell is judged all the same (one that lies in no cell has none).
+        if doc["nodes"][n]["extensions"]["PORTCULLIS_portals"].is_null() && !parts.contains(&n) {
             continue;
         }
         let mut b = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
@@ -154,34 +84,13 @@ fn read_plain(path: &Path) -> Plain {
             .into_iter()
             .map(|v| m.transform_point3(DVec3::new(v[0], v[1], v[2])))
             .collect();
-            let idx: Vec<u32> = match p["indices"].as_u64() {
-                Some(a) => accessor(&doc, &bin, a as usize)
-                    .into_iter()
-                    .map(|v| v[0] as u32)
-                    .collect(),
-                None => (0..pos.len() as u32).collect(),
-            };
-            let tris: Vec<[u32; 3]> = match mode {
-                4 => idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect(),
-                5 => (0..idx.len().saturating_sub(2))
-                    .map(|i| {
-                        if i % 2 == 0 {
-                            [idx[i], idx[i + 1], idx[i + 2]]
-                        } else {
-                            [idx[i + 1], idx[i], idx[i + 2]]
-                        }
-                    })
-                    .collect(),
-                6 => (1..idx.len().saturating_sub(1))
-                    .map(|i| [idx[i], idx[i + 1], idx[0]])
-                    .collect(),
-                _ => Vec::new(),
-            };
-            for t in &tris {
-                for &i in t {
-                    b.0 = b.0.min(pos[i as usize]);
-                    b.1 = b.1.max(pos[i as usize]);
-                }
+            let idx = common::plain::indices(&doc, &bin, p, pos.len());
+            let tris = triangles(mode, &idx);
+            // An engine bounds a mesh by its vertices, not by the triangles it indexes: a
+            // part of a node split by cell shares its node's vertices, and its box.
+            for &v in &pos {
+                b.0 = b.0.min(v);
+                b.1 = b.1.max(v);
             }
             let one_sided = !p["material"]
                 .as_u64()
@@ -334,8 +243,12 @@ struct Judged {
 }
 
 fn convert(input: &Path, preset: Option<&str>, out: &Path) {
+    convert_as(input, preset, out, &[]);
+}
+
+fn convert_as(input: &Path, preset: Option<&str>, out: &Path, args: &[&str]) {
     let mut cmd = assert_cmd::Command::cargo_bin("portcullis").unwrap();
-    cmd.arg("convert").arg(input).arg("-o").arg(out);
+    cmd.arg("convert").arg(input).arg("-o").arg(out).args(args);
     if let Some(p) = preset {
         cmd.args(["--tags", p]);
     }
@@ -546,9 +459,27 @@ fn valid(out: &Path, name: &str) {
 }
 
 fn judged(name: &str, input: &Path, preset: Option<&str>) -> Judged {
+    let j = judged_as(name, input, preset, &[]);
+    let parts = judged_as(
+        &format!("{name}, split by cell"),
+        input,
+        preset,
+        &["--split-by-cell"],
+    );
+    // The parts hold the split nodes' triangles as the draw lists do, in boxes of their own
+    // (so frustum culling takes more of them): the same views, no more submitted.
+    assert_eq!(parts.views, j.views, "{name}");
+    assert!(
+        parts.submitted <= j.submitted,
+        "{name}: {parts:?} against {j:?}"
+    );
+    j
+}
+
+fn judged_as(name: &str, input: &Path, preset: Option<&str>, args: &[&str]) -> Judged {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.glb");
-    convert(input, preset, &out);
+    convert_as(input, preset, &out, args);
     valid(&out, name);
     let j = judge(&out);
     eprintln!(

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use portcullis::diag::policy::Policy;
 use portcullis::diag::{Code, Diagnostic, Location, Severity};
 use portcullis::export::output::{self, Output};
-use portcullis::export::Target;
+use portcullis::export::{CellGeometry, Target};
 use portcullis::pipeline;
 use portcullis::report::{human, style::Style, Totals};
 use portcullis::vis::{Method, Pvs};
@@ -46,8 +46,15 @@ pub struct ConvertArgs {
     /// into several cells are copied into one index buffer sorted by cell, and each cell names
     /// its ranges of it (the extension's `split` and `cells[].draws`), so an engine draws
     /// only what its visible cells hold. Without them a cell names whole nodes only.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "split_by_cell")]
     pub no_draw_lists: bool,
+
+    /// Write each node that reaches into several cells as child nodes, one per set of cells
+    /// (its parts, with the node's materials and every vertex attribute), so that each cell's
+    /// `nodes` alone name what it draws: for engines and importers that can only show and
+    /// hide nodes (Godot, Unity, Blender). The node keeps its transform and gives up its mesh.
+    #[arg(long)]
+    pub split_by_cell: bool,
 
     /// Also write a debug glTF (.glb) of the cells (translucent, per room) and portals
     /// (coloured by kind and direction), for any glTF viewer. One input only.
@@ -180,7 +187,12 @@ fn convert_one(a: &ConvertArgs, input: &Path) -> Result<Outcome, Diagnostic> {
             out.display()
         )
     } else {
-        let to = output_of(&out, target).with_draw_lists(!a.no_draw_lists);
+        let geometry = match (a.split_by_cell, a.no_draw_lists) {
+            (true, _) => CellGeometry::SplitNodes,
+            (false, true) => CellGeometry::WholeNodes,
+            (false, false) => CellGeometry::DrawLists,
+        };
+        let to = output_of(&out, target).with_geometry(geometry);
         output::level(&level, stored, &to)?;
         if let Some((path, text)) = &prt {
             output::bytes(&Output::file(path, Target::Prt), text.as_bytes())?;

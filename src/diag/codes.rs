@@ -70,6 +70,7 @@ codes! {
     OUTPUT_FAILED = Error, "the output file could not be written";
     OUTPUT_WOULD_OVERWRITE_INPUT = Error, "the output path is the input file (use --in-place to allow it)";
     OUTPUT_FORMAT_UNKNOWN = Error, "the output file extension names no format portcullis writes";
+    CONVERT_SPLIT_INPUT = Error, "the glTF input was written by convert --split-by-cell; convert its source instead";
 
     // --- input: read, but with problems in the level (exit 1 for errors) ---
     GEOM_NON_FINITE = Error, "a position is NaN or infinite; its triangles were dropped";

@@ -49,7 +49,23 @@ pub struct Annotation<'a> {
     /// The split primitives' indices, appended by the writer as an index buffer view and
     /// accessor, whose index it sets in `split.indices`.
     pub indices: Option<Indices>,
+    /// The nodes to write as parts, one per set of cells (`convert --split-by-cell`).
+    pub(crate) parts: Option<super::parts::Plan>,
     pub(crate) lazy: Lazy<'a>,
+}
+
+/// What the cells of the output name of the geometry they draw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum CellGeometry {
+    /// Whole nodes, and per cell its ranges of the nodes that reach into several cells (the
+    /// extension's `split` and `cells[].draws`).
+    #[default]
+    DrawLists,
+    /// Whole nodes only: each node that reaches into several cells written as child nodes,
+    /// one per set of cells (`convert --split-by-cell`).
+    SplitNodes,
+    /// Whole nodes only, as the input has them (`convert --no-draw-lists`).
+    WholeNodes,
 }
 
 /// Index bytes, little-endian, of `size` bytes each: 2 when every index fits below 65,535
@@ -83,7 +99,9 @@ impl Indices {
 pub(crate) struct Lazy<'a> {
     level: Option<(&'a CellSet, &'a Tagging, &'a PortalSet)>,
     /// Per cell, the glTF nodes it renders.
-    cell_nodes: Vec<Vec<usize>>,
+    pub(crate) cell_nodes: Vec<Vec<usize>>,
+    /// Per cell, the glTF nodes it renders once the writer has made the parts.
+    pub(crate) part_nodes: Option<Vec<Vec<usize>>>,
     /// Per cell, its ranges of the split primitives (`[primitive, first, count]`).
     cell_draws: Vec<Vec<[usize; 3]>>,
     /// Per portal, the glTF node it was authored as.
@@ -144,6 +162,7 @@ impl<'a> Annotation<'a> {
             nodes,
             blob,
             indices: None,
+            parts: None,
             lazy: Lazy::default(),
         }
     }
@@ -214,7 +233,7 @@ impl<'r> Json<'r> {
             ("cells", Value::Null) => Member::Cells(Cells {
                 cells,
                 tagging,
-                nodes: &lazy.cell_nodes,
+                nodes: lazy.part_nodes.as_deref().unwrap_or(&lazy.cell_nodes),
                 draws: &lazy.cell_draws,
             }),
             ("portals", Value::Null) => Member::Portals(Portals {
@@ -391,12 +410,21 @@ pub fn build<'a>(
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
 ) -> Annotation<'a> {
+    build_as(level, node_index, CellGeometry::DrawLists)
+}
+
+/// [`build`], the cells' geometry as `geometry` says.
+pub fn build_as<'a>(
+    level: &'a Level,
+    node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
+    geometry: CellGeometry,
+) -> Annotation<'a> {
     let (scene, tagging) = (level.scene(), level.tagging());
     // The hash reads every position of the level byte by byte, as long as building the rest
     // takes on a big level: it runs alongside (or here, if no thread can be had).
     std::thread::scope(|s| {
         let hashing = std::thread::Builder::new().spawn_scoped(s, || input_hash(scene, tagging));
-        let mut ann = build_with_hash(level, node_index, true);
+        let mut ann = build_with_hash(level, node_index, geometry);
         let hash = match hashing.map(|h| h.join()) {
             Ok(Ok(h)) => h,
             _ => input_hash(scene, tagging),
@@ -414,19 +442,18 @@ pub(crate) fn build_deferred<'a>(
     hash: &'a (dyn HashOf + Sync + 'a),
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
-    draw_lists: bool,
+    geometry: CellGeometry,
 ) -> Annotation<'a> {
-    let mut ann = build_with_hash(level, node_index, draw_lists);
+    let mut ann = build_with_hash(level, node_index, geometry);
     ann.lazy.hash = Some(hash);
     ann
 }
 
-/// [`build`] but the input hash, whose place it holds; with the cells' draw lists when
-/// `draw_lists`.
+/// [`build`] but the input hash, whose place it holds; the cells' geometry as `geometry` says.
 fn build_with_hash<'a>(
     level: &'a Level,
     node_index: &(dyn Fn(NodeId) -> Option<usize> + Sync),
-    draw_lists: bool,
+    geometry: CellGeometry,
 ) -> Annotation<'a> {
     let (tagging, cells, portals) = (level.tagging(), &level.cells, &level.portals);
     let mut root = Map::new();
@@ -496,11 +523,18 @@ fn build_with_hash<'a>(
     if !buried.is_empty() {
         root.insert("buriedOccupants".into(), json!(buried));
     }
-    let split = match draw_lists {
-        true => split_by_cell(level, node_index),
-        false => Split::default(),
+    let mut split = match geometry {
+        CellGeometry::WholeNodes => Split::default(),
+        _ => split_by_cell(level, node_index),
     };
-    if !split.primitives.is_empty() {
+    let parts = (geometry == CellGeometry::SplitNodes && !split.primitives.is_empty()).then(|| {
+        super::parts::Plan {
+            nodes: std::mem::take(&mut split.plan),
+        }
+    });
+    if parts.is_some() {
+        split.cells = Vec::new();
+    } else if !split.primitives.is_empty() {
         root.insert(
             "split".into(),
             json!({"indices": null, "primitives": split.primitives}),
@@ -527,9 +561,11 @@ fn build_with_hash<'a>(
         nodes,
         blob: None,
         indices: (!split.primitives.is_empty()).then(|| Indices::of(&split.indices)),
+        parts,
         lazy: Lazy {
             level: Some((cells, tagging, portals)),
             cell_nodes,
+            part_nodes: None,
             cell_draws: split.cells,
             portal_nodes,
             hash: None,
@@ -544,6 +580,8 @@ struct Split {
     primitives: Vec<Value>,
     indices: Vec<u32>,
     cells: Vec<Vec<[usize; 3]>>,
+    /// The same ranges by node and set of cells, for parts.
+    plan: Vec<super::parts::NodePlan>,
 }
 
 /// What each cell draws of the nodes whose triangles lie in different cells
@@ -556,6 +594,7 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
         primitives: Vec::new(),
         indices: Vec::new(),
         cells: vec![Vec::new(); level.cells.cells.len()],
+        plan: Vec::new(),
     };
     let mut split: Vec<(usize, &crate::cells::draws::NodeDraws)> = (draws.split.iter())
         .filter_map(|d| Some((node_index(d.node)?, d)))
@@ -563,6 +602,7 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
     split.sort_by_key(|&(n, _)| n);
     let mut first = 0usize;
     for (node, d) in split {
+        let mut by_set: std::collections::BTreeMap<Vec<u32>, Vec<[usize; 3]>> = Default::default();
         for p in &d.primitives {
             let k = out.primitives.len();
             let count = 3 * p.triangles.len();
@@ -572,6 +612,7 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
             out.indices.extend(p.triangles.iter().flatten());
             for r in &p.runs {
                 let (at, n) = (first + 3 * r.first as usize, 3 * r.count as usize);
+                (by_set.entry(r.cells.clone()).or_default()).push([p.primitive, at, n]);
                 for &c in &r.cells {
                     let list = &mut out.cells[c as usize];
                     match list.last_mut() {
@@ -582,6 +623,10 @@ fn split_by_cell(level: &Level, node_index: &(dyn Fn(NodeId) -> Option<usize> + 
             }
             first += count;
         }
+        out.plan.push(super::parts::NodePlan {
+            node,
+            parts: by_set.into_iter().collect(),
+        });
     }
     out
 }

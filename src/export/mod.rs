@@ -52,6 +52,7 @@ pub(crate) mod hash;
 mod oracle;
 pub mod output;
 pub(crate) mod parallel;
+pub(crate) mod parts;
 pub(crate) mod rewrite;
 pub(crate) mod sink;
 pub mod svg;
@@ -60,7 +61,7 @@ pub(crate) mod transcode;
 pub(crate) mod usd_out;
 pub mod view;
 
-pub use annotation::{build, Annotation};
+pub use annotation::{build, build_as, Annotation, CellGeometry};
 pub(crate) use annotation::{build_deferred, InputHash};
 pub use hash::{input_hash, input_hash_like};
 pub use target::{OutFormat, Target};

@@ -31,14 +31,35 @@ pub(crate) fn write_whole(
         }
         None => from_scene(&super::bake::world_space(scene), format),
     };
-    annotate(&mut doc, ann);
-    if let Some(app) = Appended::of(ann.blob.as_deref(), ann.indices.as_ref()) {
+    let appended = Appended::of(ann.blob.as_deref(), ann.indices.as_ref());
+    let made = match (&ann.parts, &appended) {
+        (Some(plan), Some(app)) => Some(made_parts(&doc, plan, &ann.lazy.cell_nodes, app)),
+        _ => None,
+    };
+    let mut lazy = ann.lazy.clone();
+    lazy.part_nodes = made.as_ref().map(|m| m.cell_nodes.clone());
+    annotate(&mut doc, ann, &lazy, made.as_ref());
+    if let Some(app) = appended {
         let at = attach(&mut doc, &mut bin, format, &app.bytes);
         let views: Vec<usize> = (app.views(at).into_iter())
             .map(|v| push(&mut doc, "bufferViews", v))
             .collect();
-        let accessor = (app.accessor(views.last().copied().unwrap_or(0)))
-            .map(|a| push(&mut doc, "accessors", a));
+        let accessor = match &made {
+            Some(m) => {
+                for (key, items) in [
+                    ("accessors", &m.accessors),
+                    ("meshes", &m.meshes),
+                    ("nodes", &m.nodes),
+                ] {
+                    for v in items {
+                        push(&mut doc, key, v.clone());
+                    }
+                }
+                None
+            }
+            None => (app.accessor(views.last().copied().unwrap_or(0)))
+                .map(|a| push(&mut doc, "accessors", a)),
+        };
         if let Some(ours) = doc.pointer_mut(&format!("/extensions/{NAME}")) {
             app.point(ours, &views, accessor);
         }
@@ -59,8 +80,39 @@ pub(crate) fn write_whole(
     }
 }
 
+/// The parts of the nodes drawn in part, as `rewrite` makes them.
+fn made_parts(
+    doc: &Value,
+    plan: &super::parts::Plan,
+    cell_nodes: &[Vec<usize>],
+    app: &Appended,
+) -> super::parts::Made {
+    let len = |k: &str| doc.get(k).and_then(Value::as_array).map_or(0, Vec::len);
+    let base = super::parts::Base {
+        nodes: len("nodes"),
+        meshes: len("meshes"),
+        accessors: len("accessors"),
+        view: len("bufferViews") + app.views((0, 0)).len() - 1,
+        size: app.indices.map_or(4, |(_, size)| size),
+    };
+    let nodes = doc.get("nodes").and_then(Value::as_array);
+    let meshes = doc.get("meshes").and_then(Value::as_array);
+    super::parts::make(
+        plan,
+        cell_nodes,
+        &|i| nodes.and_then(|n| n.get(i)).cloned(),
+        meshes.map_or(&[][..], |m| &m[..]),
+        base,
+    )
+}
+
 /// Adds the extension to the document (replacing an earlier annotation by portcullis).
-fn annotate(doc: &mut Value, ann: &Annotation) {
+fn annotate(
+    doc: &mut Value,
+    ann: &Annotation,
+    lazy: &super::annotation::Lazy,
+    made: Option<&super::parts::Made>,
+) {
     let Some(obj) = doc.as_object_mut() else {
         return;
     };
@@ -72,13 +124,32 @@ fn annotate(doc: &mut Value, ann: &Annotation) {
     }
     let ext = obj.entry("extensions").or_insert_with(|| json!({}));
     if let Some(e) = ext.as_object_mut() {
-        e.insert(NAME.into(), ann.to_value());
+        let json = super::annotation::Json {
+            root: &ann.root,
+            lazy,
+        };
+        e.insert(
+            NAME.into(),
+            serde_json::to_value(json).unwrap_or(Value::Null),
+        );
     }
     if let Some(nodes) = obj.get_mut("nodes").and_then(Value::as_array_mut) {
-        nodes.iter_mut().for_each(strip_ours);
-        for (i, v) in &ann.nodes {
-            if let Some(node) = nodes.get_mut(*i) {
-                add_ours(node, v.clone());
+        let mut ours: std::collections::HashMap<usize, &Value> =
+            ann.nodes.iter().map(|(i, v)| (*i, v)).collect();
+        let mut parts = std::collections::HashMap::new();
+        for (i, e) in made.iter().flat_map(|m| &m.edits) {
+            ours.insert(*i, &e.ours);
+            if let Some(p) = &e.parts {
+                parts.insert(*i, p);
+            }
+        }
+        for (i, node) in nodes.iter_mut().enumerate() {
+            strip_ours(node);
+            if let Some(p) = parts.get(&i) {
+                super::parts::give_up_mesh(node, p);
+            }
+            if let Some(v) = ours.get(&i) {
+                add_ours(node, (*v).clone());
             }
         }
     }

@@ -38,10 +38,9 @@ pub struct Output<'a> {
     pub target: Target,
     /// Where they go.
     pub to: Destination,
-    /// Whether a glTF output carries each cell's draw list of the nodes that reach into
-    /// several cells (the extension's `split` and `cells[].draws`; off with `convert
-    /// --no-draw-lists`).
-    pub draw_lists: bool,
+    /// What a glTF output's cells name of the geometry they draw: draw lists (the default),
+    /// nodes split by cell (`convert --split-by-cell`) or whole nodes (`--no-draw-lists`).
+    pub geometry: super::CellGeometry,
 }
 
 impl<'a> Output<'a> {
@@ -51,7 +50,7 @@ impl<'a> Output<'a> {
             path,
             target,
             to: Destination::File,
-            draw_lists: true,
+            geometry: super::CellGeometry::DrawLists,
         }
     }
 
@@ -69,13 +68,13 @@ impl<'a> Output<'a> {
             path: Path::new("-"),
             target,
             to: Destination::Stdout,
-            draw_lists: true,
+            geometry: super::CellGeometry::DrawLists,
         }
     }
 
-    /// The same output, with or without the cells' draw lists.
-    pub fn with_draw_lists(self, draw_lists: bool) -> Output<'a> {
-        Output { draw_lists, ..self }
+    /// The same output, its cells naming `geometry`.
+    pub fn with_geometry(self, geometry: super::CellGeometry) -> Output<'a> {
+        Output { geometry, ..self }
     }
 
     /// `path` as an annotated glTF, refused unless it is named .glb or .gltf.
@@ -162,6 +161,18 @@ fn gltf_to(
     let out = output.path;
     let scene = level.scene();
     let tagging = level.tagging();
+    if let Some(src) = scene.gltf.as_ref().filter(|s| s.parts > 0) {
+        return Err(Diagnostic::new(
+            Code::CONVERT_SPLIT_INPUT,
+            format!(
+                "`{}` was written by `convert --split-by-cell` ({} nodes are parts of others); written again, its parts would be lost or drawn twice",
+                scene.path.display(),
+                src.parts
+            ),
+            Location::file(&scene.path),
+        )
+        .hint("convert the level it was made from; `check` and `cull` read this file as it is"));
+    }
     let made = match &scene.gltf {
         Some(_) => None,
         None => Some(gltf_out::new_document(scene, out)?),
@@ -188,7 +199,7 @@ fn gltf_to(
                 .unwrap_or_else(|| super::input_hash(scene, tagging))
         }));
         let node_index = |n| gltf_out::node_index(scene, n);
-        let mut ann = super::build_deferred(&hash, level, &node_index, output.draw_lists);
+        let mut ann = super::build_deferred(&hash, level, &node_index, output.geometry);
         if let Some((p, m)) = pvs {
             ann.set_visibility(p, m);
         }

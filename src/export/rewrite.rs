@@ -21,6 +21,7 @@ use serde_json::{json, Value};
 use super::annotation::{Json, Member};
 use super::container as out;
 use super::parallel::{self, Failure, Render, RenderText, Source};
+use super::parts;
 use super::sink::{Counted, Sink};
 use super::target::OutFormat;
 use super::transcode::{self, Element, Transcode};
@@ -68,6 +69,7 @@ pub(crate) fn write<'s>(
         nodes,
         blob,
         indices,
+        parts,
         lazy,
     } = ann;
     let members = match members {
@@ -91,18 +93,37 @@ pub(crate) fn write<'s>(
     }
     let (base, mut bin_len) = out::glb_layout(&lens);
     let mut bin = container_change(&mut root, src, format, out_dir, &base, bin_len)?;
-    let per_node: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
-    let annotated = add_annotation(&mut root, &per_node)?;
     let appended = out::Appended::of(blob.as_deref(), indices.as_ref());
+    let made = match (parts.as_ref(), &appended) {
+        (Some(plan), Some(app)) => Some(made_parts(&mut root, plan, &lazy.cell_nodes, app)?),
+        _ => None,
+    };
+    lazy.part_nodes = made.as_ref().map(|m| m.cell_nodes.clone());
+    let edits = NodeEdits::of(nodes, made.as_ref());
+    let annotated = add_annotation(&mut root, &edits)?;
     if let Some(app) = &appended {
         bin |= format == OutFormat::Glb;
         let at = attach_blob(&mut root, &app.bytes, format, &mut bin_len)?;
         let views = (app.views(at).into_iter())
             .map(|v| root.push("bufferViews", v))
             .collect::<Result<Vec<usize>, Failed>>()?;
-        let accessor = (app.accessor(views.last().copied().unwrap_or(0)))
-            .map(|a| root.push("accessors", a))
-            .transpose()?;
+        let accessor = match &made {
+            Some(m) => {
+                for (key, items) in [
+                    ("accessors", &m.accessors),
+                    ("meshes", &m.meshes),
+                    ("nodes", &m.nodes),
+                ] {
+                    for v in items {
+                        root.push(key, v.clone())?;
+                    }
+                }
+                None
+            }
+            None => (app.accessor(views.last().copied().unwrap_or(0)))
+                .map(|a| root.push("accessors", a))
+                .transpose()?,
+        };
         if annotated {
             app.point(ours, &views, accessor);
         }
@@ -178,13 +199,72 @@ fn container_change<'a>(
     }
 }
 
+/// The parts of the nodes drawn in part (`convert --split-by-cell`), to append after the
+/// annotation's buffer views (`oracle::write_whole` makes them the same way).
+fn made_parts(
+    root: &mut Root<'_>,
+    plan: &parts::Plan,
+    cell_nodes: &[Vec<usize>],
+    app: &out::Appended,
+) -> Result<parts::Made, Failed> {
+    let base = parts::Base {
+        nodes: root.len("nodes")?,
+        meshes: root.len("meshes")?,
+        accessors: root.len("accessors")?,
+        view: root.len("bufferViews")? + app.views((0, 0)).len() - 1,
+        size: app.indices.map_or(4, |(_, size)| size),
+    };
+    let wanted: Vec<usize> = plan.nodes.iter().map(|n| n.node).collect();
+    let found = root.elements("nodes", &wanted)?;
+    let meshes = match root.parsed("meshes")? {
+        Some(Value::Array(a)) => &a[..],
+        _ => &[],
+    };
+    Ok(parts::make(
+        plan,
+        cell_nodes,
+        &|i| found.get(&i).cloned(),
+        meshes,
+        base,
+    ))
+}
+
+/// What happens to each of the document's nodes: an earlier annotation's object removed,
+/// ours added, and the nodes drawn in part given up to their parts.
+pub(crate) struct NodeEdits<'a> {
+    ours: HashMap<usize, &'a Value>,
+    parts: HashMap<usize, &'a [usize]>,
+}
+
+impl<'a> NodeEdits<'a> {
+    fn of(nodes: &'a [(usize, Value)], made: Option<&'a parts::Made>) -> NodeEdits<'a> {
+        let mut ours: HashMap<usize, &Value> = nodes.iter().map(|(i, v)| (*i, v)).collect();
+        let mut given = HashMap::new();
+        for (n, e) in made.iter().flat_map(|m| &m.edits) {
+            ours.insert(*n, &e.ours);
+            if let Some(p) = &e.parts {
+                given.insert(*n, &p[..]);
+            }
+        }
+        NodeEdits { ours, parts: given }
+    }
+
+    /// Node `i` edited.
+    fn apply(&self, i: usize, v: &mut Value) {
+        out::strip_ours(v);
+        if let Some(p) = self.parts.get(&i) {
+            parts::give_up_mesh(v, p);
+        }
+        if let Some(o) = self.ours.get(&i) {
+            out::add_ours(v, (*o).clone());
+        }
+    }
+}
+
 /// The annotation (`oracle::annotate`): the extension declared, its root object a place
 /// holder (serialized from the annotation, not copied), and each node's object. Whether the
 /// document's `extensions` could take it.
-fn add_annotation<'a>(
-    root: &mut Root<'a>,
-    per_node: &'a HashMap<usize, &'a Value>,
-) -> Result<bool, Failed> {
+fn add_annotation<'a>(root: &mut Root<'a>, per_node: &'a NodeEdits<'a>) -> Result<bool, Failed> {
     let used = root.entry("extensionsUsed", json!([]))?;
     if let Some(a) = used.as_array_mut() {
         if !a.iter().any(|v| v == NAME) {
@@ -352,8 +432,8 @@ enum Edit<'a> {
     Copy,
     /// Buffer views re-pointed into the BIN chunk whose buffers start at these offsets.
     Views(&'a [usize]),
-    /// Nodes: an earlier annotation removed, ours added.
-    Nodes(&'a HashMap<usize, &'a Value>),
+    /// Nodes: an earlier annotation removed, ours added, meshes given up to parts.
+    Nodes(&'a NodeEdits<'a>),
 }
 
 /// The root object's members in order, with the operations of a `serde_json::Map` (an
@@ -379,6 +459,46 @@ impl<'a> Root<'a> {
             Slot::Parsed(v) => Some(v),
             _ => None,
         })
+    }
+
+    /// How many elements the array `key` has (0 if absent or not an array: a push makes it
+    /// hold only what is pushed).
+    fn len(&self, key: &str) -> Result<usize, Failed> {
+        let count = |t: &str| json_text::array_len(t).ok_or(Failed::Declined);
+        match self.find(key).map(|i| &self.0[i].1) {
+            Some(Slot::Text(t)) if json_text::is_array(t) => count(t),
+            Some(Slot::Parsed(Value::Array(a))) => Ok(a.len()),
+            Some(Slot::Stream { text, extra, .. }) => Ok(count(text)? + extra.len()),
+            _ => Ok(0),
+        }
+    }
+
+    /// The elements at `wanted` (ascending) of the array `key`, parsed.
+    fn elements(&self, key: &str, wanted: &[usize]) -> Result<HashMap<usize, Value>, Failed> {
+        let mut out = HashMap::new();
+        match self.find(key).map(|i| &self.0[i].1) {
+            Some(Slot::Text(t) | Slot::Stream { text: t, .. }) => {
+                let Some(mut e) = Elements::of(t) else {
+                    return Ok(out);
+                };
+                let mut want = wanted.iter().peekable();
+                while let (Some(&&w), Some((text, _))) = (want.peek(), e.run(0)) {
+                    if e.count - 1 == w {
+                        out.insert(w, serde_json::from_str(text)?);
+                        want.next();
+                    }
+                }
+            }
+            Some(Slot::Parsed(Value::Array(a))) => {
+                for &w in wanted {
+                    if let Some(v) = a.get(w) {
+                        out.insert(w, v.clone());
+                    }
+                }
+            }
+            _ => {}
+        }
+        Ok(out)
     }
 
     fn set(&mut self, key: &str, slot: Slot<'a>) {
@@ -541,14 +661,11 @@ fn array<'r>(text: &'r str, edit: Edit<'r>, extra: &'r [Value]) -> Option<Vec<So
         Edit::Nodes(ours) => Box::new(move |i, e, b| {
             // A node without ours to add and no `extensions` (the key cannot hide behind an
             // escape without a backslash) has nothing to strip.
-            if !ours.contains_key(&i) && !e.contains("extensions") && !e.contains('\\') {
+            if !ours.ours.contains_key(&i) && !e.contains("extensions") && !e.contains('\\') {
                 return transcode::write_compact(e, b);
             }
             let mut v: Value = serde_json::from_str(e)?;
-            out::strip_ours(&mut v);
-            if let Some(o) = ours.get(&i) {
-                out::add_ours(&mut v, (*o).clone());
-            }
+            ours.apply(i, &mut v);
             serde_json::to_writer(b, &v)
         }),
     };
@@ -702,10 +819,7 @@ impl<'de, S: Serializer> Visitor<'de> for StreamVisitor<'_, S> {
             Edit::Nodes(ours) => {
                 let mut i = 0;
                 while let Some(mut v) = seq.next_element::<Value>()? {
-                    out::strip_ours(&mut v);
-                    if let Some(o) = ours.get(&i) {
-                        out::add_ours(&mut v, (*o).clone());
-                    }
+                    ours.apply(i, &mut v);
                     out.serialize_element(&v).map_err(de::Error::custom)?;
                     i += 1;
                 }
@@ -794,6 +908,7 @@ mod tests {
         }
         files.sort();
         assert!(files.len() > 20);
+        let mut split = 0;
         for f in &files {
             let Ok(level) = crate::pipeline::load(f, &Default::default()) else {
                 continue;
@@ -803,6 +918,18 @@ mod tests {
             let what = f.display().to_string();
             assert_same(scene, &with_pvs(ann_clone(&ann)), &what);
             assert_same(scene, &ann, &what);
+            let parts = extension::build_as(
+                &level,
+                &|n| gltf_out::node_index(scene, n),
+                extension::CellGeometry::SplitNodes,
+            );
+            split += usize::from(parts.parts.is_some());
+            assert_same(
+                scene,
+                &with_pvs(ann_clone(&parts)),
+                &format!("{what}, split"),
+            );
+            assert_same(scene, &parts, &format!("{what}, split"));
             // Written and read again: the earlier annotation's tail is dropped the same way.
             for format in FORMATS {
                 let dir = tempfile::tempdir().unwrap();
@@ -828,6 +955,7 @@ mod tests {
                 );
             }
         }
+        assert!(split >= 5, "{split} files with nodes split by cell");
     }
 
     fn ann_clone<'a>(a: &Annotation<'a>) -> Annotation<'a> {
@@ -836,6 +964,7 @@ mod tests {
             nodes: a.nodes.clone(),
             blob: a.blob.clone(),
             indices: a.indices.clone(),
+            parts: a.parts.clone(),
             lazy: a.lazy.clone(),
         }
     }
@@ -851,6 +980,7 @@ mod tests {
             bin_file: None,
             members_at: None,
             earlier: None,
+            parts: 0,
         });
         scene
     }
@@ -920,7 +1050,12 @@ mod tests {
                 }
                 let level = crate::pipeline::load(&f, &Default::default()).unwrap();
                 let scene = level.scene();
-                let ann = extension::build(&level, &|n| gltf_out::node_index(scene, n));
+                let geometry = match n % 4 {
+                    2 => extension::CellGeometry::SplitNodes,
+                    _ => extension::CellGeometry::DrawLists,
+                };
+                let ann =
+                    extension::build_as(&level, &|n| gltf_out::node_index(scene, n), geometry);
                 assert!(ann.root["inputHash"].is_string());
                 let out = Path::new("/nonexistent/out/level.glb");
                 for format in FORMATS {
@@ -936,7 +1071,8 @@ mod tests {
                         OutFormat::Glb => Target::Glb,
                         OutFormat::Gltf => Target::Gltf,
                     };
-                    let to = crate::export::output::Output::memory(out, target);
+                    let to =
+                        crate::export::output::Output::memory(out, target).with_geometry(geometry);
                     let mine = crate::export::output::level(&level, None, &to).unwrap();
                     assert!(mine == whole, "{} ({format:?})", f.display());
                     n += 1;

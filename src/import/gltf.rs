@@ -177,6 +177,7 @@ pub fn import(
         bin_file,
         members_at: Some(members_at),
         earlier,
+        parts: doc.parts.len(),
     });
     Ok(Imported { scene, diagnostics })
 }

@@ -5,7 +5,7 @@
 //!
 //! Three ways of drawing are priced, each with frustum culling of every node's box on top (the
 //! baseline every engine has): `frustum`, every node of the level's geometry (those some
-//! cell names, not the meshes of its portals or bounds); `nodes`, the nodes the
+//! cell names and the parts of split nodes, not the meshes of its portals or bounds); `nodes`, the nodes the
 //! visible cells name (`cells[].nodes`, whole); `lists`, the visible cells' draw lists
 //! ([`Level::draw_list`]). A cell seen through a mirror or teleporter is priced again for
 //! each such view, without frustum culling (its geometry is drawn moved).
@@ -31,6 +31,9 @@ struct NodeMesh {
 #[derive(Debug, Clone, Default)]
 pub struct Meshes {
     nodes: Vec<Option<NodeMesh>>,
+    /// The parts of nodes split by cell (`convert --split-by-cell`), ascending: level
+    /// geometry even where no cell names them (the triangles that lie in no cell).
+    parts: Vec<u32>,
 }
 
 /// What is submitted to draw.
@@ -88,11 +91,25 @@ struct SceneDef {
 #[serde(default)]
 struct NodeDef {
     children: Vec<usize>,
+    extensions: NodeExtensions,
     mesh: Option<usize>,
     matrix: Option<[f64; 16]>,
     translation: Option<[f64; 3]>,
     rotation: Option<[f64; 4]>,
     scale: Option<[f64; 3]>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct NodeExtensions {
+    #[serde(rename = "PORTCULLIS_portals")]
+    ours: Option<OursDef>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct OursDef {
+    parts: Vec<u32>,
 }
 
 #[derive(Deserialize, Default)]
@@ -141,8 +158,19 @@ impl Meshes {
     /// The meshes of a parsed glTF document.
     pub fn of(doc: &Value) -> Result<Meshes, LevelError> {
         let doc = Doc::deserialize(doc).map_err(|e| LevelError::NotGltf(e.to_string()))?;
+        let mut parts: Vec<u32> = (doc.nodes.iter())
+            .flat_map(|n| {
+                n.extensions
+                    .ours
+                    .iter()
+                    .flat_map(|o| o.parts.iter().copied())
+            })
+            .collect();
+        parts.sort_unstable();
+        parts.dedup();
         let mut out = Meshes {
             nodes: vec![None; doc.nodes.len()],
+            parts,
         };
         let roots: Vec<usize> = match doc.scenes.get(doc.scene.unwrap_or(0)) {
             Some(s) => s.nodes.clone(),
@@ -295,7 +323,9 @@ impl Level {
         list: &mut DrawList,
     ) -> ViewCost {
         let mut cost = ViewCost::default();
-        for &n in self.draw.named() {
+        let named = self.draw.named();
+        let unnamed = (meshes.parts.iter()).filter(|n| named.binary_search(n).is_err());
+        for &n in named.iter().chain(unnamed) {
             cost.frustum += meshes.whole(n as usize, Some(view));
         }
         let direct = trace.visible().iter().filter(|v| v.transform.is_none());

@@ -270,6 +270,9 @@ pub struct GltfSource {
     /// What an earlier annotation by portcullis appended, left out of `buffers` already and
     /// dropped from the document when it is written again.
     pub(crate) earlier: Option<Earlier>,
+    /// How many nodes an earlier `convert --split-by-cell` wrote as parts of others (left out
+    /// on import, their nodes read whole): such a document is not written again.
+    pub(crate) parts: usize,
 }
 
 /// The tail an earlier annotation appended (see `import::gltf::earlier`): buffer views and
@@ -416,6 +419,7 @@ impl GltfSource {
             bin_file: None,
             members_at: None,
             earlier: None,
+            parts: 0,
         }
     }
 

@@ -4,6 +4,7 @@
 
 pub mod blocks;
 pub mod grid;
+pub mod plain;
 pub mod rays;
 /// The crate's own generator (crate-private there), so seeded cases repeat its sequences.
 #[path = "../../src/rng.rs"]

@@ -12,5 +12,6 @@ validator.validateBytes(new Uint8Array(fs.readFileSync(full)), {
   externalResourceFunction: (uri) => new Promise((resolve, reject) =>
     fs.readFile(path.resolve(path.dirname(full), decodeURIComponent(uri)),
       (e, d) => e ? reject(e.toString()) : resolve(new Uint8Array(d)))),
-}).then((r) => { console.log(JSON.stringify(r, null, 2)); process.exit(r.issues.numErrors > 0 ? 1 : 0); },
-        (e) => { console.error(e); process.exit(2); });
+// exitCode, not exit(): exit() would cut a large report short on a pipe.
+}).then((r) => { console.log(JSON.stringify(r, null, 2)); process.exitCode = r.issues.numErrors > 0 ? 1 : 0; },
+        (e) => { console.error(e); process.exitCode = 2; });

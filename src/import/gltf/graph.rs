@@ -302,6 +302,7 @@ fn scene_roots(
             None => {
                 let roots: Vec<usize> = (0..doc.nodes.len())
                     .filter(|&i| parents.get(i).copied().flatten().is_none())
+                    .filter(|i| doc.parts.binary_search(i).is_err())
                     .collect();
                 if !roots.is_empty() {
                     diagnostics.push(

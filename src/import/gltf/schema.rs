@@ -134,6 +134,9 @@ pub struct Doc {
     pub buffer_views: Vec<BufferView>,
     pub buffers: Vec<Buffer>,
     pub materials: Vec<Material>,
+    /// The nodes `convert --split-by-cell` wrote as parts of another, ascending: left out,
+    /// their node read with the mesh it gave up to them ([`Doc::restore_parts`]).
+    pub parts: Vec<usize>,
 }
 
 /// The document's root members, each still text: the importer parses only what it reads, one
@@ -209,7 +212,36 @@ impl Doc {
             buffer_views: buffer_views?,
             buffers: array(ctx, root, "buffers")?,
             materials: array(ctx, root, "materials")?,
-        })
+            parts: Vec::new(),
+        }
+        .restore_parts())
+    }
+
+    /// The level as it was before `convert --split-by-cell` wrote the nodes that reach into
+    /// several cells as parts: each such node (no mesh, our `{mesh, parts}` object) has its
+    /// mesh again and its parts are no children of it, so everything read from the file (the
+    /// cells, the verdicts, the input hash) is the source's.
+    fn restore_parts(mut self) -> Doc {
+        #[derive(Deserialize)]
+        struct Given {
+            mesh: u64,
+            parts: Vec<u64>,
+        }
+        for node in &mut self.nodes {
+            let ours = (node.extensions.as_ref()).and_then(|e| e.get(crate::format::NAME));
+            let Some(given) = ours.and_then(|v| Given::deserialize(v).ok()) else {
+                continue;
+            };
+            if node.mesh.is_some() {
+                continue;
+            }
+            node.mesh = Some(given.mesh);
+            node.children.retain(|c| !given.parts.contains(c));
+            (self.parts).extend(given.parts.iter().filter_map(|&p| usize::try_from(p).ok()));
+        }
+        self.parts.sort_unstable();
+        self.parts.dedup();
+        self
     }
 }
 
