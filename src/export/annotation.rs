@@ -449,6 +449,19 @@ pub(crate) fn build_deferred<'a>(
     ann
 }
 
+/// The `generated` record: how `--tags auto` read the level.
+fn generated(g: &crate::tags::Generated) -> Value {
+    let axes: Vec<Value> = g.axes.iter().map(|a| json!(a.map(num))).collect();
+    json!({
+        "voxel": num(g.voxel),
+        "splitRatio": num(g.split_ratio),
+        "detailArea": num(g.detail_area),
+        "grid": g.grid,
+        "axes": axes,
+        "rooms": g.boxes.len(),
+    })
+}
+
 /// [`build`] but the input hash, whose place it holds; the cells' geometry as `geometry` says.
 fn build_with_hash<'a>(
     level: &'a Level,
@@ -468,18 +481,7 @@ fn build_with_hash<'a>(
         root.insert("tags".into(), json!(tagging.preset));
     }
     if let Some(g) = tagging.generated.as_deref() {
-        let axes: Vec<Value> = g.axes.iter().map(|a| json!(a.map(num))).collect();
-        root.insert(
-            "generated".into(),
-            json!({
-                "voxel": num(g.voxel),
-                "splitRatio": num(g.split_ratio),
-                "detailArea": num(g.detail_area),
-                "grid": g.grid,
-                "axes": axes,
-                "rooms": g.boxes.len(),
-            }),
-        );
+        root.insert("generated".into(), generated(g));
     }
     if cells.room_cells.iter().any(|c| c.len() > 1) {
         let rooms: Vec<Value> = tagging

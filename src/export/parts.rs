@@ -145,7 +145,6 @@ pub(crate) fn make(
     // Nodes that leave every cell's list, and what each cell gains.
     let mut gone: Vec<usize> = Vec::new();
     let mut gained: Vec<(u32, usize)> = Vec::new();
-    let kind = if base.size == 2 { 5123 } else { 5125 };
     for np in &plan.nodes {
         let whole = whole_of.get(&np.node).cloned().unwrap_or_default();
         let json = node(np.node).unwrap_or(Value::Null);
@@ -187,43 +186,10 @@ pub(crate) fn make(
         let mut parts = Vec::new();
         for (cs, mut pieces) in groups {
             pieces.sort_by_key(|p| (p.primitive(), *p));
-            let mut primitives = Vec::new();
-            for p in pieces {
-                let Some(src) = prims.get(p.primitive()) else {
-                    continue;
-                };
-                let mut prim = src.clone();
-                if let (Piece::Range { first, count, .. }, Some(o)) = (p, prim.as_object_mut()) {
-                    o.shift_remove("indices");
-                    o.shift_remove("mode");
-                    let mut acc = json!({"bufferView": base.view});
-                    if first != 0 {
-                        acc["byteOffset"] = json!(first * base.size);
-                    }
-                    acc["componentType"] = json!(kind);
-                    acc["count"] = json!(count);
-                    acc["type"] = json!("SCALAR");
-                    o.insert(
-                        "indices".into(),
-                        json!(base.accessors + out.accessors.len()),
-                    );
-                    out.accessors.push(acc);
-                }
-                primitives.push(prim);
-            }
-            let mut part_mesh = Map::new();
-            for (k, v) in mesh.as_object().into_iter().flatten() {
-                match k.as_str() {
-                    "primitives" => {
-                        part_mesh.insert(k.clone(), Value::Array(std::mem::take(&mut primitives)))
-                    }
-                    "name" => part_mesh.insert(
-                        k.clone(),
-                        json!(format!("{} {}", v.as_str().unwrap_or("mesh"), suffix(&cs))),
-                    ),
-                    _ => part_mesh.insert(k.clone(), v.clone()),
-                };
-            }
+            let primitives: Vec<Value> = (pieces.into_iter())
+                .filter_map(|p| Some(part_primitive(prims.get(p.primitive())?, p, base, &mut out)))
+                .collect();
+            let part_mesh = part_mesh(mesh, primitives, &cs);
             let at = base.nodes + out.nodes.len();
             let mut part = json!({
                 "name": part_name(&json, np.node, &cs),
@@ -233,7 +199,7 @@ pub(crate) fn make(
                 part["extensions"] = json!({ NAME: ours });
             }
             gained.extend(cs.iter().map(|&c| (c, at)));
-            out.meshes.push(Value::Object(part_mesh));
+            out.meshes.push(part_mesh);
             out.nodes.push(part);
             parts.push(at);
         }
@@ -261,6 +227,49 @@ pub(crate) fn make(
     }
     out.edits.sort_by_key(|(n, _)| *n);
     out
+}
+
+/// Primitive `src` of a split node's mesh as piece `p` of a part: a range of the split indices
+/// gets an accessor of its own over them (appended to `out`), a whole primitive is copied.
+fn part_primitive(src: &Value, p: Piece, base: Base, out: &mut Made) -> Value {
+    let mut prim = src.clone();
+    if let (Piece::Range { first, count, .. }, Some(o)) = (p, prim.as_object_mut()) {
+        o.shift_remove("indices");
+        o.shift_remove("mode");
+        let mut acc = json!({"bufferView": base.view});
+        if first != 0 {
+            acc["byteOffset"] = json!(first * base.size);
+        }
+        acc["componentType"] = json!(if base.size == 2 { 5123 } else { 5125 });
+        acc["count"] = json!(count);
+        acc["type"] = json!("SCALAR");
+        o.insert(
+            "indices".into(),
+            json!(base.accessors + out.accessors.len()),
+        );
+        out.accessors.push(acc);
+    }
+    prim
+}
+
+/// A part's mesh: the node's mesh with every member kept, its `primitives` those given and
+/// its name followed by the part's cells.
+fn part_mesh(mesh: &Value, primitives: Vec<Value>, cells: &[u32]) -> Value {
+    let mut primitives = Some(primitives);
+    let mut part = Map::new();
+    for (k, v) in mesh.as_object().into_iter().flatten() {
+        let v = match k.as_str() {
+            "primitives" => Value::Array(primitives.take().unwrap_or_default()),
+            "name" => json!(format!(
+                "{} {}",
+                v.as_str().unwrap_or("mesh"),
+                suffix(cells)
+            )),
+            _ => v.clone(),
+        };
+        part.insert(k.clone(), v);
+    }
+    Value::Object(part)
 }
 
 /// The cells of a part as its mesh's name ends: `[cell 3]`, `[cells 3 4]`, `[no cell]`.
