@@ -1827,3 +1827,31 @@ fn locate_inside_on_a_boundary_and_in_nested_rooms() {
     b.cells[1]["priority"] = json!(2);
     assert_eq!(b.level().locate(inner, None), Location::Inside(1));
 }
+
+/// An eye in a thick wall's doorway stands in no cell and sees the rooms on both sides with
+/// the whole view, even where one of them was reached first through a narrower opening: here
+/// room A, 15 cm behind the eye, through a window in the same wall seen from outside. A = [0,4]
+/// x [0,3] x [0,8] (cell 0), B = [4.3,8.3] x [0,3] x [0,4] (cell 1), a 30 cm wall between them
+/// with a doorway (z 1.5..2.5, y 0..2.2; portals 0 and 1) and, further along A's side of it,
+/// a window to the outside (z 5..7, y 1..2; portal 2).
+#[test]
+fn an_eye_in_a_thick_doorway_sees_both_rooms_whole_though_one_shows_through_a_window() {
+    let mut b = Builder::default();
+    let a = b.room("A", [0.0, 0.0, 0.0], [4.0, 3.0, 8.0]);
+    let c = b.room("B", [4.3, 0.0, 0.0], [8.3, 3.0, 4.0]);
+    let near_side = facing(&rect(0, 4.0, [0.0, 1.5], [2.2, 2.5]), b.centre(a));
+    let far_side = facing(&rect(0, 4.3, [0.0, 1.5], [2.2, 2.5]), b.centre(c));
+    b.portal(json!({"polygon": near_side, "cells": [a, c], "partner": 1}));
+    b.portal(json!({"polygon": far_side, "cells": [c, a], "partner": 0}));
+    let window = facing(&rect(0, 4.0, [1.0, 5.0], [2.0, 7.0]), b.centre(a));
+    b.portal(json!({"polygon": window, "cells": [a]}));
+    let level = b.level();
+    // Looking along the wall towards the window: it is in view, from outside.
+    let t = trace(&level, [4.15, 1.5, 2.0], [-0.3, 0.0, 1.0]);
+    assert!(t.location.cell().is_none(), "{:?}", t.location);
+    for cell in [a, c] {
+        let (_, v) =
+            entry(&t, Some(cell)).unwrap_or_else(|| panic!("cell {cell}: {:?}", t.visible()));
+        assert_eq!(v.rect, [-1.0, -1.0, 1.0, 1.0], "cell {cell}: {v:?}");
+    }
+}

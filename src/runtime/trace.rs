@@ -259,6 +259,8 @@ pub struct Trace {
     outside_links: Vec<u32>,
     /// Per region: how often it is on the current untransformed path.
     on_path_cells: Vec<u16>,
+    /// The cells an eye in no cell walked with the whole view (see `walk_from_nearby_cells`).
+    roots: Vec<u32>,
 }
 
 impl Trace {
@@ -528,8 +530,10 @@ impl Level {
         let eye = ctx.view.eye;
         let reach = ctx.near_radius + ctx.tol;
         let root = |c: usize| Frame::root(c, Some(c));
+        out.roots.clear();
         if let Some((c, d)) = nearest.and_then(|_| self.nearest(eye)) {
             if d <= reach {
+                out.roots.push(c as u32);
                 self.walk(ctx, root(c), out);
             }
         }
@@ -553,10 +557,12 @@ impl Level {
                 && clip::distance_to_polygon(eye - p.plane.n * here, self.polygon(i), p.plane.n)
                     <= reach
             {
-                for c in [p.from as usize, to as usize] {
-                    let walked = out.stamp[c] == out.generation;
-                    if !walked {
-                        self.walk(ctx, root(c), out);
+                // Each with the whole view once, though it may have been reached already
+                // through a narrower opening (a window in the same wall, seen from outside).
+                for c in [p.from, to] {
+                    if !out.roots.contains(&c) {
+                        out.roots.push(c);
+                        self.walk(ctx, root(c as usize), out);
                     }
                 }
             }
