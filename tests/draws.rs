@@ -569,6 +569,8 @@ fn shared_levels_draw_what_their_visible_cells_hold() {
             None,
         ),
         ("ericw-tools/testmaps/retrojam1_ericw.map", None),
+        // E1M1's brushes as a plain exporter writes them: solid blocks, read as the .map is.
+        ("ericw-tools/gltf/E1M1-edited-ents.gltf", None),
         ("freedoom/freedoom2_MAP01.glb", Some("doom")),
         ("freedoom/freedoom1_E1M2.glb", Some("doom")),
         ("freedoom/freedoom1_E3M3.glb", Some("doom")),

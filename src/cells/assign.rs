@@ -119,21 +119,22 @@ pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, r
         c.nodes.retain(|n| !far.contains(n));
     }
     far.sort_unstable();
-    if !buried_in_solid(scene) {
+    if !buried_in_solid(set) {
         set.diagnostics
             .extend(far.into_iter().map(|n| outside_diagnostic(scene, n)));
     }
 }
 
-/// Whether geometry in no cell, facing none, is buried in solid and needs no cell: in a brush
-/// map, as qbsp reads one, everything but the air the outside fill leaves is solid, so a
-/// detail brush in no cell lies wholly in a wall or in the filled void, and nothing can see
-/// it (e3m4 reported 240 such brushes, a qbsp user's noise). Detail touching a cell's face
-/// is in that cell, and detail in a wall facing a cell through an opening is that cell's, so
-/// neither comes here. In other formats the space outside the rooms is open, and geometry
-/// there (a crate left 30 m away) is reported.
-fn buried_in_solid(scene: &Scene) -> bool {
-    scene.format == crate::scene::Format::Map
+/// Whether geometry in no cell, facing none, is buried in solid and needs no cell: where every
+/// room is read as solid blocks (a brush map as qbsp reads one, or the same brushes in any
+/// format), everything but the air the outside fill leaves is solid, so a detail brush in no
+/// cell lies wholly in a wall or in the filled void, and nothing can see it (e3m4 reported
+/// 240 such brushes, a qbsp user's noise). Detail touching a cell's face is in that cell, and
+/// detail in a wall facing a cell through an opening is that cell's, so neither comes here.
+/// Around rooms read otherwise the space outside them is open, and geometry there (a crate
+/// left 30 m away) is reported.
+fn buried_in_solid(set: &CellSet) -> bool {
+    set.solid_beyond
 }
 
 /// `CELL_GEOMETRY_OUTSIDE` for node `n`, placed at the middle of its box.
@@ -423,7 +424,7 @@ pub(crate) fn find(
     }
     loose.0.into_iter().for_each(|(c, n)| lists[c].push(n));
     outside.extend(loose.1);
-    let diagnostics = match buried_in_solid(scene) {
+    let diagnostics = match buried_in_solid(set) {
         true => Vec::new(),
         false => outside
             .into_iter()

@@ -14,8 +14,9 @@
 //! it is drawn from its front only, the cell reaches in front of its plane (a ceiling is not
 //! the cell's above whose floor it lies on). A triangle in no cell (a jamb in a wall, trim
 //! buried in it, a triangle dropped as degenerate) is drawn by the cells that draw its node.
-//! In a sealed brush map a triangle in no cell is drawn by none: the cells are qbsp's air
-//! leaves, and a face that borders no air leaf (one facing the void, one against another
+//! In a sealed level of solid blocks (a brush map, or the same brushes in any format:
+//! [`CellSet::solid_beyond`]) a triangle in no cell is drawn by none: the cells are qbsp's
+//! air leaves, and a face that borders no air leaf (one facing the void, one against another
 //! brush) is one qbsp gives no leaf's marksurfaces; it cannot be seen.
 //! Runs are in order of their cells (as lists, lowest first, compared as sequences), each
 //! run's triangles in the primitive's order.
@@ -210,7 +211,7 @@ fn touches(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
 /// Every cell's draw list (see the module's documentation). `sealed`: the level has no
 /// opening to the exterior.
 pub fn of(scene: &Scene, set: &CellSet, sealed: bool) -> Draws {
-    let unseen = sealed && scene.format == crate::scene::Format::Map;
+    let unseen = sealed && set.solid_beyond;
     let eps = set.tolerance.distance;
     let grid = BoxGrid::new(set.cells.iter().map(|c| c.bounds).collect());
     // The cells that draw each node whole: the cells stage's own lists.

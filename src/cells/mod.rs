@@ -192,6 +192,11 @@ pub struct CellSet {
     pub buried: Vec<NodeId>,
     /// The gaps among solid blocks the crack width closed.
     pub closed: crate::geom::crack::ClosedGaps,
+    /// Every room was read as solid blocks (as qbsp reads a brush map, in any format): what
+    /// no cell holds is solid, or void an occupant's fill or a sealed region's reading left
+    /// out, so geometry there borders no cell's air.
+    #[serde(skip)]
+    pub solid_beyond: bool,
     /// What the cells stage reported (overlaps, unplaced geometry, degenerate rooms).
     #[serde(skip)]
     pub diagnostics: Diagnostics,
@@ -421,6 +426,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         },
     };
     let (blocks, buried, gaps) = b.read_blocks(tagging, &mut diags);
+    let solid_beyond = !blocks.is_empty() && blocks.iter().all(Option::is_some);
     b.blocks = blocks;
     // Rooms are built on their own, in parallel, and their cells numbered in room order
     // afterwards, so the result does not depend on the thread count. Tagged rooms come
@@ -469,6 +475,7 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         crack,
         closed: gaps.moved(origin),
         buried,
+        solid_beyond,
         diagnostics: diags,
     };
     let took = overlap::resolve(scene, tagging, cfg, &mut set, origin);
