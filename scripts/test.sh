@@ -34,6 +34,13 @@ if command -v npm >/dev/null 2>&1 && [ ! -d tools/browser-test/node_modules/play
   (cd tools/browser-test && npm ci --no-audit --no-fund --loglevel=error)
 fi
 
+# The JavaScript runtime and three.js plugin (js/portcullis-three): three from npm, pinned by
+# js/portcullis-three/package-lock.json, cached in js/portcullis-three/node_modules.
+if command -v npm >/dev/null 2>&1 && [ ! -d js/portcullis-three/node_modules ]; then
+  echo "== installing three for js/portcullis-three (npm ci, cached in js/portcullis-three/node_modules)"
+  (cd js/portcullis-three && npm ci --no-audit --no-fund --loglevel=error)
+fi
+
 # usd-core (PyPI, pinned; the same version as USD_CORE_VERSION in src/import/usd.rs), cached in
 # .venv. The embedded interpreter finds it there (its fallback when neither --python-venv nor
 # VIRTUAL_ENV is given), and pyo3 is configured against the venv's interpreter so the versions
@@ -74,3 +81,7 @@ cargo test --all-targets --locked --features usd
 echo "== the docs: links resolve, examples (the crate's, the guide's) compile and run"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --locked
 cargo test --doc --locked --features usd
+echo "== js/portcullis-three: the JavaScript runtime against portcullis cull, and the three.js plugin"
+(cd js/portcullis-three && npm test)
+echo "== the runtime's test vectors, checked against the JavaScript port (scripts/check_vectors.py)"
+PORTCULLIS=target/debug/portcullis python3 scripts/check_vectors.py node js/portcullis-three/cli.js

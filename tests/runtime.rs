@@ -1209,6 +1209,143 @@ fn cull_stats_price_each_view_by_draw_lists_whole_nodes_and_frustum() {
     );
 }
 
+/// What the cells `cells` draw, computed from the file's `cells[].nodes`, `cells[].draws` and
+/// `split` alone: the nodes not split, and each split primitive's indices as a set, cut into
+/// runs of consecutive indices (`[node, primitive, first, count]`).
+fn draw_of_cells(ext: &Value, cells: &[u64]) -> Value {
+    let prims = ext["split"]["primitives"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    let split: BTreeSet<u64> = prims.iter().map(|p| p["node"].as_u64().unwrap()).collect();
+    let mut nodes = BTreeSet::new();
+    let mut indices: BTreeSet<(u64, u64)> = BTreeSet::new();
+    for &c in cells {
+        let cell = &ext["cells"][c as usize];
+        for n in cell["nodes"].as_array().unwrap() {
+            let n = n.as_u64().unwrap();
+            if !split.contains(&n) {
+                nodes.insert(n);
+            }
+        }
+        for d in cell["draws"].as_array().into_iter().flatten() {
+            let [k, first, count] = [0, 1, 2].map(|i| d[i].as_u64().unwrap());
+            let p = &prims[k as usize];
+            let (pf, pc) = (p["first"].as_u64().unwrap(), p["count"].as_u64().unwrap());
+            assert!(pf <= first && first + count <= pf + pc, "{d} outside {p}");
+            indices.extend((first..first + count).map(|i| (k, i)));
+        }
+    }
+    let mut runs: Vec<[u64; 3]> = Vec::new();
+    for (k, i) in indices {
+        match runs.last_mut() {
+            Some(r) if r[0] == k && r[1] + r[2] == i => r[2] += 1,
+            _ => runs.push([k, i, 1]),
+        }
+    }
+    let ranges: Vec<Value> = (runs.iter())
+        .map(|&[k, first, count]| {
+            let p = &prims[k as usize];
+            serde_json::json!([p["node"], p["primitive"], first, count])
+        })
+        .collect();
+    serde_json::json!({"nodes": nodes, "ranges": ranges})
+}
+
+/// `cull --draw-lists`: each view's draw list is the union of the file's lists of the cells it
+/// sees without a transform, and each entry seen through a mirror or teleporter carries its
+/// own cell's; without the flag the output is the same less the lists.
+#[test]
+fn cull_draw_lists_are_the_files_lists_of_the_visible_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut joined = 0;
+    let mut moved = 0;
+    for name in [
+        "pillar_room.gltf",
+        "brush_doors.map",
+        "mirror.gltf",
+        "block_door.gltf",
+    ] {
+        let glb = convert(&common::sample(name), None, dir.path());
+        let (doc, _) = common::read_gltf(&std::fs::read(&glb).unwrap());
+        let ext = &doc["extensions"]["PORTCULLIS_portals"];
+        let level = Level::load(&glb).unwrap();
+        let cams = dir.path().join("cams.jsonl");
+        let mut lines = String::new();
+        for c in 0..level.cells() {
+            let (lo, hi) = level.bounds(c);
+            let eye: Vec<f64> = (0..3).map(|i| (lo[i] + hi[i]) / 2.0).collect();
+            for look in ["[1,0,0]", "[0,0,1]", "[-1,0,0]", "[0,0,-1]"] {
+                lines += &format!("{{\"eye\":{eye:?},\"look\":{look},\"fov_y\":90}}\n");
+            }
+        }
+        std::fs::write(&cams, lines).unwrap();
+        let cull = |extra: &[&str]| {
+            let mut c = cull_cmd();
+            c.arg("cull")
+                .arg(&glb)
+                .arg("--cameras")
+                .arg(&cams)
+                .args(extra);
+            common::succeeds(&mut c).stdout
+        };
+        let with = cull(&["--format", "jsonl", "--draw-lists"]);
+        let without = cull(&["--format", "jsonl"]);
+        let text = String::from_utf8(cull(&["--draw-lists"])).unwrap();
+        let with = String::from_utf8(with).unwrap();
+        let without = String::from_utf8(without).unwrap();
+        assert_eq!(with.lines().count(), 4 * level.cells(), "{name}");
+        let mut human = Vec::new();
+        for (a, b) in with.lines().zip(without.lines()) {
+            let mut r: Value = serde_json::from_str(a).unwrap();
+            let direct: Vec<u64> = (r["visible"].as_array().unwrap().iter())
+                .filter(|v| v.get("transform").is_none())
+                .filter_map(|v| v["cell"].as_u64())
+                .collect();
+            assert_eq!(r["draw"], draw_of_cells(ext, &direct), "{name}: {a}");
+            let own: usize = (direct.iter())
+                .map(|&c| {
+                    ext["cells"][c as usize]["draws"]
+                        .as_array()
+                        .map_or(0, Vec::len)
+                })
+                .sum();
+            joined += usize::from(r["draw"]["ranges"].as_array().unwrap().len() < own);
+            for v in r["visible"].as_array_mut().unwrap() {
+                match (v.get("transform"), v["cell"].as_u64()) {
+                    (Some(_), Some(c)) => {
+                        assert_eq!(v["draw"], draw_of_cells(ext, &[c]), "{name}: {a}");
+                        moved += 1;
+                    }
+                    (Some(_), None) => assert_eq!(v["draw"], draw_of_cells(ext, &[]), "{a}"),
+                    (None, _) => assert!(v.get("draw").is_none(), "{name}: {a}"),
+                }
+                v.as_object_mut().unwrap().shift_remove("draw");
+            }
+            let counts = format!(
+                "  draw: {} nodes, {} ranges",
+                r["draw"]["nodes"].as_array().unwrap().len(),
+                r["draw"]["ranges"].as_array().unwrap().len()
+            );
+            r.as_object_mut().unwrap().shift_remove("draw");
+            assert_eq!(r.to_string(), b, "{name}: the flag adds the lists alone");
+            human.push(counts);
+        }
+        let said: Vec<&str> = (text.lines())
+            .filter(|l| l.starts_with("  draw: "))
+            .collect();
+        assert_eq!(said.len(), human.len(), "{name}: {text}");
+        for (line, counts) in said.iter().zip(&human) {
+            assert!(
+                line.starts_with(counts.as_str()),
+                "{name}: {line} for {counts}"
+            );
+        }
+    }
+    assert!(joined > 0, "no view joined ranges of two cells");
+    assert!(moved > 0, "no view through the mirror");
+}
+
 #[test]
 fn cull_refuses_bad_input_with_what_where_and_how() {
     let dir = tempfile::tempdir().unwrap();

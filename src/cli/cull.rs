@@ -73,6 +73,13 @@ pub struct CullArgs {
     /// the triangles of its draw list; a summary per view at the end (human format).
     #[arg(long)]
     pub stats: bool,
+
+    /// Also print what each view draws, `Level::draw_list` of the cells seen without a
+    /// transform: `"draw": {"nodes": [glTF node, ...], "ranges": [[node, primitive, first,
+    /// count], ...]}` (nodes drawn whole; ranges of the split indices). An entry seen through
+    /// a mirror or teleporter gets its own cell's list, drawn moved. Human format: the counts.
+    #[arg(long)]
+    pub draw_lists: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -308,7 +315,8 @@ fn stream(
             Err(d) => return Ok(Err(d)),
         };
         level.trace(&view, doors, opts, &mut trace);
-        let mut r = report(&trace);
+        let draws = a.draw_lists.then_some((level, &mut list));
+        let mut r = report(&trace, draws);
         if let Some(m) = meshes {
             let cost = level.cost(m, &view, &trace, &mut list);
             total += cost;
@@ -388,25 +396,29 @@ fn summary(out: &mut dyn Write, m: &Meshes, t: &ViewCost, views: usize) -> std::
     Ok(())
 }
 
-/// One camera's result as `cull --format json` prints it.
-fn report(t: &Trace) -> Value {
-    let visible: Vec<Value> = t
-        .visible()
-        .iter()
-        .map(|v| {
-            let mut o = json!({
-                "cell": v.cell,
-                "rect": v.rect.map(round),
-                "depth": v.depth,
-                "via": t.via(v),
-            });
-            if let Some(m) = &v.transform {
-                o["transform"] = json!(m.to_cols_array().map(round));
-            }
-            o["mirrored"] = json!(v.mirrored);
-            o
-        })
-        .collect();
+/// One camera's result as `cull --format json` prints it; with `draws` (`--draw-lists`),
+/// what it draws: the list of the cells seen without a transform, and on each entry seen
+/// through one, its own cell's.
+fn report(t: &Trace, mut draws: Option<(&Level, &mut DrawList)>) -> Value {
+    let mut visible: Vec<Value> = Vec::with_capacity(t.visible().len());
+    for v in t.visible() {
+        let mut o = json!({
+            "cell": v.cell,
+            "rect": v.rect.map(round),
+            "depth": v.depth,
+            "via": t.via(v),
+        });
+        if let Some(m) = &v.transform {
+            o["transform"] = json!(m.to_cols_array().map(round));
+        }
+        o["mirrored"] = json!(v.mirrored);
+        if let (Some((level, list)), Some(_)) = (draws.as_mut(), v.transform) {
+            // As `Level::cost` prices it: the cell's own list, moved (the outside draws none).
+            level.draw_list(v.cell, list);
+            o["draw"] = draw_json(list);
+        }
+        visible.push(o);
+    }
     let mut o = json!({
         "cell": t.location.cell(),
         "location": t.location.name(),
@@ -415,8 +427,21 @@ fn report(t: &Trace) -> Value {
         o["nearest"] = json!(nearest);
     }
     o["visible"] = json!(visible);
+    if let Some((level, list)) = draws {
+        let direct = t.visible().iter().filter(|v| v.transform.is_none());
+        level.draw_list(direct.filter_map(|v| v.cell), list);
+        o["draw"] = draw_json(list);
+    }
     o["stats"] = json!(t.stats);
     o
+}
+
+/// A draw list as `--draw-lists` prints it.
+fn draw_json(list: &DrawList) -> Value {
+    let ranges: Vec<[usize; 4]> = (list.ranges.iter())
+        .map(|r| [r.node, r.primitive, r.first, r.count])
+        .collect();
+    json!({"nodes": list.nodes, "ranges": ranges})
 }
 
 fn round(x: f64) -> f64 {
@@ -462,6 +487,26 @@ fn human(out: &mut dyn Write, level: &Level, number: usize, r: &Value) -> std::i
                 part("nodes"),
                 part("frustum")
             )?;
+        }
+        if let Some(d) = r.get("draw") {
+            let count = |d: &Value, k: &str| d[k].as_array().map_or(0, Vec::len);
+            let moved: Vec<&Value> = visible.iter().filter_map(|v| v.get("draw")).collect();
+            let mut line = format!(
+                "  draw: {} nodes, {} ranges",
+                count(d, "nodes"),
+                count(d, "ranges")
+            );
+            if !moved.is_empty() {
+                let sum = |k: &str| moved.iter().map(|d| count(d, k)).sum::<usize>();
+                let views = if moved.len() == 1 { "view" } else { "views" };
+                line += &format!(
+                    "; through mirrors and teleporters: {} nodes, {} ranges in {} {views}",
+                    sum("nodes"),
+                    sum("ranges"),
+                    moved.len()
+                );
+            }
+            writeln!(out, "{line}")?;
         }
         for v in visible {
             let rect: Vec<String> = v["rect"]
