@@ -1,6 +1,6 @@
 //! `convert --split-by-cell`, read as an engine that can only show and hide nodes reads it:
 //! a plain glTF reader of the tests' own (`common::plain`) sees the same triangles (corners,
-//! winding, material) as in the default output, each once; the cells' `nodes` partition the
+//! winding, material) as in the default output, each once, and those the input's own; the cells' `nodes` partition the
 //! mesh nodes of the split ones; the file passes the Khronos validator and the extension's
 //! schemas; `check` reads it as it reads the default output; and `convert` refuses to write it
 //! again, leaving no file.
@@ -52,6 +52,20 @@ fn judged(name: &str, input: &Path, preset: Option<&str>) -> (usize, usize) {
     assert!(!a.is_empty(), "{name}: no triangles");
     assert_eq!(a.len(), b.len(), "{name}: triangle count");
     assert!(a == b, "{name}: the split file draws other triangles");
+    // And the default output draws the input's own, where the input is glTF in one buffer.
+    let gltf = input.extension().is_some_and(|e| e == "gltf" || e == "glb");
+    let one_buffer = gltf && {
+        let (doc, _) = common::read_gltf(&std::fs::read(input).unwrap());
+        let b = doc["buffers"].as_array().cloned().unwrap_or_default();
+        let uri = b.first().and_then(|b| b["uri"].as_str().map(str::to_owned));
+        b.len() == 1 && uri.is_none_or(|u| u.starts_with("data:"))
+    };
+    if one_buffer {
+        assert!(
+            common::plain::drawn(input) == a,
+            "{name}: the output draws other triangles"
+        );
+    }
 
     // Valid, by Khronos and by our schemas (the root object and every node's).
     if let Some(report) = common::khronos_validate(&split) {
