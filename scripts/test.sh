@@ -81,7 +81,10 @@ cargo test --all-targets --locked --features usd
 echo "== the docs: links resolve, examples (the crate's, the guide's) compile and run"
 RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --locked
 cargo test --doc --locked --features usd
+# The binary the cargo tests built, wherever cargo puts it (CARGO_TARGET_DIR may move it).
+PORTCULLIS="$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/debug/portcullis"
+export PORTCULLIS
 echo "== js/portcullis-three: the JavaScript runtime against portcullis cull, and the three.js plugin"
 (cd js/portcullis-three && npm test)
 echo "== the runtime's test vectors, checked against the JavaScript port (scripts/check_vectors.py)"
-PORTCULLIS=target/debug/portcullis python3 scripts/check_vectors.py node js/portcullis-three/cli.js
+python3 scripts/check_vectors.py node js/portcullis-three/cli.js
