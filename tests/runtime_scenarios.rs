@@ -1855,3 +1855,28 @@ fn an_eye_in_a_thick_doorway_sees_both_rooms_whole_though_one_shows_through_a_wi
         assert_eq!(v.rect, [-1.0, -1.0, 1.0, 1.0], "cell {cell}: {v:?}");
     }
 }
+
+/// An eye on a wall of no thickness, a metre from the doorway in it, stands on both rooms'
+/// boundaries: whichever it is located in, it sees into the other with the whole view (its
+/// near plane lies there, and the doorway is edge-on), looking either way.
+#[test]
+fn an_eye_on_a_wall_of_no_thickness_sees_the_room_it_looks_into() {
+    let level = two_rooms().level();
+    for look in [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]] {
+        let t = trace(&level, [4.0, 1.5, 3.5], look);
+        assert!(
+            matches!(t.location, Location::Boundary(_)),
+            "{:?}",
+            t.location
+        );
+        for cell in [0, 1] {
+            let (_, v) = entry(&t, Some(cell))
+                .unwrap_or_else(|| panic!("{look:?}: cell {cell}: {:?}", t.visible()));
+            assert_eq!(
+                v.rect,
+                [-1.0, -1.0, 1.0, 1.0],
+                "{look:?}: cell {cell}: {v:?}"
+            );
+        }
+    }
+}

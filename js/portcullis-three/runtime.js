@@ -1414,7 +1414,27 @@ export class Level {
     const ctx = { view, doors, opts: o, pvsRow, nearRadius, tol: this.tolerance };
     this.walk(ctx, rootFrame(region, cell), out);
     if (loc.kind === 'outside') this.walkFromNearbyCells(ctx, loc.nearest, out);
+    else if (loc.kind === 'boundary') this.walkFromOtherSides(ctx, loc.cell, out);
     return out;
+  }
+
+  /**
+   * An eye on its cell's boundary stands on every cell whose boundary holds it (within the
+   * tolerance): each is walked too, with the whole view, in the grid bucket's order (rule 15).
+   */
+  walkFromOtherSides(ctx, c, out) {
+    const [ex, ey, ez] = ctx.view.eye;
+    const tol = this.tolerance;
+    const roots = [c];
+    const g = this.grid;
+    const [bx, by, bz] = this.bucket(ex, ey, ez);
+    const b = this.bucketIndex(bx, by, bz);
+    for (let t = g.start[b]; t < g.start[b + 1]; t++) {
+      const k = g.items[t];
+      if (roots.includes(k) || this.margin(k, ex, ey, ez) < -tol) continue;
+      roots.push(k);
+      this.walk(ctx, rootFrame(k, k), out);
+    }
   }
 
   walkFromNearbyCells(ctx, nearest, out) {

@@ -108,7 +108,7 @@ impl Grid {
     }
 
     /// The bucket holding `p`, clamped to the grid.
-    fn bucket(&self, p: DVec3) -> [usize; 3] {
+    pub(super) fn bucket(&self, p: DVec3) -> [usize; 3] {
         let q = (p - self.min) / self.size;
         let at = |v: f64, d: usize| (v.floor().max(0.0) as usize).min(d - 1);
         [
@@ -122,7 +122,7 @@ impl Grid {
         (b[0] * self.dims[1] + b[1]) * self.dims[2] + b[2]
     }
 
-    fn items(&self, b: [usize; 3]) -> &[u32] {
+    pub(super) fn items(&self, b: [usize; 3]) -> &[u32] {
         let i = self.index(b);
         &self.items[self.start[i] as usize..self.start[i + 1] as usize]
     }
@@ -157,7 +157,7 @@ pub(super) fn mark_overlaps(level: &mut Level) {
 
 impl Level {
     /// How far `p` lies inside cell `c`: the least distance to its planes (negative outside).
-    fn margin(&self, c: usize, p: DVec3) -> f64 {
+    pub(super) fn margin(&self, c: usize, p: DVec3) -> f64 {
         self.cell_planes(c)
             .iter()
             .map(|h| -h.dist(p))

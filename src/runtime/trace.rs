@@ -517,8 +517,29 @@ impl Level {
             tol: self.tolerance,
         };
         self.walk(&ctx, Frame::root(region, cell), out);
-        if let Location::Outside { nearest } = out.location {
-            self.walk_from_nearby_cells(&ctx, nearest, out);
+        match out.location {
+            Location::Outside { nearest } => self.walk_from_nearby_cells(&ctx, nearest, out),
+            Location::Boundary(c) => self.walk_from_other_sides(&ctx, c, out),
+            Location::Inside(_) => {}
+        }
+    }
+
+    /// An eye on its cell's boundary (within the tolerance of a face) stands on every cell
+    /// whose boundary holds it: across a wall of no thickness, away from any portal, its near
+    /// plane lies in the room it looks into, which no portal leads to. Each such cell is walked
+    /// too, with the whole view, in index order.
+    fn walk_from_other_sides(&self, ctx: &Ctx, c: usize, out: &mut Trace) {
+        let eye = ctx.view.eye;
+        let tol = self.tolerance;
+        out.roots.clear();
+        out.roots.push(c as u32);
+        for &k in self.grid.items(self.grid.bucket(eye)) {
+            let k = k as usize;
+            if out.roots.contains(&(k as u32)) || self.margin(k, eye) < -tol {
+                continue;
+            }
+            out.roots.push(k as u32);
+            self.walk(ctx, Frame::root(k, Some(k)), out);
         }
     }
 
