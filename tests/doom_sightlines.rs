@@ -145,4 +145,7 @@ fn the_reported_e3m3_ray_lands_in_no_cell_the_eye_cannot_see() {
         !(0..level.cells.cells.len()).any(|c| room(c) == "sector_91"),
         "the closed door sector_91 has no cell"
     );
+    // Where the ray lands, approached along it (5 mm short of the wall), is the eye's own cell.
+    let landing = eye + d * (h.time_of_impact - 0.005);
+    assert_eq!(cells_at(&level, landing), from, "{landing}");
 }
