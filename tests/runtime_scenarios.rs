@@ -1880,3 +1880,58 @@ fn an_eye_on_a_wall_of_no_thickness_sees_the_room_it_looks_into() {
         }
     }
 }
+
+/// A near plane a metre out puts every portal of a grid of small rooms within its reach, so
+/// each is passed through with the whole view: the walk must enter each room a bounded number
+/// of times, not once per simple path among them (a brush map's small cells ran a trace out
+/// of memory). Rooms 0.5 m square in a 4 x 4 grid, every neighbour open through a whole face.
+#[test]
+fn a_near_plane_reaching_many_portals_walks_each_room_a_bounded_number_of_times() {
+    let mut b = Builder::default();
+    let n = 4;
+    let s = 0.5;
+    let id = |i: usize, k: usize| i * n + k;
+    for i in 0..n {
+        for k in 0..n {
+            let (x, z) = (i as f64 * s, k as f64 * s);
+            b.room(&format!("r{i}_{k}"), [x, 0.0, z], [x + s, 3.0, z + s]);
+        }
+    }
+    for i in 0..n {
+        for k in 0..n {
+            let (x, z) = (i as f64 * s, k as f64 * s);
+            if i + 1 < n {
+                b.door(
+                    id(i, k),
+                    id(i + 1, k),
+                    &rect(0, x + s, [0.0, z], [3.0, z + s]),
+                );
+            }
+            if k + 1 < n {
+                b.door(
+                    id(i, k),
+                    id(i, k + 1),
+                    &rect(2, z + s, [x, 0.0], [x + s, 3.0]),
+                );
+            }
+        }
+    }
+    let level = b.level();
+    let v = View::new(
+        [0.8, 1.5, 0.8],
+        [1.0, 0.0, 0.3],
+        [0.0, 1.0, 0.0],
+        FOV,
+        ASPECT,
+        1.0,
+    )
+    .unwrap();
+    let t = trace_with(&level, &Doors::new(&level), &TraceOptions::default(), &v);
+    assert_eq!(seen(&t).len(), n * n, "every room: {:?}", seen(&t));
+    assert!(
+        t.stats.entered as usize <= 8 * n * n,
+        "{} rooms entered {} times",
+        n * n,
+        t.stats.entered
+    );
+}

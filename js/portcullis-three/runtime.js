@@ -664,6 +664,10 @@ export class Trace {
     this.flatB = [];
     this.outsideLinks = [];
     this.onPathCells = new Uint16Array(0);
+    // Per region: generation, view and depth of its last walk entered by passing through.
+    this.passedGen = new Uint32Array(0);
+    this.passedView = new Uint32Array(0);
+    this.passedDepth = new Uint32Array(0);
   }
 
   reset(regions) {
@@ -678,11 +682,15 @@ export class Trace {
     if (this.stamp.length !== regions) {
       this.stamp = new Uint32Array(regions);
       this.entry = new Uint32Array(regions);
+      this.passedGen = new Uint32Array(regions);
+      this.passedView = new Uint32Array(regions);
+      this.passedDepth = new Uint32Array(regions);
       this.generation = 0;
     }
     this.generation = (this.generation + 1) >>> 0;
     if (this.generation === 0) {
       this.stamp.fill(0);
+      this.passedGen.fill(0);
       this.generation = 1;
     }
   }
@@ -1530,6 +1538,15 @@ export class Level {
     let seen;
     if (standingIn) {
       out.stats.passed_through += 1;
+      // A region already walked with this very view, untransformed and no deeper, is not
+      // walked again (rule 11): passing through keeps the view.
+      if (frame.draw === null && transform === null) {
+        const t = this.linkTo[link];
+        if (out.passedGen[t] === out.generation && out.passedView[t] === frame.viewStart && out.passedDepth[t] <= frame.depth) return;
+        out.passedGen[t] = out.generation;
+        out.passedView[t] = frame.viewStart;
+        out.passedDepth[t] = frame.depth;
+      }
       seen = [frame.viewStart, frame.viewEnd, frame.clipStart, frame.clipEnd, frame.rect];
     } else if (dist <= ctx.tol) {
       out.stats.portals_culled += 1;

@@ -261,6 +261,9 @@ pub struct Trace {
     on_path_cells: Vec<u16>,
     /// The cells an eye in no cell walked with the whole view (see `walk_from_nearby_cells`).
     roots: Vec<u32>,
+    /// Per region: the generation, view and depth of its last untransformed walk entered by
+    /// passing through a portal the eye stands in (see `Level::cross`).
+    passed: Vec<(u32, u32, u32)>,
 }
 
 impl Trace {
@@ -337,11 +340,14 @@ impl Trace {
             self.stamp.clear();
             self.stamp.resize(regions, 0);
             self.entry.resize(regions, 0);
+            self.passed.clear();
+            self.passed.resize(regions, (0, 0, 0));
             self.generation = 0;
         }
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
             self.stamp.fill(0);
+            self.passed.fill((0, 0, 0));
             self.generation = 1;
         }
     }
@@ -671,6 +677,20 @@ impl Level {
         }
         let (view, clips, rect) = if standing_in {
             out.stats.passed_through += 1;
+            // Passing through keeps the view, so a region already walked with this very view,
+            // untransformed and no deeper, would be walked again to no end: every simple path
+            // among the portals within the near plane's reach (a 1 m near plane among a brush
+            // map's small cells) is a walk. A straight sightline in that view meets each cell
+            // once, and the first walk followed it wherever this one could.
+            if frame.draw.is_none() && transform.is_none() {
+                let at = &mut out.passed[link.to as usize];
+                let (generation, view, depth) = *at;
+                if generation == out.generation && view == frame.view.start && depth <= frame.depth
+                {
+                    return;
+                }
+                *at = (out.generation, frame.view.start, frame.depth);
+            }
             (frame.view.clone(), frame.clips.clone(), frame.rect)
         } else if dist <= ctx.tol {
             out.stats.portals_culled += 1;

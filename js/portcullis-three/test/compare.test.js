@@ -93,14 +93,15 @@ test('cull agrees on Freedoom MAP01 (--tags doom)', { skip: !bin ? 'no portculli
   check(t, MAP01, 'freedoom2_MAP01', { extra: ['--tags', 'doom'], random: 1500, seed: 2024, runs: [[], ['--stats'], ['--no-pvs'], ['--max-depth', '3']] });
 });
 
-// The other shared levels: Freedoom maps with the doom preset and a brush map as `.map`, 500
-// random cameras each besides the cell centres. (E1M1-edited-ents and retrojam1 are left out:
-// a few of these cameras, with a 1 m near plane among their small cells, make the Rust trace
-// walk so many paths that it runs out of memory; the vectors cover E1M1 meanwhile.)
+// The other shared levels: Freedoom maps with the doom preset and the brush maps as `.map`,
+// 500 random cameras each besides the cell centres (among them cameras with a 1 m near plane,
+// which in a brush map's small cells reach many portals at once).
 const SHARED = [
   ['freedoom/freedoom1_E1M2.glb', ['--tags', 'doom']],
   ['freedoom/freedoom1_E3M3.glb', ['--tags', 'doom']],
+  ['ericw-tools/testmaps/E1M1-edited-ents.map', []],
   ['ericw-tools/testmaps/LibreQuake/lq1/maps/src/e3/e3m4.map', []],
+  ['ericw-tools/testmaps/retrojam1_ericw.map', []],
 ];
 for (const [rel, extra] of SHARED) {
   const source = join(dirname(MAP01), '..', rel);
