@@ -9,26 +9,13 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{DMat4, DVec3};
 use parry3d_f64::query::{Ray, RayCast};
 use portcullis::import::Imported;
 use portcullis::pipeline;
 use portcullis::vis::{self, VisOptions};
-
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = common::root().join("../shared/levels").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "skipped: {} is missing (../shared is not beside the clone)",
-            p.display()
-        );
-        None
-    }
-}
 
 /// Every mesh node's triangles in world space, wound as rendered.
 fn world_triangles(s: &portcullis::scene::Scene) -> Vec<[DVec3; 3]> {
@@ -195,7 +182,7 @@ fn judge(name: &str, v: Verdict) {
 
 #[test]
 fn living_room_rays_find_no_cell_the_pvs_misses() {
-    let Some(p) = shared("godot/living_room.glb") else {
+    let Some(p) = common::shared("godot/living_room.glb") else {
         return;
     };
     let scene = portcullis::import::import_path(&p, &Default::default())
@@ -212,7 +199,9 @@ fn shared_levels_rays_find_no_cell_the_pvs_misses() {
         "freedoom/freedoom1_E1M2.glb",
         "freedoom/freedoom1_E3M3.glb",
     ] {
-        let Some(p) = shared(rel) else { continue };
+        let Some(p) = common::shared(rel) else {
+            continue;
+        };
         judge(rel, audit(merged(&p), 200, 50));
     }
     // gi_zdm2 and pandora reach the flow's work budget: their PVS is conservative, looser.
@@ -221,7 +210,9 @@ fn shared_levels_rays_find_no_cell_the_pvs_misses() {
         "godot/gi_zdm2.glb",
         "sauerbraten/pandora.obj",
     ] {
-        let Some(p) = shared(rel) else { continue };
+        let Some(p) = common::shared(rel) else {
+            continue;
+        };
         let scene = portcullis::import::import_path(&p, &Default::default())
             .unwrap()
             .scene;
@@ -353,7 +344,7 @@ fn doom_maps_drawn_share_is_within_1_3_times_the_designers_merged_shuffled_and_t
         ("freedoom/E1M2_godot.glb", "freedoom/freedoom1_E1M2.glb"),
         ("freedoom/E3M3_godot.glb", "freedoom/freedoom1_E3M3.glb"),
     ] {
-        let (Some(d), Some(p)) = (shared(designer), shared(plain)) else {
+        let (Some(d), Some(p)) = (common::shared(designer), common::shared(plain)) else {
             continue;
         };
         let built = common::built(&d, None);
@@ -427,7 +418,9 @@ fn turned_and_moved_the_same_rooms_and_pvs_within_one_percent() {
         "freedoom/freedoom1_E1M2.glb",
         "freedoom/freedoom1_E3M3.glb",
     ] {
-        let Some(p) = shared(rel) else { continue };
+        let Some(p) = common::shared(rel) else {
+            continue;
+        };
         let scene = merged(&p);
         let (rooms, cells, pairs) = reading(scene.clone(), DMat4::IDENTITY);
         let (t_rooms, t_cells, t_pairs) = reading(scene, m);

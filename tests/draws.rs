@@ -13,7 +13,7 @@
 mod common;
 
 use std::collections::{HashMap, HashSet};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use common::plain::{accessor, triangles};
 use glam::{DMat4, DVec3};
@@ -545,16 +545,6 @@ fn pillar_room_and_a_generated_building_draw_what_their_visible_cells_hold() {
     assert!(j.views > 100, "{j:?}");
 }
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = common::root().join("../shared/levels").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping {rel}: ../shared is missing");
-        None
-    }
-}
-
 #[test]
 #[ignore = "minutes: run with --release --ignored"]
 fn shared_levels_draw_what_their_visible_cells_hold() {
@@ -575,7 +565,7 @@ fn shared_levels_draw_what_their_visible_cells_hold() {
         ("freedoom/freedoom1_E1M2.glb", Some("doom")),
         ("freedoom/freedoom1_E3M3.glb", Some("doom")),
     ] {
-        if let Some(p) = shared(rel) {
+        if let Some(p) = common::shared(rel) {
             judged(rel, &p, preset);
         }
     }

@@ -1152,21 +1152,27 @@ fn cull_reports_each_camera_as_json_and_as_text() {
 /// `cull --stats` prices each view three ways; on pillar_room (Floor, Walls and Ceiling one
 /// node each, in all four cells) the draw lists submit less than the whole nodes, which
 /// submit no more than frustum culling alone.
-#[test]
-fn cull_stats_price_each_view_by_draw_lists_whole_nodes_and_frustum() {
-    let dir = tempfile::tempdir().unwrap();
-    let glb = convert(&common::sample("pillar_room.gltf"), None, dir.path());
-    let level = Level::load(&glb).unwrap();
-    let cams = dir.path().join("cams.jsonl");
+/// A cameras file in `dir`: every cell's centre, looking along +x, +z, -x and -z.
+fn centre_cameras(level: &Level, fov_y: f64, dir: &Path) -> PathBuf {
+    let cams = dir.join("cams.jsonl");
     let mut lines = String::new();
     for c in 0..level.cells() {
         let (lo, hi) = level.bounds(c);
         let eye: Vec<f64> = (0..3).map(|i| (lo[i] + hi[i]) / 2.0).collect();
         for look in ["[1,0,0]", "[0,0,1]", "[-1,0,0]", "[0,0,-1]"] {
-            lines += &format!("{{\"eye\":{eye:?},\"look\":{look},\"fov_y\":75}}\n");
+            lines += &format!("{{\"eye\":{eye:?},\"look\":{look},\"fov_y\":{fov_y}}}\n");
         }
     }
     std::fs::write(&cams, lines).unwrap();
+    cams
+}
+
+#[test]
+fn cull_stats_price_each_view_by_draw_lists_whole_nodes_and_frustum() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = convert(&common::sample("pillar_room.gltf"), None, dir.path());
+    let level = Level::load(&glb).unwrap();
+    let cams = centre_cameras(&level, 75.0, dir.path());
     let cull = |extra: &[&str]| {
         let mut c = cull_cmd();
         c.arg("cull")
@@ -1270,16 +1276,7 @@ fn cull_draw_lists_are_the_files_lists_of_the_visible_cells() {
         let (doc, _) = common::read_gltf(&std::fs::read(&glb).unwrap());
         let ext = &doc["extensions"]["PORTCULLIS_portals"];
         let level = Level::load(&glb).unwrap();
-        let cams = dir.path().join("cams.jsonl");
-        let mut lines = String::new();
-        for c in 0..level.cells() {
-            let (lo, hi) = level.bounds(c);
-            let eye: Vec<f64> = (0..3).map(|i| (lo[i] + hi[i]) / 2.0).collect();
-            for look in ["[1,0,0]", "[0,0,1]", "[-1,0,0]", "[0,0,-1]"] {
-                lines += &format!("{{\"eye\":{eye:?},\"look\":{look},\"fov_y\":90}}\n");
-            }
-        }
-        std::fs::write(&cams, lines).unwrap();
+        let cams = centre_cameras(&level, 90.0, dir.path());
         let cull = |extra: &[&str]| {
             let mut c = cull_cmd();
             c.arg("cull")

@@ -8,7 +8,7 @@
 mod common;
 
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde_json::Value;
 
@@ -196,16 +196,6 @@ fn pillar_room_split_partitions_floor_walls_and_ceiling() {
     refused_again(&out);
 }
 
-fn shared(rel: &str) -> Option<PathBuf> {
-    let p = common::root().join("../shared/levels").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipping {rel}: ../shared is missing");
-        None
-    }
-}
-
 #[test]
 #[ignore = "minutes: run with --release --ignored"]
 fn shared_levels_split_by_cell() {
@@ -214,7 +204,7 @@ fn shared_levels_split_by_cell() {
         ("freedoom/freedoom2_MAP01.glb", Some("doom")),
         ("freedoom/freedoom1_E3M3.glb", Some("doom")),
     ] {
-        if let Some(p) = shared(rel) {
+        if let Some(p) = common::shared(rel) {
             let (parts, triangles) = judged(rel, &p, preset);
             eprintln!("{rel}: {parts} parts, {triangles} triangles");
             assert!(parts > 0, "{rel}");

@@ -16,17 +16,8 @@ import { PortcullisLoaderPlugin } from './index.js';
 
 import { loadLevel, parseCamera } from './cli.js';
 import { Doors, Trace, View } from './runtime.js';
+import { prng } from './test/cameras.js';
 
-function prng(seed) {
-  let a = seed >>> 0;
-  return () => {
-    a = (a + 0x6d2b79f5) >>> 0;
-    let t = a;
-    t = Math.imul(t ^ (t >>> 15), t | 1);
-    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
-    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
-  };
-}
 
 const args = process.argv.slice(2);
 let rounds = 20;

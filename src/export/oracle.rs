@@ -46,14 +46,8 @@ pub(crate) fn write_whole(
             .collect();
         let accessor = match &made {
             Some(m) => {
-                for (key, items) in [
-                    ("accessors", &m.accessors),
-                    ("meshes", &m.meshes),
-                    ("nodes", &m.nodes),
-                ] {
-                    for v in items {
-                        push(&mut doc, key, v.clone());
-                    }
+                for (key, v) in m.appended() {
+                    push(&mut doc, key, v.clone());
                 }
                 None
             }

@@ -68,6 +68,20 @@ pub(crate) struct Made {
     pub(crate) cell_nodes: Vec<Vec<usize>>,
 }
 
+impl Made {
+    /// What is appended, in the order the writers append it: each object with the document
+    /// array it goes into (their indices are `Base`'s lengths onward).
+    pub(crate) fn appended(&self) -> impl Iterator<Item = (&'static str, &Value)> {
+        [
+            ("accessors", &self.accessors),
+            ("meshes", &self.meshes),
+            ("nodes", &self.nodes),
+        ]
+        .into_iter()
+        .flat_map(|(key, items)| items.iter().map(move |v| (key, v)))
+    }
+}
+
 /// A primitive of a part: a range of the split indices, or the node's primitive whole.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Piece {

@@ -109,14 +109,8 @@ pub(crate) fn write<'s>(
             .collect::<Result<Vec<usize>, Failed>>()?;
         let accessor = match &made {
             Some(m) => {
-                for (key, items) in [
-                    ("accessors", &m.accessors),
-                    ("meshes", &m.meshes),
-                    ("nodes", &m.nodes),
-                ] {
-                    for v in items {
-                        root.push(key, v.clone())?;
-                    }
+                for (key, v) in m.appended() {
+                    root.push(key, v.clone())?;
                 }
                 None
             }

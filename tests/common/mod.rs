@@ -343,6 +343,21 @@ pub fn levels_and_samples() -> Vec<(PathBuf, Option<&'static str>)> {
     levels
 }
 
+/// A level of `../shared/levels` (`rel` below it), or `None` with a message when `../shared`
+/// is not beside the clone (the tests that need it skip).
+pub fn shared(rel: &str) -> Option<PathBuf> {
+    let p = root().join("../shared/levels").join(rel);
+    if p.exists() {
+        Some(p)
+    } else {
+        eprintln!(
+            "skipped: {} is missing (../shared is not beside the clone)",
+            p.display()
+        );
+        None
+    }
+}
+
 /// Runs a portcullis command that must succeed (exit 0), showing its stderr if it does not.
 pub fn succeeds(cmd: &mut assert_cmd::Command) -> std::process::Output {
     let o = cmd.output().unwrap();
