@@ -20,7 +20,7 @@ transform, in any order) with their `depth`, `via`, `mirrored` and `draw` exactl
 
 Prints, per case, how many cameras agree and the first difference; exits 1 on any difference,
 2 when the vectors or the converter are missing. Cases of levels under ../shared are skipped
-when ../shared is missing.
+when ../shared is missing. `--levels DIR` keeps the converted levels in DIR and reuses them.
 """
 import argparse
 import json
@@ -170,6 +170,8 @@ def main():
     ap.add_argument("--case", action="append", default=[], help="only this case (repeatable)")
     ap.add_argument("--bare", action="store_true", help="do not pass --format jsonl")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="cases run at once")
+    ap.add_argument("--levels", metavar="DIR", help="keep the converted levels in DIR and use "
+                    "those already there (for checking several implementations with one converter)")
     ap.add_argument("impl", nargs=argparse.REMAINDER, help="the implementation's command")
     a = ap.parse_args()
     if not a.impl:
@@ -182,16 +184,20 @@ def main():
         print(f"{CONVERTER} is missing: run `cargo build --release`, or set $PORTCULLIS", file=sys.stderr)
         sys.exit(2)
     with tempfile.TemporaryDirectory() as tmp:
+        store = Path(a.levels) if a.levels else Path(tmp)
+        store.mkdir(parents=True, exist_ok=True)
         levels = {}
         for c in cases:
             key = (c["level"], tuple(c["convert"]))
-            levels.setdefault(key, Path(tmp) / f"{len(levels)}.glb")
+            name = "_".join([Path(c["level"]).name, *c["convert"]]).replace("-", "")
+            levels.setdefault(key, store / f"{name}.glb")
 
         def prepare(item):
             (level, args), glb = item
             if level.startswith("../shared/") and not (ROOT / level).exists():
                 return None
-            convert(level, list(args), glb)
+            if not (a.levels and glb.exists()):
+                convert(level, list(args), glb)
             return glb
 
         with ThreadPoolExecutor(max(1, a.jobs)) as pool:

@@ -73,18 +73,32 @@ if [ "${CI:-}" = "true" ]; then export CARGO_INCREMENTAL=0; fi
 
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
+# The converter and the engine side (crates/portcullis-runtime); the Bevy plugin comes last.
+CRATES=(-p portcullis -p portcullis-runtime)
 echo "== cargo clippy (default features, then --features usd)"
-cargo clippy --all-targets --locked -- -D warnings
-cargo clippy --all-targets --locked --features usd -- -D warnings
+cargo clippy "${CRATES[@]}" --all-targets --locked -- -D warnings
+cargo clippy "${CRATES[@]}" --all-targets --locked --features portcullis/usd -- -D warnings
 echo "== cargo test --features usd"
-cargo test --all-targets --locked --features usd
+cargo test "${CRATES[@]}" --all-targets --locked --features portcullis/usd
 echo "== the docs: links resolve, examples (the crate's, the guide's) compile and run"
-RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --lib --locked
-cargo test --doc --locked --features usd
+RUSTDOCFLAGS="-D warnings" cargo doc "${CRATES[@]}" --no-deps --lib --locked
+cargo test "${CRATES[@]}" --doc --locked --features portcullis/usd
 # The binary the cargo tests built, wherever cargo puts it (CARGO_TARGET_DIR may move it).
 PORTCULLIS="$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/debug/portcullis"
 export PORTCULLIS
 echo "== js/portcullis-three: the JavaScript runtime against portcullis cull, and the three.js plugin"
 (cd js/portcullis-three && npm test)
 echo "== the runtime's test vectors, checked against the JavaScript port (scripts/check_vectors.py)"
-python3 scripts/check_vectors.py node js/portcullis-three/cli.js
+# The levels converted once, for the three implementations checked against the vectors.
+VECTOR_LEVELS="$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/vector-levels"
+rm -rf "$VECTOR_LEVELS"
+python3 scripts/check_vectors.py --levels "$VECTOR_LEVELS" node js/portcullis-three/cli.js
+echo "== the runtime's test vectors, checked against the port written from the spec alone (tests/tools/spec_port.py)"
+python3 scripts/check_vectors.py --levels "$VECTOR_LEVELS" python3 tests/tools/spec_port.py
+# Bevy and its dependencies unoptimised (the bevy-test profile): a quarter of the build time.
+echo "== crates/portcullis-bevy: clippy, the plugin in a headless Bevy app, its cull example against the vectors"
+cargo clippy -p portcullis-bevy --all-targets --locked --profile bevy-test -- -D warnings
+cargo test -p portcullis-bevy --all-targets --locked --profile bevy-test
+RUSTDOCFLAGS="-D warnings" cargo doc -p portcullis-bevy --no-deps --lib --locked --profile bevy-test
+cargo test -p portcullis-bevy --doc --locked --profile bevy-test
+python3 scripts/check_vectors.py --levels "$VECTOR_LEVELS" "$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/bevy-test/examples/cull"

@@ -34,7 +34,6 @@ pub mod config;
 pub mod diag;
 pub(crate) mod disjoint;
 pub mod export;
-pub mod format;
 pub(crate) mod free;
 pub mod geom;
 pub mod import;
@@ -44,12 +43,16 @@ pub mod portals;
 pub mod prt;
 pub mod report;
 pub(crate) mod rng;
-pub mod runtime;
 pub(crate) mod scc;
 pub mod scene;
 pub mod schema;
 pub mod tags;
 pub mod vis;
+
+/// The extension's records and the frame-time runtime live in their own crate, `portcullis-runtime`,
+/// which an engine links without the converter; they are re-exported here so the converter's
+/// paths (`portcullis::format`, `portcullis::runtime`) stay one library.
+pub use portcullis_runtime::{format, runtime};
 
 /// The guide's examples, compiled and run as doctests (its engine example above all).
 #[cfg(doctest)]

@@ -79,11 +79,31 @@ fn module_path(rel: &Path) -> Vec<String> {
     p
 }
 
-/// Every `.rs` file of `src/` the library or binary is built from, relative to `src/`, with its
-/// text. A module declared `#[cfg(test)] mod x;` is test code throughout, so its files are left
-/// out, as its declaration is.
-fn production_sources() -> Vec<(PathBuf, String)> {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+/// The source folders of the workspace's crates: the converter, and the engine side
+/// (`portcullis-runtime`, whose top-level modules are the converter's `format` and `runtime`,
+/// re-exported, so LAYERS holds them too) and the engine plugins, which link only the engine side.
+const SOURCE_ROOTS: &[&str] = &["src", "crates/portcullis-runtime/src"];
+
+/// The roots whose top-level modules LAYERS ranks: the library's, wherever its modules live.
+const LAYERED_ROOTS: &[&str] = &["src", "crates/portcullis-runtime/src"];
+
+/// Every production file of every root in `roots`: (root, path relative to it, text).
+fn sources_of(roots: &[&'static str]) -> Vec<(&'static str, PathBuf, String)> {
+    roots
+        .iter()
+        .flat_map(|r| {
+            production_sources(r)
+                .into_iter()
+                .map(|(rel, t)| (*r, rel, t))
+        })
+        .collect()
+}
+
+/// Every `.rs` file of `root` (a crate's `src/`) its library or binaries are built from,
+/// relative to `root`, with its text. A module declared `#[cfg(test)] mod x;` is test code
+/// throughout, so its files are left out, as its declaration is.
+fn production_sources(root: &str) -> Vec<(PathBuf, String)> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join(root);
     let mut files = Vec::new();
     rust_files(&src, &mut files);
     files.sort();
@@ -493,7 +513,7 @@ fn import_faults(module: &str, text: &str) -> Vec<(usize, String)> {
 fn imports_go_down_the_pipeline_only() {
     let mut wrong = Vec::new();
     let mut unranked = BTreeMap::new();
-    for (rel, text) in production_sources() {
+    for (root, rel, text) in sources_of(LAYERED_ROOTS) {
         let Some(from) = module_of(&rel) else {
             continue;
         };
@@ -502,7 +522,7 @@ fn imports_go_down_the_pipeline_only() {
             continue;
         }
         for (line, fault) in import_faults(&from, &text) {
-            wrong.push(format!("src/{}:{line}: {fault}", rel.display()));
+            wrong.push(format!("{root}/{}:{line}: {fault}", rel.display()));
         }
     }
     assert!(
@@ -688,11 +708,11 @@ fn function_lengths(text: &str) -> Vec<(String, usize, usize)> {
 #[test]
 fn no_production_function_is_longer_than_the_limit() {
     let mut long = Vec::new();
-    for (rel, text) in production_sources() {
+    for (root, rel, text) in sources_of(SOURCE_ROOTS) {
         for (name, line, len) in function_lengths(&text) {
             if len > MAX_FUNCTION_LINES {
                 long.push(format!(
-                    "src/{}:{line}: `{name}` is {len} lines",
+                    "{root}/{}:{line}: `{name}` is {len} lines",
                     rel.display()
                 ));
             }
@@ -725,8 +745,8 @@ fn the_length_counter_sees_strings_chars_and_nesting() {
 /// A unit is a module's child: a file, or a sub-folder with everything in it. A child using
 /// its parent's own items (`super::Item` from `mod.rs`), or a parent re-exporting its
 /// children, is no edge: that two-way traffic is how a module is built, so only siblings can
-/// form a circle. `files` are relative to `src/`.
-fn file_circles(files: &[(PathBuf, String)]) -> Vec<String> {
+/// form a circle. `files` are relative to `root`, a crate's source folder.
+fn file_circles(root: &str, files: &[(PathBuf, String)]) -> Vec<String> {
     let modules: BTreeMap<Vec<String>, &Path> = files
         .iter()
         .map(|(rel, _)| (module_path(rel), rel.as_path()))
@@ -779,9 +799,11 @@ fn file_circles(files: &[(PathBuf, String)]) -> Vec<String> {
         let mut p = parent.to_vec();
         p.push(child.to_string());
         match modules.get(&p) {
-            Some(f) if f.ends_with("mod.rs") => format!("src/{}/", f.parent().unwrap().display()),
-            Some(f) => format!("src/{}", f.display()),
-            None => format!("src/{}/", p.join("/")),
+            Some(f) if f.ends_with("mod.rs") => {
+                format!("{root}/{}/", f.parent().unwrap().display())
+            }
+            Some(f) => format!("{root}/{}", f.display()),
+            None => format!("{root}/{}/", p.join("/")),
         }
     };
     let mut out = Vec::new();
@@ -823,7 +845,7 @@ fn file_circles(files: &[(PathBuf, String)]) -> Vec<String> {
             for ((p, from, to), (file, line)) in &edges {
                 if p == parent && circle.contains(from.as_str()) && circle.contains(to.as_str()) {
                     report.push_str(&format!(
-                        "\n    src/{}:{line}: uses {}",
+                        "\n    {root}/{}:{line}: uses {}",
                         file.display(),
                         unit(parent, to)
                     ));
@@ -837,7 +859,10 @@ fn file_circles(files: &[(PathBuf, String)]) -> Vec<String> {
 
 #[test]
 fn no_file_circle_inside_a_module() {
-    let circles = file_circles(&production_sources());
+    let circles: Vec<String> = SOURCE_ROOTS
+        .iter()
+        .flat_map(|r| file_circles(r, &production_sources(r)))
+        .collect();
     assert!(
         circles.is_empty(),
         "{} file circles inside modules (break each: move what both sides need to a file of its \
@@ -863,7 +888,7 @@ fn the_circle_finder_sees_two_files_using_each_other() {
         ),
     ]);
     assert_eq!(
-        file_circles(&circle),
+        file_circles("src", &circle),
         vec![
             "a circle of src/m/a.rs, src/m/b.rs:\n    src/m/a.rs:1: uses src/m/b.rs\n    \
               src/m/b.rs:2: uses src/m/a.rs"
@@ -879,7 +904,7 @@ fn the_circle_finder_sees_two_files_using_each_other() {
             "use super::Z;\npub struct X;\n#[cfg(test)]\nmod tests {\n    use crate::m::a::Y;\n}\n",
         ),
     ]);
-    assert_eq!(file_circles(&one_way), Vec::<String>::new());
+    assert_eq!(file_circles("src", &one_way), Vec::<String>::new());
     // through `crate::` into a sub-folder, which is one unit, and `self::` in a mod.rs
     let deep = files(&[
         ("m/mod.rs", "mod a;\nmod c;\nuse self::a::Y;\n"),
@@ -891,7 +916,7 @@ fn the_circle_finder_sees_two_files_using_each_other() {
         ("m/c/d.rs", "use crate::{m::a::y, geom::Plane};\n"),
     ]);
     assert_eq!(
-        file_circles(&deep),
+        file_circles("src", &deep),
         vec![
             "a circle of src/m/a.rs, src/m/c/:\n    src/m/a.rs:1: uses src/m/c/\n    \
               src/m/c/d.rs:1: uses src/m/a.rs"
@@ -966,9 +991,11 @@ fn the_architecture_diagram_names_only_types_that_exist() {
         .expect("ARCHITECTURE.md's bird's eye view has a diagram");
     let names = type_names(diagram);
     assert!(names.len() >= 10, "{names:?}");
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
-    rust_files(&src, &mut files);
+    for root in SOURCE_ROOTS {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join(root);
+        rust_files(&src, &mut files);
+    }
     let text: String = files
         .iter()
         .map(|f| std::fs::read_to_string(f).unwrap())
@@ -1134,9 +1161,9 @@ fn after_generics_and_parameters(sig: &str) -> Option<&str> {
 #[test]
 fn no_public_function_returns_a_string_error() {
     let mut found = Vec::new();
-    for (rel, text) in production_sources() {
+    for (root, rel, text) in sources_of(SOURCE_ROOTS) {
         for (name, line) in pub_fns_returning_string_errors(&text) {
-            found.push(format!("src/{}:{line}: `{name}`", rel.display()));
+            found.push(format!("{root}/{}:{line}: `{name}`", rel.display()));
         }
     }
     assert!(

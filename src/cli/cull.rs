@@ -5,14 +5,12 @@ use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use serde::Deserialize;
 use serde_json::{json, Value};
 
 use portcullis::diag::{Code, Diagnostic, Location as At};
 use portcullis::report::{human, style::Style};
-use portcullis::runtime::{
-    Doors, DrawList, Level, Location, Meshes, Trace, TraceOptions, View, ViewCost,
-};
+use portcullis::runtime::answer::{answer, CameraLine};
+use portcullis::runtime::{Doors, DrawList, Level, Meshes, Trace, TraceOptions, View, ViewCost};
 
 /// How `cull` writes its answers, each as soon as its camera is traced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -82,34 +80,6 @@ pub struct CullArgs {
     pub draw_lists: bool,
 }
 
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Camera {
-    eye: [f64; 3],
-    look: [f64; 3],
-    #[serde(default = "default_up")]
-    up: [f64; 3],
-    #[serde(default = "default_fov")]
-    fov_y: f64,
-    #[serde(default = "default_aspect")]
-    aspect: f64,
-    #[serde(default = "default_near")]
-    near: f64,
-}
-
-fn default_up() -> [f64; 3] {
-    [0.0, 1.0, 0.0]
-}
-fn default_fov() -> f64 {
-    60.0
-}
-fn default_aspect() -> f64 {
-    16.0 / 9.0
-}
-fn default_near() -> f64 {
-    0.05
-}
-
 /// Prints `d` as every subcommand prints a diagnostic; `cull` stops with exit 2.
 fn fail(d: Diagnostic, style: &Style) -> i32 {
     eprintln!("{}", human::diagnostic(&d, style));
@@ -121,9 +91,6 @@ const CAMERA_HINT: &str = "one JSON object per line, e.g. {\"eye\":[1,1.6,2],\"l
 /// The camera on line `i` (0-based) of `path`, `None` for a blank line, or what is wrong
 /// with it.
 fn parse_camera(path: &Path, i: usize, line: &str) -> Result<Option<View>, Diagnostic> {
-    if line.trim().is_empty() {
-        return Ok(None);
-    }
     let bad = |m: String| {
         Diagnostic::new(
             Code::CULL_CAMERA_INVALID,
@@ -133,14 +100,17 @@ fn parse_camera(path: &Path, i: usize, line: &str) -> Result<Option<View>, Diagn
         .hint(CAMERA_HINT)
     };
     // The line is the location; serde's own "at line 1 column N" would name another line.
-    let c: Camera = serde_json::from_str(line).map_err(|e| {
+    let c = CameraLine::parse(line).map_err(|e| {
         let text = e.to_string();
         let what = text
             .rsplit_once(" at line ")
             .map_or(text.as_str(), |(w, _)| w);
         bad(format!("not a camera: {what} (column {})", e.column()))
     })?;
-    View::new(c.eye, c.look, c.up, c.fov_y, c.aspect, c.near)
+    let Some(c) = c else {
+        return Ok(None);
+    };
+    c.view()
         .map(Some)
         .map_err(|e| bad(format!("not a usable camera: {e}")))
 }
@@ -316,7 +286,7 @@ fn stream(
         };
         level.trace(&view, doors, opts, &mut trace);
         let draws = a.draw_lists.then_some((level, &mut list));
-        let mut r = report(&trace, draws);
+        let mut r = answer(&trace, draws);
         if let Some(m) = meshes {
             let cost = level.cost(m, &view, &trace, &mut list);
             total += cost;
@@ -394,63 +364,6 @@ fn summary(out: &mut dyn Write, m: &Meshes, t: &ViewCost, views: usize) -> std::
         )?;
     }
     Ok(())
-}
-
-/// One camera's result as `cull --format json` prints it; with `draws` (`--draw-lists`),
-/// what it draws: the list of the cells seen without a transform, and on each entry seen
-/// through one, its own cell's.
-fn report(t: &Trace, mut draws: Option<(&Level, &mut DrawList)>) -> Value {
-    let mut visible: Vec<Value> = Vec::with_capacity(t.visible().len());
-    for v in t.visible() {
-        let mut o = json!({
-            "cell": v.cell,
-            "rect": v.rect.map(round),
-            "depth": v.depth,
-            "via": t.via(v),
-        });
-        if let Some(m) = &v.transform {
-            o["transform"] = json!(m.to_cols_array().map(round));
-        }
-        o["mirrored"] = json!(v.mirrored);
-        if let (Some((level, list)), Some(_)) = (draws.as_mut(), v.transform) {
-            // As `Level::cost` prices it: the cell's own list, moved (the outside draws none).
-            level.draw_list(v.cell, list);
-            o["draw"] = draw_json(list);
-        }
-        visible.push(o);
-    }
-    let mut o = json!({
-        "cell": t.location.cell(),
-        "location": t.location.name(),
-    });
-    if let Location::Outside { nearest } = t.location {
-        o["nearest"] = json!(nearest);
-    }
-    o["visible"] = json!(visible);
-    if let Some((level, list)) = draws {
-        let direct = t.visible().iter().filter(|v| v.transform.is_none());
-        level.draw_list(direct.filter_map(|v| v.cell), list);
-        o["draw"] = draw_json(list);
-    }
-    o["stats"] = json!(t.stats);
-    o
-}
-
-/// A draw list as `--draw-lists` prints it.
-fn draw_json(list: &DrawList) -> Value {
-    let ranges: Vec<[usize; 4]> = (list.ranges.iter())
-        .map(|r| [r.node, r.primitive, r.first, r.count])
-        .collect();
-    json!({"nodes": list.nodes, "ranges": ranges})
-}
-
-fn round(x: f64) -> f64 {
-    let r = (x * 1e9).round() / 1e9;
-    if r == 0.0 {
-        0.0
-    } else {
-        r
-    }
 }
 
 /// Camera `number`'s answer as text.

@@ -6,14 +6,17 @@ pub fn words(n: usize) -> usize {
     n.div_ceil(64)
 }
 
+/// Bit `i` of `row`.
 pub fn get(row: &[u64], i: usize) -> bool {
     row[i >> 6] >> (i & 63) & 1 == 1
 }
 
+/// Sets bit `i` of `row`.
 pub fn set(row: &mut [u64], i: usize) {
     row[i >> 6] |= 1 << (i & 63);
 }
 
+/// How many bits of `row` are set.
 pub fn count(row: &[u64]) -> usize {
     row.iter().map(|w| w.count_ones() as usize).sum()
 }
@@ -68,6 +71,7 @@ pub struct BitMatrix {
 }
 
 impl BitMatrix {
+    /// `n` rows of `n` clear bits.
     pub fn new(n: usize) -> BitMatrix {
         let words = words(n);
         BitMatrix {
@@ -76,27 +80,35 @@ impl BitMatrix {
             bits: vec![0; n * words],
         }
     }
+    /// The number of rows (and of columns).
     pub fn len(&self) -> usize {
         self.n
     }
+    /// No rows.
     pub fn is_empty(&self) -> bool {
         self.n == 0
     }
+    /// Words per row.
     pub fn words(&self) -> usize {
         self.words
     }
+    /// Row `r`'s words.
     pub fn row(&self, r: usize) -> &[u64] {
         &self.bits[r * self.words..(r + 1) * self.words]
     }
+    /// Row `r`'s words, to write.
     pub fn row_mut(&mut self, r: usize) -> &mut [u64] {
         &mut self.bits[r * self.words..(r + 1) * self.words]
     }
+    /// Row `r`, column `c`.
     pub fn get(&self, r: usize, c: usize) -> bool {
         get(self.row(r), c)
     }
+    /// Sets row `r`, column `c`.
     pub fn set(&mut self, r: usize, c: usize) {
         set(self.row_mut(r), c)
     }
+    /// How many bits are set in all.
     pub fn count(&self) -> usize {
         count(&self.bits)
     }

@@ -10,12 +10,11 @@
 //!
 //! Nothing here depends on the import or build stages; it reads what `convert` wrote.
 //!
-//! ```
-//! use portcullis::runtime::{Doors, Level, TraceOptions, Trace, View};
-//! # let dir = tempfile::tempdir().unwrap();
-//! # let out = dir.path().join("two_rooms.glb");
-//! # portcullis::pipeline::convert_file(std::path::Path::new("samples/two_rooms.gltf"), &out).unwrap();
-//! let level = Level::load(&out)?;
+//! ```no_run
+//! use portcullis_runtime::runtime::{Doors, Level, TraceOptions, Trace, View};
+//! // written by `portcullis convert samples/two_rooms.gltf -o two_rooms.glb`; the guide's engine
+//! // example runs this against a converted file
+//! let level = Level::load("two_rooms.glb".as_ref())?;
 //! let doors = Doors::new(&level);
 //! let mut trace = Trace::default();
 //! let view = View::new([1.0, 1.5, 2.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], 70.0, 16.0 / 9.0, 0.05)?;
@@ -46,6 +45,7 @@
 //! of what rays through the level's triangles reach (tests/runtime.rs); the same answer for the
 //! level moved with the camera.
 
+pub mod answer;
 mod clip;
 mod cost;
 mod draw;
@@ -157,6 +157,13 @@ impl Level {
             hint: load::CONVERT_HINT,
             unreadable: false,
         })
+    }
+
+    /// Reads a converted level from its bytes (a .glb, or a .gltf whose buffers are embedded
+    /// or, with `dir`, files in that folder): what an engine's asset loader calls.
+    pub fn from_bytes(bytes: &[u8], dir: Option<&Path>) -> Result<Level, LevelError> {
+        let (annotated, pvs) = load::parse(bytes, dir)?;
+        Level::from_annotation(&annotated, pvs)
     }
 
     /// Builds the runtime data of an annotation already read. `Err` names the first record

@@ -157,6 +157,12 @@ impl Level {
         }
     }
 
+    /// Every glTF node some cell names, ascending: the level's geometry, whose drawing the
+    /// cells govern (an engine leaves other nodes, its lights or props, as they are).
+    pub fn named_nodes(&self) -> &[u32] {
+        self.draw.named()
+    }
+
     /// The accessor holding the split primitives' indices (the extension's `split.indices`),
     /// `None` when no node is split.
     pub fn split_indices(&self) -> Option<usize> {

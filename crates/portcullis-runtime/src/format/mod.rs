@@ -9,14 +9,14 @@
 //! ([`Pvs`], [`Method`]) and its encodings ([`visibility`]), the GLB container ([`glb`]), and
 //! [`FormatError`], why any of them cannot be read.
 //! How an annotation is built from a level and written, and the input hash that tells a
-//! stale one, are the exporter's (`crate::export`); the runtime depends on this module alone.
+//! stale one, are the exporter's (`portcullis::export`); the runtime depends on this module alone.
 
-pub(crate) mod bits;
+pub mod bits;
 mod error;
 pub mod glb;
 pub(crate) mod pvs;
 pub mod read;
-pub(crate) mod records;
+pub mod records;
 pub mod visibility;
 
 pub use error::FormatError;

@@ -47,24 +47,33 @@ pub fn read(path: &Path) -> Result<(Annotated, Option<Pvs>), LoadError> {
         hint: "check the path and the file's permissions",
         unreadable: true,
     })?;
-    let (json, bin) = split(&bytes).map_err(err)?;
-    let doc: Doc =
-        serde_json::from_slice(json).map_err(|e| err(LevelError::NotGltf(e.to_string())))?;
+    parse(&bytes, path.parent()).map_err(err)
+}
+
+/// The annotation and PVS of a .glb's or .gltf's bytes; an external buffer is read relative to
+/// `dir`, and refused without one (an engine's asset loader has the bytes, not always a folder).
+pub fn parse(bytes: &[u8], dir: Option<&Path>) -> Result<(Annotated, Option<Pvs>), LevelError> {
+    let (json, bin) = split(bytes)?;
+    let doc: Doc = serde_json::from_slice(json).map_err(|e| LevelError::NotGltf(e.to_string()))?;
     let annotated = doc
         .extensions
         .and_then(|e| e.portals)
-        .ok_or_else(|| err(LevelError::NoExtension))?;
+        .ok_or(LevelError::NoExtension)?;
     let Some(vis) = annotated.visibility.as_ref() else {
         return Ok((annotated, None));
     };
     let blob = match vis.get("bufferView").and_then(Value::as_u64) {
         None => None,
-        Some(i) => {
-            Some(view_bytes(path, &doc.buffer_views, &doc.buffers, bin, i as usize).map_err(err)?)
-        }
+        Some(i) => Some(view_bytes(
+            dir,
+            &doc.buffer_views,
+            &doc.buffers,
+            bin,
+            i as usize,
+        )?),
     };
     let pvs = crate::format::visibility::decode(vis, annotated.cells.len(), blob.as_deref())
-        .map_err(|e| err(LevelError::Visibility(e)))?;
+        .map_err(LevelError::Visibility)?;
     Ok((annotated, Some(pvs)))
 }
 
@@ -81,7 +90,7 @@ pub(super) fn split(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), LevelError> 
 
 /// The bytes of buffer view `i`, reading only its range of an external buffer file.
 fn view_bytes(
-    path: &Path,
+    dir: Option<&Path>,
     views: &[Value],
     buffers: &[Value],
     bin: Option<&[u8]>,
@@ -109,7 +118,17 @@ fn view_bytes(
             range(&data)
         }
         Some(uri) => {
-            let file = path.parent().unwrap_or(Path::new(".")).join(uri);
+            let file = match dir {
+                Some(dir) => dir.join(uri),
+                None => {
+                    return Err(LevelError::ViewFileUnreadable {
+                        view: i,
+                        file: uri.into(),
+                        error: "an external buffer, and no folder to read it from (write a .glb)"
+                            .to_string(),
+                    })
+                }
+            };
             let mut f = std::fs::File::open(&file).map_err(|e| LevelError::ViewFileUnreadable {
                 view: i,
                 file: file.clone(),

@@ -1,0 +1,80 @@
+//! What the plugin's tests share: the converter, running it, a scratch folder, a file's JSON.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The converter, or None (with the reason printed) outside CI.
+pub fn converter() -> Option<PathBuf> {
+    let p = std::env::var_os("PORTCULLIS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let target =
+                std::env::var_os("CARGO_TARGET_DIR").map_or(root().join("target"), PathBuf::from);
+            target.join("debug/portcullis")
+        });
+    if p.is_file() {
+        return Some(p);
+    }
+    let why = format!(
+        "no portcullis binary at {} (run `cargo build` first)",
+        p.display()
+    );
+    assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+    eprintln!("skipped: {why}");
+    None
+}
+
+pub fn run(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{cmd:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+pub fn tempfile_dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "portcullis-bevy-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn gltf_json(glb: &Path) -> Value {
+    let bytes = std::fs::read(glb).unwrap();
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    serde_json::from_slice(&bytes[20..20 + len]).unwrap()
+}
+
+/// `source` converted with `args` into `dir`, or None (with the reason printed) where the
+/// converter or the level is missing outside CI.
+pub fn converted(source: &Path, args: &[&str], dir: &Path) -> Option<PathBuf> {
+    let portcullis = converter()?;
+    if !source.exists() {
+        let ci = std::env::var("CI").as_deref() == Ok("true");
+        assert!(!ci, "{} is missing", source.display());
+        eprintln!(
+            "skipped: {} is missing (../shared beside the clone)",
+            source.display()
+        );
+        return None;
+    }
+    let glb = dir.join("level.glb");
+    run(Command::new(&portcullis)
+        .arg("convert")
+        .arg(source)
+        .arg("-o")
+        .arg(&glb)
+        .args(args));
+    Some(glb)
+}
