@@ -18,7 +18,7 @@ cameras at the places a port of the runtime is most likely to get wrong:
 - `portal`: eyes on a portal's polygon, at its centroid and at its edges (just inside, on the
   edge, and beyond it in the plane by the near plane's reach less and more a hair);
 - `reach`: eyes on a portal's axis at the near plane's reach (`View::near_radius`, the distance
-  from the eye to the near plane's corners, plus the level's tolerance: src/runtime/trace.rs)
+  from the eye to the near plane's corners, plus the level's tolerance: crates/portcullis-runtime/src/runtime/trace.rs)
   less and more a hair, and within the tolerance of the plane, on both sides, looking at the
   portal, away from it and along it, with two fields of view;
 - `transform`: looking into mirrors and teleporters from several places and angles;

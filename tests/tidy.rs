@@ -1234,7 +1234,12 @@ const COUNTED: &[&str] = &[
 /// The pages whose figures must say how to reproduce them: README.md and docs/*.md, but
 /// docs/diagnostics.md, which scripts/gen_diagnostics_doc.py writes and which measures nothing.
 fn figure_pages(root: &Path) -> Vec<(String, String)> {
-    let mut names = vec!["README.md".to_string()];
+    // the engine plugins' pages state what they cost per frame
+    let mut names = vec![
+        "README.md".to_string(),
+        "js/portcullis-three/README.md".to_string(),
+        "crates/portcullis-bevy/README.md".to_string(),
+    ];
     let mut docs: Vec<String> = std::fs::read_dir(root.join("docs"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

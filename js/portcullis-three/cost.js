@@ -1,5 +1,5 @@
 // What a view costs an engine to draw, in triangles and draw calls submitted: a port of
-// src/runtime/cost.rs for `cli.js cull --stats`, from the glTF's JSON alone (accessor counts,
+// crates/portcullis-runtime/src/runtime/cost.rs for `cli.js cull --stats`, from the glTF's JSON alone (accessor counts,
 // POSITION bounds, node transforms). Three ways are priced, each with frustum culling of every
 // node's box: `frustum` (every node of the level's geometry), `nodes` (the visible cells' nodes
 // drawn whole), `lists` (the visible cells' draw lists, Level#drawList). A cell seen through a

@@ -3,7 +3,7 @@
 // `Level#locate` finds the camera's cell, `Level#trace` walks the portals it can see, and
 // `Level#drawList` says what the visible cells draw.
 //
-// A port of src/runtime/*.rs (load, locate, trace, clip, draw) rule for rule: the same
+// A port of crates/portcullis-runtime/src/runtime/*.rs (load, locate, trace, clip, draw) rule for rule: the same
 // operations in the same order on f64 numbers, so a trace gives what `portcullis cull` prints.
 // Vectors are plain numbers (x, y, z) or flat arrays; matrices are column-major arrays of 16
 // numbers, as glTF and glam store them. No dependency: it runs in Node and in browsers.
@@ -171,7 +171,7 @@ function absDiffEq(a, b, tol) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Geometry (src/runtime/clip.rs). Points are flat arrays, three numbers each; screen points two.
+// Geometry (crates/portcullis-runtime/src/runtime/clip.rs). Points are flat arrays, three numbers each; screen points two.
 
 /** Clips the convex polygon `inp` (`n` points) to the half-space `n·x <= d` keeping what lies
  * within `eps` of the inside, into `out`; returns the points written. */
@@ -352,7 +352,7 @@ export class ViewError extends Error {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The glTF container and the PVS encodings (src/format/glb.rs, visibility.rs).
+// The glTF container and the PVS encodings (crates/portcullis-runtime/src/format/glb.rs, visibility.rs).
 
 const textDecoder = new TextDecoder();
 
@@ -517,7 +517,7 @@ export function decodeVisibility(vis, cells, blob) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Views (src/runtime/trace.rs `View`).
+// Views (crates/portcullis-runtime/src/runtime/trace.rs `View`).
 
 /** A perspective camera. NDC: x right, y up, both -1..1. */
 export class View {
