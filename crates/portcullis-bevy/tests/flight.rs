@@ -7,7 +7,6 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::process::Command;
 
 use bevy::camera::visibility::NoCpuCulling;
 use bevy::ecs::hierarchy::ChildOf;
@@ -20,7 +19,7 @@ use portcullis_bevy::{PortalCamera, PortalNode, PortalPrimitive};
 use serde_json::{json, Value};
 
 mod common;
-use common::{converted, converter, gltf_json, root, run, tempfile_dir};
+use common::{converted, cull, gltf_json, root, tempfile_dir};
 
 /// Frames between the cameras of `stops`: eye and look moved in `steps` even steps, as a
 /// camera flown from one to the next (through walls too, and out of every cell).
@@ -78,7 +77,6 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
     let Some(glb) = converted(source, convert, &dir) else {
         return;
     };
-    let portcullis = converter().expect("converted by it");
     let stops: Vec<CameraLine> = std::fs::read_to_string(stops)
         .unwrap()
         .lines()
@@ -167,19 +165,7 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
         );
         shown.push(kept_by(culled));
     }
-    let cams = dir.join("path.jsonl");
-    std::fs::write(&cams, lines.join("\n") + "\n").unwrap();
-    let out = run(Command::new(&portcullis)
-        .arg("cull")
-        .arg(&glb)
-        .arg("--cameras")
-        .arg(&cams)
-        .args(["--draw-lists", "--format", "jsonl"]));
-    let answers: Vec<Value> = out
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
-    assert_eq!(answers.len(), frames.len());
+    let answers = cull(&glb, &lines, &dir);
     let mut hidden = 0;
     for (i, (a, s)) in answers.iter().zip(&shown).enumerate() {
         let want = kept(&a["draw"], &all, &named);

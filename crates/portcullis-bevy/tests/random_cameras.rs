@@ -3,8 +3,6 @@
 //! camera, one headless frame run, and the answer read off its `PortalCamera`, against the
 //! JSON line `cull --draw-lists --format jsonl` prints for it.
 
-use std::process::Command;
-
 use bevy::asset::Assets;
 use portcullis_bevy::headless;
 use portcullis_bevy::portcullis_runtime::runtime::answer::{answer, CameraLine};
@@ -13,7 +11,7 @@ use portcullis_bevy::{PortalCamera, PortalLevel};
 use serde_json::{json, Value};
 
 mod common;
-use common::{converted, converter, gltf_json, root, run, tempfile_dir};
+use common::{converted, cull, gltf_json, root, tempfile_dir};
 
 /// splitmix64: a seeded PRNG, uniform in [0, 1).
 struct Rng(u64);
@@ -89,20 +87,8 @@ fn compare(rel: &str, args: &[&str], seed: u64) {
         return;
     };
     let list = cameras(&gltf_json(&glb), 500, seed);
-    let file = dir.join("cameras.jsonl");
     let text: Vec<String> = list.iter().map(Value::to_string).collect();
-    std::fs::write(&file, text.join("\n") + "\n").unwrap();
-    let cull = run(Command::new(converter().unwrap())
-        .arg("cull")
-        .arg(&glb)
-        .arg("--cameras")
-        .arg(&file)
-        .args(["--draw-lists", "--format", "jsonl"]));
-    let want: Vec<Value> = cull
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
-    assert_eq!(want.len(), list.len());
+    let want = cull(&glb, &text, &dir);
 
     let (mut app, level, _) = headless::app_with_level(&glb).expect("the level loads");
     let camera = headless::spawn_camera(app.world_mut(), level.clone());

@@ -78,3 +78,22 @@ pub fn converted(source: &Path, args: &[&str], dir: &Path) -> Option<PathBuf> {
         .args(args));
     Some(glb)
 }
+
+/// `portcullis cull --draw-lists --format jsonl` on `glb` for the camera `lines` (written to
+/// `dir`): its answers, one per camera.
+pub fn cull(glb: &Path, lines: &[String], dir: &Path) -> Vec<Value> {
+    let file = dir.join("cameras.jsonl");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let out = run(Command::new(converter().expect("the converter"))
+        .arg("cull")
+        .arg(glb)
+        .arg("--cameras")
+        .arg(&file)
+        .args(["--draw-lists", "--format", "jsonl"]));
+    let answers: Vec<Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(answers.len(), lines.len());
+    answers
+}
