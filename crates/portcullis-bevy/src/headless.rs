@@ -36,6 +36,9 @@ pub enum HeadlessError {
     },
 }
 
+/// How long [`app_with_level`] waits for the level and its scene.
+pub const LOAD_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
 /// An app with the plugins a level needs headless: time, transforms, assets (rooted at the
 /// level's folder), images and meshes (the glTF loader's sub-assets), scenes, glTF, cameras
 /// and visibility, and [`PortcullisPlugin`]; the level at `path` loaded and its first scene
@@ -74,6 +77,10 @@ pub fn app_with_level(path: &Path) -> Result<(App, Handle<PortalLevel>, Entity),
         path: path.display().to_string(),
         error: e,
     };
+    // Bounded: a file whose scene loads but spawns nothing, or a load that never ends, is an
+    // error, not a hang.
+    let start = std::time::Instant::now();
+    let mut frames_loaded = 0;
     loop {
         app.update();
         for id in [level.id().untyped(), scene.id().untyped()] {
@@ -92,13 +99,15 @@ pub fn app_with_level(path: &Path) -> Result<(App, Handle<PortalLevel>, Entity),
             app.update();
             return Ok((app, level, root));
         }
-        if std::env::var_os("PORTCULLIS_BEVY_DEBUG").is_some() {
-            eprintln!(
-                "{:?} {:?} {:?} spawned {spawned}",
-                server.get_load_state(level.id()),
-                server.get_load_state(scene.id()),
-                server.get_recursive_dependency_load_state(scene.id())
-            );
+        frames_loaded += usize::from(loaded);
+        if frames_loaded > 100 {
+            return Err(failed("its first scene spawned nothing".to_string()));
+        }
+        if start.elapsed() > LOAD_TIMEOUT {
+            return Err(failed(format!(
+                "not loaded after {} s",
+                LOAD_TIMEOUT.as_secs()
+            )));
         }
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
