@@ -26,12 +26,24 @@ fn main() {
             std::process::exit(2)
         }
     };
-    let text = std::fs::read_to_string(cameras).expect("the cameras file");
-    let lines: Vec<CameraLine> = text
-        .lines()
-        .filter_map(|l| CameraLine::parse(l).expect("a camera"))
-        .collect();
-    let (mut app, handle, _) = headless::app_with_level(level.as_ref()).expect("the level loads");
+    let fail = |why: String| -> ! {
+        eprintln!("error: {why}");
+        std::process::exit(2)
+    };
+    let text = std::fs::read_to_string(cameras).unwrap_or_else(|e| fail(format!("{cameras}: {e}")));
+    let mut lines = Vec::new();
+    for (i, l) in text.lines().enumerate() {
+        match CameraLine::parse(l) {
+            Ok(Some(c)) if c.view().is_ok() => lines.push(c),
+            Ok(None) => {}
+            _ => fail(format!("{cameras}:{}: not a usable camera", i + 1)),
+        }
+    }
+    if lines.is_empty() {
+        fail(format!("{cameras}: no cameras"));
+    }
+    let (mut app, handle, _) =
+        headless::app_with_level(level.as_ref()).unwrap_or_else(|e| fail(e.to_string()));
     let camera = app.world_mut().spawn(Camera3d::default()).id();
     let mut report = Vec::new();
     for culled in [false, true] {

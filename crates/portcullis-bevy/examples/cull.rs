@@ -8,7 +8,7 @@
 //! Cameras are traced in `f64` (`PortalCamera::exact`) so the answers are `cull`'s to the last
 //! bit; the `Transform` is set too (in `f32`), as a game's would be.
 
-use std::io::{BufRead, Write};
+use std::io::Write;
 use std::path::PathBuf;
 
 use bevy::asset::Assets;
@@ -92,21 +92,43 @@ fn main() {
                 "[CULL_PORTAL_UNKNOWN] portal {p} does not exist: the level has {n} portals"
             ));
         }
+        // rule 17: each door named once (a portal and its partner are one door)
+        let mut doors: Vec<usize> = (a.closed.iter().chain(&a.open))
+            .map(|&p| l.level.partner(p).map_or(p, |q| q.min(p)))
+            .collect();
+        doors.sort_unstable();
+        if let Some(w) = doors.windows(2).find(|w| w[0] == w[1]) {
+            fail(&format!(
+                "door {} is given twice (a portal twice, or a portal and its partner); give it once",
+                w[0]
+            ));
+        }
         for (ps, closed) in [(&a.closed, true), (&a.open, false)] {
             for &p in ps {
                 l.doors.set(&l.level, p, closed);
             }
         }
     }
-    let file = std::fs::File::open(&a.cameras)
+    let text = std::fs::read_to_string(&a.cameras)
         .unwrap_or_else(|e| fail(&format!("cannot read {}: {e}", a.cameras.display())));
+    // As `cull` does with a file: every line checked before any answer is printed.
+    for (i, line) in text.lines().enumerate() {
+        let at = format!("{}:{}", a.cameras.display(), i + 1);
+        match CameraLine::parse(line) {
+            Ok(Some(c)) => {
+                if let Err(e) = c.view() {
+                    fail(&format!("{at}: not a usable camera: {e}"));
+                }
+            }
+            Ok(None) => {}
+            Err(e) => fail(&format!("{at}: not a camera: {e}")),
+        }
+    }
     let mut out = std::io::stdout().lock();
     let mut list = DrawList::default();
-    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
-        let line =
-            line.unwrap_or_else(|e| fail(&format!("cannot read {}: {e}", a.cameras.display())));
+    for (i, line) in text.lines().enumerate() {
         let at = format!("{}:{}", a.cameras.display(), i + 1);
-        let c = match CameraLine::parse(&line) {
+        let c = match CameraLine::parse(line) {
             Ok(Some(c)) => c,
             Ok(None) => continue,
             Err(e) => fail(&format!("{at}: not a camera: {e}")),

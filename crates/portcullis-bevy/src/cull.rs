@@ -1,6 +1,7 @@
 //! The per-view culling: each [`PortalCamera`]'s trace, and its `VisibleEntities` cut to what
 //! the visible cells draw.
 
+use std::any::TypeId;
 use std::collections::HashSet;
 
 use bevy::asset::{Assets, Handle};
@@ -10,6 +11,7 @@ use bevy::ecs::component::Component;
 use bevy::ecs::entity::Entity;
 use bevy::ecs::hierarchy::ChildOf;
 use bevy::ecs::system::{Local, Query, Res};
+use bevy::mesh::Mesh3d;
 use bevy::transform::components::GlobalTransform;
 use portcullis_runtime::runtime::{DrawList, Level, Trace, TraceOptions, View};
 
@@ -88,12 +90,20 @@ pub struct Drawn {
     whole: Vec<bool>,
     /// (node, primitive) of which a visible cell draws a range.
     ranges: HashSet<(u32, u32)>,
+    /// Per node index: no cell draws it (`PortalLevel::never`).
+    never: Vec<bool>,
 }
 
 impl Drawn {
-    fn fill(&mut self, level: &Level, list: &DrawList) {
+    fn fill(&mut self, level: &Level, never: &[u32], list: &DrawList) {
         let named = level.named_nodes();
-        let n = named.last().map_or(0, |&m| m as usize + 1);
+        let last = named.last().max(never.last());
+        let n = last.map_or(0, |&m| m as usize + 1);
+        self.never.clear();
+        self.never.resize(n, false);
+        for &node in never {
+            self.never[node as usize] = true;
+        }
         self.governed.clear();
         self.governed.resize(n, false);
         for &node in named {
@@ -112,13 +122,16 @@ impl Drawn {
         );
     }
 
-    /// Whether a mesh of `node` drawing `primitive` is kept in the view.
-    fn keeps(&self, node: u32, primitive: Option<u32>) -> bool {
+    /// Whether the mesh of `node` drawing `primitive` is kept in the view.
+    fn keeps(&self, node: u32, primitive: u32) -> bool {
         let i = node as usize;
+        if self.never.get(i).copied().unwrap_or(false) {
+            return false;
+        }
         if !self.governed.get(i).copied().unwrap_or(false) {
             return true;
         }
-        self.whole[i] || primitive.is_some_and(|p| self.ranges.contains(&(node, p)))
+        self.whole[i] || self.ranges.contains(&(node, primitive))
     }
 }
 
@@ -135,7 +148,7 @@ pub fn cull_views(
         &mut VisibleEntities,
     )>,
     roots: Query<&GlobalTransform>,
-    meshes: Query<(&ChildOf, Option<&PortalPrimitive>)>,
+    meshes: Query<(&ChildOf, &PortalPrimitive)>,
     nodes: Query<&PortalNode>,
     mut drawn: Local<Drawn>,
 ) {
@@ -145,7 +158,12 @@ pub fn cull_views(
         let Some(level) = levels.get(&camera.level) else {
             continue;
         };
-        let root = camera.level_root.and_then(|r| roots.get(r).ok());
+        let root = match camera.level_root.map(|r| roots.get(r)) {
+            // a level root that is gone: culling in the wrong frame would hide what is seen
+            Some(Err(_)) => continue,
+            Some(Ok(r)) => Some(r),
+            None => None,
+        };
         let Some(view) = camera
             .exact
             .or_else(|| camera_view(transform, projection, root))
@@ -163,21 +181,19 @@ pub fn cull_views(
         level
             .level
             .draw_list(direct.filter_map(|v| v.cell), &mut camera.draw);
-        drawn.fill(&level.level, &camera.draw);
+        drawn.fill(&level.level, &level.never, &camera.draw);
         let keep = |e: &Entity| {
+            // Only the glTF loader's mesh entities of this level: a game's own child of a level
+            // node (a prop, a light) has no `PortalPrimitive` and is left alone.
             let Ok((parent, primitive)) = meshes.get(*e) else {
                 return true;
             };
             match nodes.get(parent.parent()) {
-                Ok(n) if n.file == level.file => {
-                    drawn.keeps(n.node, primitive.map(|p| p.primitive))
-                }
+                Ok(n) if n.file == level.file => drawn.keeps(n.node, primitive.primitive),
                 _ => true,
             }
         };
-        for list in visible.entities.values_mut() {
-            list.retain(keep);
-        }
+        visible.get_mut(TypeId::of::<Mesh3d>()).retain(keep);
         camera.culled = true;
     }
 }

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use bevy::app::App;
-use bevy::asset::{AssetPlugin, AssetServer, Handle, LoadState};
+use bevy::asset::{AssetPlugin, AssetServer, Handle, LoadState, RecursiveDependencyLoadState};
 use bevy::camera::visibility::VisibleEntities;
 use bevy::camera::{Camera3d, PerspectiveProjection, Projection};
 use bevy::ecs::entity::Entity;
@@ -73,9 +73,10 @@ pub fn app_with_level(path: &Path) -> Result<(App, Handle<PortalLevel>, Entity),
     let level = server.load::<PortalLevel>(name.clone());
     let scene = server.load(GltfAssetLabel::Scene(0).from_asset(name));
     let root = app.world_mut().spawn(WorldAssetRoot(scene.clone())).id();
+    // Bevy's message, without the backtrace its error type appends
     let failed = |e: String| HeadlessError::Load {
         path: path.display().to_string(),
-        error: e,
+        error: e.lines().next().unwrap_or_default().to_string(),
     };
     // Bounded: a file whose scene loads but spawns nothing, or a load that never ends, is an
     // error, not a hang.
@@ -87,6 +88,12 @@ pub fn app_with_level(path: &Path) -> Result<(App, Handle<PortalLevel>, Entity),
             if let Some(LoadState::Failed(e)) = server.get_load_state(id) {
                 return Err(failed(e.to_string()));
             }
+        }
+        // a texture or buffer the scene needs that failed (a missing file, a format not built in)
+        if let Some(RecursiveDependencyLoadState::Failed(e)) =
+            server.get_recursive_dependency_load_state(scene.id())
+        {
+            return Err(failed(e.to_string()));
         }
         let loaded = server.is_loaded_with_dependencies(&level)
             && server.is_loaded_with_dependencies(&scene);

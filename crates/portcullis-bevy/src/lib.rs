@@ -30,8 +30,10 @@
 //!   renderer draws the view from, so several cameras (split screen, a minimap) each cull for
 //!   themselves.
 //!
-//! What is governed: the meshes of nodes some cell names (the level's geometry). Other meshes
+//! What is governed: the glTF loader's mesh entities of nodes some cell names (the level's
+//! geometry); authored portal meshes and split parts no cell names are hidden. Other meshes
 //! (props spawned by the game, meshes in no room) are left as Bevy's frustum culling left them.
+//! One spawned instance per level file; the README lists the other limits.
 //! A node drawn whole by a visible cell is drawn; a split node (the extension's `split`: one
 //! primitive shared by several cells, drawn by ranges of an index accessor) is drawn whole when
 //! any visible cell draws a range of it, since a Bevy mesh entity is one draw. Convert with

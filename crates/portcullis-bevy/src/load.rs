@@ -26,6 +26,39 @@ pub struct PortalLevel {
     pub doors: Doors,
     /// Which file it came from, as [`PortalNode::file`] says it of an entity.
     pub file: u64,
+    /// The level's nodes no cell draws, ascending: authored portal meshes (`portals[].node`)
+    /// and `--split-by-cell` parts no cell names. Hidden in every culled view.
+    pub never: Vec<u32>,
+}
+
+/// The nodes of a converted file that are the level's but no cell draws: authored portals'
+/// meshes and split parts no cell lists (a `[no cell]` part), as the three.js plugin hides.
+fn never_drawn(bytes: &[u8], level: &Level) -> Vec<u32> {
+    use portcullis_runtime::format::glb;
+    let json = if glb::is_glb(bytes) {
+        glb::split(bytes).map(|g| g.json).unwrap_or(&[])
+    } else {
+        bytes
+    };
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(json) else {
+        return Vec::new();
+    };
+    let index = |v: &serde_json::Value| v.as_u64().map(|n| n as u32);
+    let ext = &doc["extensions"][NAME];
+    let portals = ext["portals"].as_array().into_iter().flatten();
+    let mut never: Vec<u32> = portals.filter_map(|p| index(&p["node"])).collect();
+    for node in doc["nodes"].as_array().into_iter().flatten() {
+        let parts = node["extensions"][NAME]["parts"]
+            .as_array()
+            .into_iter()
+            .flatten();
+        never.extend(parts.filter_map(index));
+    }
+    let named = level.named_nodes();
+    never.retain(|n| named.binary_search(n).is_err());
+    never.sort_unstable();
+    never.dedup();
+    never
 }
 
 /// Why a [`PortalLevel`] could not be loaded.
@@ -64,6 +97,7 @@ impl AssetLoader for PortalLevelLoader {
         let level = Level::from_bytes(&bytes, None)?;
         Ok(PortalLevel {
             doors: Doors::new(&level),
+            never: never_drawn(&bytes, &level),
             level,
             file: file_id(load_context.path()),
         })

@@ -57,7 +57,12 @@ type Part = (u32, u32);
 
 /// What `cull`'s draw list keeps of the level's parts: a node drawn whole, or a part of a
 /// split node of which some range is drawn; parts of nodes no cell names are not the level's.
-fn kept(draw: &Value, parts: &BTreeSet<Part>, named: &BTreeSet<u32>) -> BTreeSet<Part> {
+fn kept(
+    draw: &Value,
+    parts: &BTreeSet<Part>,
+    named: &BTreeSet<u32>,
+    never: &BTreeSet<u32>,
+) -> BTreeSet<Part> {
     let whole: BTreeSet<u32> = draw["nodes"]
         .as_array()
         .unwrap()
@@ -68,6 +73,7 @@ fn kept(draw: &Value, parts: &BTreeSet<Part>, named: &BTreeSet<u32>) -> BTreeSet
         .map(|r| (r[0].as_u64().unwrap() as u32, r[1].as_u64().unwrap() as u32))
         .collect();
     (parts.iter().copied())
+        .filter(|p| !never.contains(&p.0))
         .filter(|p| !named.contains(&p.0) || whole.contains(&p.0) || ranges.contains(p))
         .collect()
 }
@@ -136,6 +142,24 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
             .map(|n| n.as_u64().unwrap() as u32)
     })
     .collect();
+    // No cell draws an authored portal's mesh or a split part no cell names.
+    let ext = &json["extensions"]["PORTCULLIS_portals"];
+    let portal_nodes = ext["portals"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|p| p["node"].as_u64());
+    let part_nodes = names.iter().flat_map(|n| {
+        let parts = n["extensions"]["PORTCULLIS_portals"]["parts"]
+            .as_array()
+            .cloned();
+        parts.into_iter().flatten().filter_map(|p| p.as_u64())
+    });
+    let never: BTreeSet<u32> = portal_nodes
+        .chain(part_nodes)
+        .map(|n| n as u32)
+        .filter(|n| !named.contains(n))
+        .collect();
 
     let mut lines = Vec::new();
     let mut shown = Vec::new();
@@ -147,7 +171,27 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
             world.get::<GlobalTransform>(culled).unwrap(),
             world.get::<Projection>(culled).unwrap(),
         );
-        lines.push(camera_line(t, p).to_string());
+        let line = camera_line(t, p);
+        // the plugin's view is the camera's: the eye and look the path set, within f32
+        let close = |a: &Value, b: [f64; 3], scale: f64| {
+            (0..3).all(|i| (a[i].as_f64().unwrap() - b[i]).abs() <= 1e-5 * scale)
+        };
+        let n = c.look.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let extent = c.eye.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        assert!(close(&line["eye"], c.eye, extent), "{line} vs {c:?}");
+        assert!(
+            close(&line["look"], c.look.map(|v| v / n), 1.0),
+            "{line} vs {c:?}"
+        );
+        lines.push(line.to_string());
+        let raw = world
+            .get::<bevy::camera::visibility::VisibleEntities>(culled)
+            .unwrap();
+        let raw = raw.get(std::any::TypeId::of::<Mesh3d>());
+        assert!(
+            raw.is_sorted(),
+            "the view's list stays sorted for Bevy's renderer"
+        );
         assert!(
             world.get::<PortalCamera>(culled).unwrap().culled,
             "the frame was not culled"
@@ -168,7 +212,7 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
     let answers = cull(&glb, &lines, &dir);
     let mut hidden = 0;
     for (i, (a, s)) in answers.iter().zip(&shown).enumerate() {
-        let want = kept(&a["draw"], &all, &named);
+        let want = kept(&a["draw"], &all, &named, &never);
         assert_eq!(s, &want, "frame {i}: camera {}", lines[i]);
         hidden += all.len() - s.len();
     }
@@ -182,6 +226,28 @@ fn fly(source: &Path, convert: &[&str], stops: &Path, steps: usize) {
         frames.len(),
         all.len(),
         hidden as f64 / frames.len() as f64
+    );
+}
+
+#[test]
+fn a_camera_flown_through_two_rooms_hides_the_authored_portal_mesh() {
+    let r = root();
+    fly(
+        &r.join("samples/two_rooms.gltf"),
+        &[],
+        &r.join("tests/vectors/two_rooms.cameras.jsonl"),
+        2,
+    );
+}
+
+#[test]
+fn a_camera_flown_through_a_brush_map_split_by_cell_draws_what_cull_says() {
+    let r = root();
+    fly(
+        &r.join("samples/brush_doors.map"),
+        &["--split-by-cell"],
+        &r.join("tests/vectors/brush_doors.cameras.jsonl"),
+        4,
     );
 }
 

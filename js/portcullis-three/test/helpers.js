@@ -2,9 +2,9 @@
 // `cull`s, comparing their answers, and reading and writing .glb files.
 
 import { spawnSync } from 'node:child_process';
-import { existsSync, mkdtempSync, readFileSync, rmSync, statSync, writeFileSync } from 'node:fs';
+import { copyFileSync, existsSync, mkdirSync, mkdtempSync, readFileSync, renameSync, rmSync, statSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { dirname, join, resolve } from 'node:path';
+import { basename, dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
 
 export const PACKAGE = resolve(dirname(fileURLToPath(import.meta.url)), '..');
@@ -31,10 +31,26 @@ export function tempDir(prefix = 'portcullis-three-') {
   return d;
 }
 
-/** Converts `input` to `output` with the binary; returns whether it succeeded. */
+/**
+ * Converts `input` to `output` with the binary; returns whether it succeeded. With
+ * $PORTCULLIS_LEVEL_CACHE (scripts/test.sh sets it, fresh each run), a level converted once
+ * with the same arguments is copied from there: the Bevy plugin's tests convert the same ones.
+ */
 export function convert(input, output, extra = []) {
+  const cache = process.env.PORTCULLIS_LEVEL_CACHE;
+  const kept = cache ? join(cache, [basename(input), ...extra].join('_').replace(/[^A-Za-z0-9_.]/g, '') + '.glb') : null;
+  if (kept && existsSync(kept)) {
+    copyFileSync(kept, output);
+    return true;
+  }
   const r = spawnSync(binary(), ['convert', input, '-o', output, '--color', 'never', ...extra], { encoding: 'utf8' });
-  return r.status === 0 && existsSync(output);
+  const ok = r.status === 0 && existsSync(output);
+  if (ok && kept) {
+    mkdirSync(cache, { recursive: true });
+    copyFileSync(output, kept + '.part');
+    renameSync(kept + '.part', kept);
+  }
+  return ok;
 }
 
 function run(cmd, args) {

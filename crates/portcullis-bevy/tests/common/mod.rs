@@ -70,12 +70,37 @@ pub fn converted(source: &Path, args: &[&str], dir: &Path) -> Option<PathBuf> {
         return None;
     }
     let glb = dir.join("level.glb");
+    // With $PORTCULLIS_LEVEL_CACHE (scripts/test.sh sets it, fresh each run), the JavaScript
+    // tests' conversions are reused: the same file converted with the same arguments.
+    let name = |s: &str| {
+        s.chars()
+            .filter(|c| c.is_ascii_alphanumeric() || "_.".contains(*c))
+            .collect::<String>()
+    };
+    let kept = std::env::var_os("PORTCULLIS_LEVEL_CACHE").map(|d| {
+        let file = source.file_name().unwrap().to_string_lossy();
+        let key: Vec<String> = std::iter::once(name(&file))
+            .chain(args.iter().map(|a| name(a)))
+            .collect();
+        PathBuf::from(d).join(key.join("_") + ".glb")
+    });
+    if let Some(k) = kept.as_ref().filter(|k| k.is_file()) {
+        std::fs::copy(k, &glb).unwrap();
+        return Some(glb);
+    }
     run(Command::new(&portcullis)
         .arg("convert")
         .arg(source)
         .arg("-o")
         .arg(&glb)
-        .args(args));
+        .args(args)
+        .args(["--color", "never"]));
+    if let Some(k) = kept {
+        std::fs::create_dir_all(k.parent().unwrap()).unwrap();
+        let part = k.with_extension("part");
+        std::fs::copy(&glb, &part).unwrap();
+        std::fs::rename(&part, &k).unwrap();
+    }
     Some(glb)
 }
 
