@@ -27,6 +27,7 @@
 //! frame-time queries (which cell the camera is in, which cells and portals it sees).
 
 pub mod auto;
+pub mod bsp;
 pub mod buildings;
 pub mod cells;
 pub mod check;

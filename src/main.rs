@@ -3,8 +3,6 @@
 
 mod cli;
 
-use clap::Parser;
-
 fn main() {
     // Rust ignores SIGPIPE, so a closed pipe (`portcullis vis big.prt | head`) would make the
     // next print fail; with the default action the process ends quietly, like `cat`.
@@ -14,7 +12,7 @@ fn main() {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     cli::huge_pages::off();
-    let cli = match cli::Cli::try_parse() {
+    let cli = match cli::parse() {
         Ok(c) => c,
         Err(e) => {
             let code = if e.use_stderr() { 2 } else { 0 };

@@ -28,6 +28,7 @@ const LAYERS: &[&[&str]] = &[
     &["level"],
     &["vis"],
     &["prt"],
+    &["bsp"],
     &["export"],
     &["check"],
     &["pipeline"],

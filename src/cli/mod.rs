@@ -10,12 +10,14 @@ pub mod bench;
 pub mod check;
 pub mod convert;
 pub mod cull;
+mod ericw_args;
 pub mod gen;
 pub mod huge_pages;
 pub mod inspect;
 pub mod schema;
 pub mod view;
 pub mod vis;
+mod vis_bsp;
 
 /// Cells and portals for game levels: import glTF / OBJ / USD, recognise rooms and portals from
 /// the designer's tags, check them, and write an annotated glTF.
@@ -59,6 +61,10 @@ pub enum Command {
     Schema(schema::SchemaArgs),
     /// Print the PVS of each level (glTF, OBJ, USD or a Quake .prt), one line per cell as
     /// `c: v1 v2 ...`; `--report` times every method against the sampled lower bound.
+    ///
+    /// Given a Quake-family .bsp, writes the PVS of the .prt beside it into the .bsp instead,
+    /// in place of ericw-tools vis (`qbsp map`, `portcullis vis map.bsp`, `light map`); its
+    /// options are read as ericw's are typed (`-fast`, `-threads 2`, `-noambient`).
     Vis(vis::VisArgs),
     /// What each camera sees in a converted level, by the runtime an engine would run: the
     /// camera's cell, the cells reached through the portals in view with their screen
@@ -206,6 +212,11 @@ impl LevelArgs {
             },
         }
     }
+}
+
+/// The command line, parsed: `vis` also reads ericw-tools vis's single-dash options.
+pub fn parse() -> Result<Cli, clap::Error> {
+    Cli::try_parse_from(ericw_args::rewrite(std::env::args_os().collect()))
 }
 
 /// Runs the parsed command line; returns the process exit code.

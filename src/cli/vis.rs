@@ -1,6 +1,8 @@
 //! `portcullis vis FILE...`: the PVS of each level, one line per cell as `c: v1 v2 ...` in the
 //! cell order of the extension (or of the .prt file), or with `--report` a table of run time,
-//! visible pairs and over-estimate against the sampled lower bound for every method.
+//! visible pairs and over-estimate against the sampled lower bound for every method. A .bsp
+//! input is ericw-tools vis's job instead (`vis_bsp.rs`), and ericw's single-dash options
+//! are read too (`ericw_args.rs`).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,7 +19,8 @@ use super::LevelArgs;
 #[derive(Debug, Args)]
 pub struct VisArgs {
     /// Levels: .gltf, .glb, .obj, .map (Quake-family brush maps), .usd*, or a Quake portal file
-    /// .prt (PRT1, PRT2, PRT1-AM).
+    /// .prt (PRT1, PRT2, PRT1-AM); or a Quake-family .bsp, which gets the PVS of the .prt
+    /// beside it written in, as ericw-tools vis does (`vis map` means map.bsp).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
@@ -58,11 +61,69 @@ pub struct VisArgs {
     #[arg(long, value_name = "LIST", requires = "report", value_delimiter = ',')]
     pub methods: Vec<String>,
 
+    /// For a .bsp input: the portal file to read (default: the .bsp's name with .prt, where
+    /// qbsp writes it).
+    #[arg(
+        long,
+        value_name = "FILE",
+        help_heading = "Quake .bsp (as ericw-tools vis)"
+    )]
+    pub prt: Option<PathBuf>,
+
+    /// ericw-tools vis's `-fast`: the `fast` method (Quake's might-see, no portal flow).
+    #[arg(
+        long,
+        conflicts_with = "method",
+        help_heading = "Quake .bsp (as ericw-tools vis)"
+    )]
+    pub fast: bool,
+
+    /// ericw-tools vis's `-level N` (0-4: how many of its separating-plane tests run).
+    /// Accepted; the full flow always runs all its tests, as `-level 4`, the default.
+    #[arg(long = "level", value_name = "N", value_parser = clap::value_parser!(u8).range(0..=4), help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub test_level: Option<u8>,
+
+    /// Write every ambient sound level 0 (Quake 1 family .bsp).
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub noambient: bool,
+
+    /// No ambient sky sound.
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub noambientsky: bool,
+
+    /// No ambient water sound.
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub noambientwater: bool,
+
+    /// No ambient sound from slime (which Quake plays as water).
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub noambientslime: bool,
+
+    /// No ambient lava sound.
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub noambientlava: bool,
+
+    /// More about a .bsp run: the portal graph, method, threads and times.
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub verbose: bool,
+
+    /// No summary line for a .bsp run (ericw's `-noverbose`, `-quiet`).
+    #[arg(long, help_heading = "Quake .bsp (as ericw-tools vis)")]
+    pub quiet: bool,
+
+    /// ericw-tools vis options that change nothing here, as typed (for a note).
+    #[arg(long, hide = true, value_name = "OPTION")]
+    pub ericw_ignored: Vec<String>,
+
+    /// ericw-tools vis options portcullis does not do, as typed (refused).
+    #[arg(long, hide = true, value_name = "OPTION")]
+    pub ericw_refused: Vec<String>,
+
     #[command(flatten)]
     pub level: LevelArgs,
 }
 
-fn options(a: &VisArgs, loaded: &load::Loaded, method: Method) -> VisOptions {
+pub(super) fn options(a: &VisArgs, loaded: &load::Loaded, method: Method) -> VisOptions {
     let cfg = &loaded.config;
     VisOptions {
         method,
@@ -77,28 +138,40 @@ fn options(a: &VisArgs, loaded: &load::Loaded, method: Method) -> VisOptions {
     }
 }
 
+/// The methods `--report` times: `--methods` (checked by [`run`] first), else all four.
+pub(super) fn chosen_methods(a: &VisArgs) -> Vec<Method> {
+    let methods: Vec<Method> = a.methods.iter().filter_map(|m| Method::parse(m)).collect();
+    if methods.is_empty() {
+        Method::ALL.to_vec()
+    } else {
+        methods
+    }
+}
+
 pub fn run(a: &VisArgs, style: &Style) -> i32 {
     let mut totals = Totals::default();
-    let mut methods = Vec::new();
-    for m in &a.methods {
-        match Method::parse(m) {
-            Some(m) => methods.push(m),
-            None => {
-                eprintln!("error: --methods: `{m}` is not flood, fast, full or sampled");
-                return 2;
-            }
-        }
+    if let Some(m) = a.methods.iter().find(|m| Method::parse(m).is_none()) {
+        eprintln!("error: --methods: `{m}` is not flood, fast, full or sampled");
+        return 2;
     }
-    if methods.is_empty() {
-        methods = Method::ALL.to_vec();
+    if let Err(code) = super::vis_bsp::ericw_options(a) {
+        return code;
     }
-    if a.report {
+    let methods = chosen_methods(a);
+    let files: Vec<PathBuf> = a.files.iter().map(|f| super::vis_bsp::resolve(f)).collect();
+    let bsp_only = files.iter().all(|f| portcullis::export::Target::is_bsp(f));
+    if a.report && !bsp_only {
         println!("| level | cells | portals | method | threads | time | cpu | pairs | over lower bound | samples | over ray-traced | rays |");
         println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     }
-    for f in &a.files {
+    for f in &files {
         totals.files += 1;
-        match one(a, f, &methods) {
+        let done = if portcullis::export::Target::is_bsp(f) {
+            super::vis_bsp::one(a, f)
+        } else {
+            one(a, f, &methods)
+        };
+        match done {
             Ok(diags) => {
                 totals.add(diags.iter());
                 eprint!("{}", human::diagnostics(diags.iter(), style));
@@ -110,7 +183,7 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
             }
         }
     }
-    if a.files.len() > 1 || totals.failed > 0 {
+    if files.len() > 1 || totals.failed > 0 {
         eprintln!("{}", totals.line());
     }
     totals.exit_code(false)

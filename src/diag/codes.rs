@@ -179,6 +179,15 @@ codes! {
     PRT_PORTAL_DEGENERATE = Warning, "a .prt portal has no area or joins a cell to itself; it was skipped";
     PRT_EXPORT_DROPPED = Warning, "one-way, closed, mirror or teleporter portals cannot be written to a .prt file";
 
+    // --- bsp (`vis MAP.bsp`) ---
+    BSP_TRUNCATED = Error, "the .bsp ends before its header or before a lump its header lists";
+    BSP_UNSUPPORTED = Error, "the file's magic or version is no .bsp portcullis writes visibility into";
+    BSP_LUMP_OUT_OF_RANGE = Error, "a lump of the .bsp lies outside the file, overlaps its header or is not a whole number of records";
+    BSP_BAD_INDEX = Error, "a record of the .bsp names a leaf, face, texinfo or texture that does not exist";
+    BSP_PRT_MISMATCH = Error, "the .prt does not belong to the .bsp: its leaf or cluster count differs, or its portals lie outside the leafs they join";
+    BSP_PRT_MISSING = Error, "there is no .prt beside the .bsp: qbsp writes none when the map leaks";
+    BSP_ALREADY_VISED = Info, "the .bsp already had visibility data, which was replaced";
+
     // --- runtime (`cull`) ---
     CULL_NOT_CONVERTED = Error, "the level given to `cull` has no usable PORTCULLIS_portals extension";
     CULL_CAMERA_INVALID = Error, "a line of the cameras file is not a usable camera";

@@ -22,6 +22,8 @@ pub enum Target {
     Svg,
     /// The self-contained HTML viewer page.
     Html,
+    /// A Quake-family .bsp, which `vis` writes its PVS into (never a level's own output).
+    Bsp,
 }
 
 impl Target {
@@ -35,6 +37,7 @@ impl Target {
             "prt" => Some(Target::Prt),
             "svg" => Some(Target::Svg),
             "html" | "htm" => Some(Target::Html),
+            "bsp" => Some(Target::Bsp),
             _ => None,
         }
     }
@@ -58,6 +61,7 @@ impl Target {
             Target::Debug => "a debug glTF",
             Target::Svg => "an SVG map",
             Target::Html => "an HTML page",
+            Target::Bsp => "a Quake .bsp",
         }
     }
 
@@ -73,6 +77,11 @@ impl Target {
     /// Whether `path` names a portal file.
     pub fn is_prt(path: &Path) -> bool {
         Target::from_path(path) == Some(Target::Prt)
+    }
+
+    /// Whether `path` names a Quake-family .bsp.
+    pub fn is_bsp(path: &Path) -> bool {
+        Target::from_path(path) == Some(Target::Bsp)
     }
 }
 

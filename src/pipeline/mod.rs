@@ -9,6 +9,7 @@
 
 use std::path::Path;
 
+pub mod bsp;
 mod gate;
 pub mod graph;
 mod load;
