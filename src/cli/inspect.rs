@@ -18,7 +18,8 @@ use super::{Format, LevelArgs};
 #[derive(Debug, Args)]
 pub struct InspectArgs {
     /// Level files: .gltf, .glb, .obj, .map (Quake-family brush maps), and
-    /// .usd/.usda/.usdc/.usdz with the `usd` feature.
+    /// .usd/.usda/.usdc/.usdz with the `usd` feature; a Quake .prt, or a Quake-family .bsp
+    /// (its stored visibility, beside ours and the lower bound when its .prt is there).
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
 
@@ -78,6 +79,9 @@ struct FileReport {
     /// A Quake portal file's graph, for a .prt input.
     #[serde(skip_serializing_if = "Option::is_none")]
     prt: Option<PrtView>,
+    /// What a Quake-family .bsp holds for vis, for a .bsp input.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    bsp: Option<super::inspect_bsp::BspView>,
     /// What inspect ran, next to what `check` would (inspect builds; check also judges).
     #[serde(skip_serializing_if = "Option::is_none")]
     checks: Option<&'static str>,
@@ -120,6 +124,7 @@ fn bare_report(path: &std::path::Path, ok: bool, diagnostics: Vec<Diagnostic>) -
         tolerance: None,
         annotation: None,
         prt: None,
+        bsp: None,
         checks: None,
         diagnostics,
     }
@@ -485,8 +490,17 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
     let mut reports = Vec::new();
     for path in &a.files {
         totals.files += 1;
-        if portcullis::export::Target::is_prt(path) {
-            let report = prt_report(path).unwrap_or_else(|d| {
+        let is_bsp = portcullis::export::Target::is_bsp(path);
+        if portcullis::export::Target::is_prt(path) || is_bsp {
+            let made = if is_bsp {
+                super::inspect_bsp::view(path, &opts).map(|(v, diags)| FileReport {
+                    bsp: Some(v),
+                    ..bare_report(path, true, diags)
+                })
+            } else {
+                prt_report(path)
+            };
+            let report = made.unwrap_or_else(|d| {
                 totals.failed += 1;
                 failed_report(path, d)
             });
@@ -518,6 +532,7 @@ pub fn run(a: &InspectArgs, style: &Style) -> i32 {
                     tolerance: Some(level.cells.tolerance.distance),
                     annotation,
                     prt: None,
+                    bsp: None,
                     checks: Some(FEWER_CHECKS),
                     diagnostics: level.diagnostics.0.clone(),
                 }
@@ -600,6 +615,9 @@ fn render_human(r: &FileReport, style: &Style) -> String {
     let _ = writeln!(out, "{}", style.bold(&r.path.display().to_string()));
     if let Some(p) = &r.prt {
         render_prt(&mut out, p, style);
+    }
+    if let Some(b) = &r.bsp {
+        super::inspect_bsp::render(&mut out, b, style);
     }
     if let Some(s) = &r.scene {
         render_scene(&mut out, s);

@@ -10,14 +10,13 @@ pub mod bench;
 pub mod check;
 pub mod convert;
 pub mod cull;
-mod ericw_args;
 pub mod gen;
 pub mod huge_pages;
 pub mod inspect;
+mod inspect_bsp;
 pub mod schema;
 pub mod view;
 pub mod vis;
-mod vis_bsp;
 
 /// Cells and portals for game levels: import glTF / OBJ / USD, recognise rooms and portals from
 /// the designer's tags, check them, and write an annotated glTF.
@@ -216,7 +215,19 @@ impl LevelArgs {
 
 /// The command line, parsed: `vis` also reads ericw-tools vis's single-dash options.
 pub fn parse() -> Result<Cli, clap::Error> {
-    Cli::try_parse_from(ericw_args::rewrite(std::env::args_os().collect()))
+    use clap::CommandFactory;
+    let cli = Cli::command();
+    let ours = cli
+        .find_subcommand("vis")
+        .into_iter()
+        .flat_map(|c| c.get_arguments())
+        .chain(cli.get_arguments())
+        .filter_map(|a| a.get_long().map(str::to_string))
+        .collect();
+    Cli::try_parse_from(vis::ericw_args::rewrite(
+        std::env::args_os().collect(),
+        &ours,
+    ))
 }
 
 /// Runs the parsed command line; returns the process exit code.

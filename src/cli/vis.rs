@@ -1,8 +1,8 @@
 //! `portcullis vis FILE...`: the PVS of each level, one line per cell as `c: v1 v2 ...` in the
 //! cell order of the extension (or of the .prt file), or with `--report` a table of run time,
 //! visible pairs and over-estimate against the sampled lower bound for every method. A .bsp
-//! input is ericw-tools vis's job instead (`vis_bsp.rs`), and ericw's single-dash options
-//! are read too (`ericw_args.rs`).
+//! input is ericw-tools vis's job instead (`bsp.rs`), and ericw's single-dash options are
+//! read too (`ericw_args.rs`).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -15,6 +15,9 @@ use portcullis::report::{human, style::Style, Totals};
 use portcullis::vis::{self, Method, VisOptions};
 
 use super::LevelArgs;
+
+mod bsp;
+pub(super) mod ericw_args;
 
 #[derive(Debug, Args)]
 pub struct VisArgs {
@@ -154,11 +157,11 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
         eprintln!("error: --methods: `{m}` is not flood, fast, full or sampled");
         return 2;
     }
-    if let Err(code) = super::vis_bsp::ericw_options(a) {
+    if let Err(code) = bsp::ericw_options(a) {
         return code;
     }
     let methods = chosen_methods(a);
-    let files: Vec<PathBuf> = a.files.iter().map(|f| super::vis_bsp::resolve(f)).collect();
+    let files: Vec<PathBuf> = a.files.iter().map(|f| bsp::resolve(f)).collect();
     let bsp_only = files.iter().all(|f| portcullis::export::Target::is_bsp(f));
     if a.report && !bsp_only {
         println!("| level | cells | portals | method | threads | time | cpu | pairs | over lower bound | samples | over ray-traced | rays |");
@@ -167,7 +170,7 @@ pub fn run(a: &VisArgs, style: &Style) -> i32 {
     for f in &files {
         totals.files += 1;
         let done = if portcullis::export::Target::is_bsp(f) {
-            super::vis_bsp::one(a, f)
+            bsp::one(a, f)
         } else {
             one(a, f, &methods)
         };

@@ -2,9 +2,9 @@
 //! type it (`vis -fast -threads 2 map.bsp`), turned into `vis`'s own before clap reads it.
 //! Only the words after the `vis` subcommand are touched, and only single-dash words: a
 //! known ericw option becomes its `--` spelling (or is dropped when it says nothing here,
-//! or marked refused when portcullis cannot do what it asks); any other single-dash word
-//! also gets a second dash, so `-method full` works and a misspelt one is clap's error.
-//! `--` spellings pass unchanged.
+//! or marked refused when portcullis cannot do what it asks); a single-dash spelling of one
+//! of `vis`'s own long options gets its second dash (`-method full`), and any other word is
+//! refused by name. `--` spellings pass unchanged.
 
 use std::ffi::OsString;
 
@@ -63,7 +63,8 @@ fn is_switch(m: &Meaning) -> bool {
 }
 
 /// The command line with `vis`'s single-dash words rewritten (see the module doc).
-pub fn rewrite(args: Vec<OsString>) -> Vec<OsString> {
+/// `ours`: the long options `vis` (and the command line around it) has.
+pub fn rewrite(args: Vec<OsString>, ours: &std::collections::BTreeSet<String>) -> Vec<OsString> {
     let Some(at) = vis_position(&args) else {
         return args;
     };
@@ -79,7 +80,13 @@ pub fn rewrite(args: Vec<OsString>) -> Vec<OsString> {
             continue;
         };
         let Some(m) = meaning(word) else {
-            out.push(format!("--{word}").into());
+            // One of ours with one dash (`-method full`), or nobody's: refused by name, as
+            // clap would say `--word` and confuse whoever typed `-word`.
+            out.push(if ours.contains(word) {
+                format!("--{word}").into()
+            } else {
+                format!("--ericw-refused=-{word}").into()
+            });
             continue;
         };
         // ericw switches take an optional 0 / 1 (-1 reads as 0) after them.
@@ -101,9 +108,9 @@ pub fn rewrite(args: Vec<OsString>) -> Vec<OsString> {
                 // ericw's -threads 0 is "automatic", which is ours without the option.
                 rest.next();
             }
-            Meaning::Ours(ours, value) => {
+            Meaning::Ours(flag, value) => {
                 if on {
-                    out.push(ours.into());
+                    out.push(flag.into());
                 }
                 if value {
                     out.extend(rest.next().cloned());
@@ -166,7 +173,10 @@ mod tests {
 
     #[test]
     fn ericw_words_become_ours_for_vis_only() {
-        let r = |s: &str| shown(rewrite(words(s)));
+        let ours = ["method", "threads", "samples", "color"]
+            .map(String::from)
+            .into();
+        let r = |s: &str| shown(rewrite(words(s), &ours));
         assert_eq!(
             r("portcullis vis -fast -threads 2 map.bsp"),
             "portcullis vis --fast --threads 2 map.bsp"

@@ -11,7 +11,7 @@ use portcullis::diag::Diagnostic;
 use portcullis::pipeline::bsp::{self as job, BspInput};
 use portcullis::vis::{self, Method};
 
-use super::vis::{options, VisArgs};
+use super::{options, VisArgs};
 
 /// `vis map` as mappers type it: a name without extension that is no file means its .bsp,
 /// as ericw-tools vis reads it.
@@ -33,7 +33,7 @@ pub(super) fn ericw_options(a: &VisArgs) -> Result<(), i32> {
             "-visdist" => "portcullis computes no distance-limited PVS; drop -visdist (the PVS is then the full one, as without it in ericw's vis)",
             "-phsonly" => "portcullis always writes the PVS and the PHS together; run `portcullis vis MAP.bsp` (it needs the .prt)",
             "-logfile" => "portcullis writes no log file; redirect its output instead: `portcullis vis map.bsp > map-vis.log 2>&1`",
-            _ => "portcullis has no such option; `portcullis vis --help` lists them",
+            _ => "neither ericw-tools vis nor portcullis has this option; `portcullis vis --help` lists them",
         };
         eprintln!("error: `{r}` is not supported: {why}");
         return Err(2);
@@ -190,7 +190,7 @@ fn report(a: &VisArgs, f: &Path, input: BspInput) -> Result<Vec<Diagnostic>, Dia
             input.bsp.vis_units
         ),
     }
-    for m in super::vis::chosen_methods(a) {
+    for m in super::chosen_methods(a) {
         let (pvs, time) = if m == Method::Sampled {
             (lower_pvs.clone(), lower_time)
         } else {
