@@ -55,6 +55,15 @@ CAMERA = '{"eye":[2,1.6,2],"look":[1,0,0]}'
 COMMANDS["CULL_NOT_CONVERTED"] = ["cull", "two_rooms.gltf", "--cameras", "cams.jsonl"]
 COMMANDS["CULL_CAMERA_INVALID"] = ["cull", "two_rooms.glb", "--cameras", "bad.jsonl"]
 COMMANDS["CULL_PORTAL_UNKNOWN"] = ["cull", "two_rooms.glb", "--cameras", "cams.jsonl", "--closed", "9"]
+# The .bsp codes: a tiny BSP29 (two leafs side by side, one portal between them) and its
+# PRT1, written into the command's folder with the broken variants (tiny_bsp below).
+COMMANDS["BSP_TRUNCATED"] = ["vis", "cut.bsp"]
+COMMANDS["BSP_UNSUPPORTED"] = ["vis", "q3.bsp"]
+COMMANDS["BSP_LUMP_OUT_OF_RANGE"] = ["vis", "lumps.bsp"]
+COMMANDS["BSP_BAD_INDEX"] = ["vis", "index.bsp"]
+COMMANDS["BSP_PRT_MISMATCH"] = ["vis", "map.bsp", "--prt", "other.prt"]
+COMMANDS["BSP_PRT_MISSING"] = ["vis", "leaky.bsp"]
+COMMANDS["BSP_ALREADY_VISED"] = ["vis", "vised.bsp"]
 # Where the hint shows by example, the fix says it in full.
 FIX = {
     "CULL_CAMERA_INVALID": "One JSON object per line with `eye` and `look` (a direction), and optionally "
@@ -81,6 +90,49 @@ def sample_for(code):
     return d if d.exists() else None
 
 
+def tiny_bsp(visleafs=2):
+    """A BSP29 of two air leafs (x 0..64 and 64..128) and the solid leaf 0, one world model,
+    no faces: what vis needs and nothing else."""
+    import struct
+    leaf = lambda contents, lo, hi: struct.pack("<ii6hHH4B", contents, -1, *lo, *hi, 0, 0, 0, 0, 0, 0)
+    lumps = [b""] * 15
+    lumps[0] = b'{\n"classname" "worldspawn"\n}\n\0'
+    lumps[10] = leaf(-2, (0, 0, 0), (0, 0, 0)) + leaf(-1, (0, 0, 0), (64, 64, 64)) + leaf(-1, (64, 0, 0), (128, 64, 64))
+    lumps[14] = struct.pack("<9f4i3i", 0, 0, 0, 128, 64, 64, 0, 0, 0, 0, 0, 0, 0, visleafs, 0, 0)
+    out = bytearray(4 + 15 * 8)
+    table = []
+    for data in lumps:
+        out += bytes(-len(out) % 4)
+        table.append((len(out), len(data)))
+        out += data
+    struct.pack_into("<i", out, 0, 29)
+    for i, (o, n) in enumerate(table):
+        struct.pack_into("<ii", out, 4 + 8 * i, o, n)
+    return bytes(out)
+
+
+TINY_PRT = "PRT1\n2\n1\n4 0 1 (64 0 0) (64 64 0) (64 64 64) (64 0 64)\n"
+
+
+def bsp_files(d):
+    """The .bsp examples' files in folder `d`."""
+    import struct
+    good = tiny_bsp()
+    (d / "map.bsp").write_bytes(good)
+    (d / "map.prt").write_text(TINY_PRT)
+    (d / "other.prt").write_text("PRT1\n3\n1\n4 0 1 (64 0 0) (64 64 0) (64 64 64) (64 0 64)\n")
+    (d / "cut.bsp").write_bytes(good[:100])
+    (d / "q3.bsp").write_bytes(b"IBSP" + struct.pack("<i", 46) + bytes(200))
+    lumps = bytearray(good)
+    struct.pack_into("<i", lumps, 4 + 8 * 10, len(good) + 64)
+    (d / "lumps.bsp").write_bytes(bytes(lumps))
+    (d / "index.bsp").write_bytes(tiny_bsp(visleafs=9))
+    (d / "leaky.bsp").write_bytes(good)
+    (d / "vised.bsp").write_bytes(good)
+    (d / "vised.prt").write_text(TINY_PRT)
+    subprocess.run([EXE, "vis", "vised.bsp"], cwd=d, capture_output=True, check=True)
+
+
 def block(text, code):
     """The lines of the first diagnostic with `code` in human output."""
     lines = text.splitlines()
@@ -104,6 +156,8 @@ def example(code):
                 (Path(d) / name).write_bytes((ROOT / "samples" / name).read_bytes())
             if code in PRT_TEXT:
                 (Path(d) / "bad.prt").write_text(PRT_TEXT[code])
+            if code.startswith("BSP_"):
+                bsp_files(Path(d))
             if code.startswith("CULL_"):
                 subprocess.run([EXE, "convert", "two_rooms.gltf", "-o", "two_rooms.glb"], cwd=d,
                                capture_output=True, check=True)

@@ -50,9 +50,16 @@ pub(crate) fn lump_range(path: &Path, lump: &str, what: String) -> Diagnostic {
 
 /// A record naming a record that does not exist.
 pub(crate) fn bad_index(path: &Path, lump: &str, record: usize, what: String) -> Diagnostic {
+    let noun = match lump {
+        "leafs" => "leaf",
+        "models" => "model",
+        "faces" => "face",
+        "textures" => "texture",
+        other => other,
+    };
     Diagnostic::new(
         Code::BSP_BAD_INDEX,
-        format!("{}: {lump} {record} {what}", path.display()),
+        format!("{}: {noun} {record} {what}", path.display()),
         place(path, lump, Some(record)),
     )
     .hint("the .bsp is damaged or was written by a tool that broke it; run qbsp again")
@@ -77,14 +84,14 @@ pub fn prt_missing(bsp: &Path, prt: &Path) -> Diagnostic {
         .find(|p| p.is_file());
     let what = match &leak {
         Some(l) => format!(
-            "qbsp wrote no .prt: the map leaks; see {} for the path from an entity to the void",
+            "qbsp wrote no .prt, so the map leaks; {} holds the path from an entity to the void",
             l.display()
         ),
-        None => "qbsp wrote no .prt: the map leaks (or qbsp did not finish); see the .pts/.lin file qbsp writes beside the map".to_string(),
+        None => "qbsp writes none when the map leaks (it writes a .pts or .lin file beside the map instead) or when it did not finish".to_string(),
     };
     Diagnostic::new(
         Code::BSP_PRT_MISSING,
-        format!("{}: `{}` does not exist: {what}", bsp.display(), prt.display()),
+        format!("{}: there is no `{}`: {what}", bsp.display(), prt.display()),
         Location::file(prt),
     )
     .hint("load the leak file in your editor (TrenchBroom: File > Load Point File), seal the hole it runs through and run qbsp again; or name the portal file with --prt")
