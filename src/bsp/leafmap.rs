@@ -79,7 +79,16 @@ pub fn match_prt(bsp: &Bsp, prt: &PrtFile, prt_path: &Path) -> Result<LeafMap, D
 }
 
 impl LeafMap {
-    /// The .bsp leaf index of each leaf of cell `c`... as a table: the leafs of every cell.
+    /// The .bsp's units of every cell: its visible leafs (index j is leaf j + 1), or for
+    /// Quake 2 the cluster itself.
+    pub fn cell_units(&self) -> Vec<Vec<usize>> {
+        if self.leaf_cell.is_empty() {
+            return (0..self.cells).map(|c| vec![c]).collect();
+        }
+        self.cell_leafs()
+    }
+
+    /// The visible leafs of every cell (index j is the .bsp's leaf j + 1); none for Quake 2.
     pub fn cell_leafs(&self) -> Vec<Vec<usize>> {
         let mut out = vec![Vec::new(); self.cells];
         for (j, &c) in self.leaf_cell.iter().enumerate() {

@@ -385,9 +385,12 @@ impl Bsp {
     pub fn lump_name(&self, i: usize) -> &'static str {
         self.format.lump_names().get(i).copied().unwrap_or("?")
     }
-    /// Lump `i`'s bytes (checked in range when read).
+    /// Lump `i`'s bytes (checked in range when read; an empty lump may point anywhere).
     pub fn lump(&self, i: usize) -> &[u8] {
         let l = self.lumps[i];
+        if l.len == 0 {
+            return &[];
+        }
         &self.bytes[l.offset..l.offset + l.len]
     }
     /// The header's bytes.
@@ -481,6 +484,19 @@ impl Bsp {
                     format!(
                         "is in cluster {}; a cluster is -1 (none) or more",
                         l.cluster
+                    ),
+                ));
+            }
+            // More clusters than leafs is a damaged number, and rows are sized by it.
+            if l.cluster as usize >= self.leafs.len() && l.cluster >= 0 {
+                return Err(error::bad_index(
+                    &self.path,
+                    "leafs",
+                    i,
+                    format!(
+                        "is in cluster {}, more clusters than the map has leafs ({})",
+                        l.cluster,
+                        self.leafs.len()
                     ),
                 ));
             }

@@ -1,25 +1,32 @@
 //! Reading a .bsp's visibility back, as an engine would, and setting it beside a PVS of
 //! ours: what `inspect MAP.bsp` and `vis MAP.bsp --report` print, so a mapper can see what
 //! another vis wrote and how far it is from the sampled lower bound.
+//!
+//! Everything is counted in the .bsp's terms (Quake 1 family: pairs of visible leafs;
+//! Quake 2: pairs of clusters) without a leaf × leaf matrix, which a big BSP2 map would make
+//! gigabytes of: the leafs of one cluster share one stored row, and a PVS of the portal
+//! file's cells counts each cell pair as the product of the cells' leaf counts.
 
 use super::leafmap::LeafMap;
 use super::read::Bsp;
-use super::visdata::{decompress_row, row_bytes, RowError};
-use crate::format::bits::BitMatrix;
+use super::visdata::{count, decompress_row, get, row_bytes, RowError};
 use crate::vis::Pvs;
 
 /// A .bsp's decoded visibility.
 #[derive(Debug, Clone)]
 pub struct Stored {
-    /// Quake 1 family: row j is visible leaf j (the .bsp's leaf j + 1). Quake 2: per cluster.
-    pub pvs: BitMatrix,
-    /// Quake 2: the PHS per cluster.
-    pub phs: Option<BitMatrix>,
+    /// The decoded PVS rows, each once (a cluster's leafs share theirs).
+    pub rows: Vec<Vec<u8>>,
+    /// Per visible leaf (Quake 1 family; index j is the .bsp's leaf j + 1) or cluster (Quake
+    /// 2): its row in `rows`; `None` for no row (an engine then draws everything) or a broken one.
+    pub row_of: Vec<Option<usize>>,
+    /// Quake 2: hearable ordered pairs of clusters (the PHS).
+    pub hearable: Option<usize>,
     /// The visibility lump's bytes.
     pub bytes: usize,
     /// Rows that would not decode: the leaf (or cluster) and why.
     pub broken: Vec<(usize, RowError)>,
-    /// Leafs (or clusters) with no row at all (offset -1): an engine draws everything there.
+    /// Leafs (or clusters) with no row at all (offset -1).
     pub without: usize,
 }
 
@@ -31,100 +38,109 @@ pub fn stored(bsp: &Bsp) -> Option<Stored> {
     }
     let n = bsp.vis_units;
     let mut out = Stored {
-        pvs: BitMatrix::new(n),
-        phs: None,
+        rows: Vec::new(),
+        row_of: vec![None; n],
+        hearable: None,
         bytes: data.len(),
         broken: Vec::new(),
         without: 0,
     };
-    if bsp.format.has_clusters() {
-        let i32_at = |at: usize| {
-            data.get(at..at + 4)
-                .map(|s| i32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-        };
-        let listed = i32_at(0).and_then(|c| usize::try_from(c).ok()).unwrap_or(0);
-        let mut phs = BitMatrix::new(n);
-        for c in 0..n {
-            for (kind, m) in [&mut out.pvs, &mut phs].into_iter().enumerate() {
-                let ofs = if c < listed {
-                    i32_at(4 + 8 * c + 4 * kind)
-                } else {
-                    None
-                };
-                match ofs.map(usize::try_from) {
-                    Some(Ok(o)) => {
-                        fill(m, c, decompress_row(data, o, row_bytes(n)), &mut out.broken)
-                    }
-                    Some(Err(_)) => out.without += usize::from(kind == 0),
-                    None => out.broken.push((c, RowError::Outside)),
+    let mut seen = std::collections::HashMap::new();
+    let mut decode = |u: usize, ofs: Option<i32>, out: &mut Stored| match ofs.map(usize::try_from) {
+        Some(Ok(o)) => {
+            if let Some(&r) = seen.get(&o) {
+                out.row_of[u] = Some(r);
+                return;
+            }
+            match decompress_row(data, o, row_bytes(n)) {
+                Ok(row) => {
+                    seen.insert(o, out.rows.len());
+                    out.row_of[u] = Some(out.rows.len());
+                    out.rows.push(row);
                 }
+                Err(e) => out.broken.push((u, e)),
             }
         }
-        out.phs = Some(phs);
+        Some(Err(_)) => out.without += 1,
+        None => out.broken.push((u, RowError::Outside)),
+    };
+    if !bsp.format.has_clusters() {
+        for j in 0..n {
+            decode(j, Some(bsp.leafs[j + 1].visofs), &mut out);
+        }
         return Some(out);
     }
-    for j in 0..n {
-        match usize::try_from(bsp.leafs[j + 1].visofs) {
-            Ok(o) => fill(
-                &mut out.pvs,
-                j,
-                decompress_row(data, o, row_bytes(n)),
-                &mut out.broken,
-            ),
-            Err(_) => out.without += 1,
-        }
+    let i32_at = |at: usize| {
+        data.get(at..at + 4)
+            .map(|s| i32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+    };
+    let listed = i32_at(0).and_then(|c| usize::try_from(c).ok()).unwrap_or(0);
+    let table =
+        |c: usize, kind: usize| (c < listed).then(|| i32_at(4 + 8 * c + 4 * kind)).flatten();
+    for c in 0..n {
+        decode(c, table(c, 0), &mut out);
     }
+    let hearable = (0..n)
+        .filter_map(|c| usize::try_from(table(c, 1)?).ok())
+        .filter_map(|o| decompress_row(data, o, row_bytes(n)).ok())
+        .map(|r| count(&r))
+        .sum();
+    out.hearable = Some(hearable);
     Some(out)
 }
 
-/// Row `r` of `m` from a decoded byte row (bits past the matrix ignored), or the error noted.
-fn fill(
-    m: &mut BitMatrix,
-    r: usize,
-    row: Result<Vec<u8>, RowError>,
-    broken: &mut Vec<(usize, RowError)>,
-) {
-    match row {
-        Ok(bytes) => {
-            for c in 0..m.len() {
-                if bytes[c >> 3] >> (c & 7) & 1 == 1 {
-                    m.set(r, c);
+impl Stored {
+    /// Visible ordered pairs, each leaf (or cluster) with itself included.
+    pub fn pairs(&self) -> usize {
+        self.row_of
+            .iter()
+            .flatten()
+            .map(|&r| count(&self.rows[r]))
+            .sum()
+    }
+
+    /// Pairs of `lower` (a PVS of `map`'s cells) this visibility lacks: sightlines it hides.
+    /// A leaf without a row hides nothing (engines draw everything there); a broken row
+    /// hides all.
+    pub fn missing(&self, map: &LeafMap, lower: &Pvs) -> usize {
+        let units = map.cell_units();
+        let mut cache = std::collections::HashMap::new();
+        let mut total = 0;
+        for (c, us) in units.iter().enumerate().take(lower.cells()) {
+            for &u in us {
+                let row = self.row_of.get(u).copied().flatten();
+                let broken = self.broken.iter().any(|&(b, _)| b == u);
+                if row.is_none() && !broken {
+                    continue;
                 }
+                total += *cache.entry((row, c)).or_insert_with(|| {
+                    lower
+                        .visible(c)
+                        .filter_map(|v| units.get(v))
+                        .flatten()
+                        .filter(|&&k| row.is_none_or(|r| !get(&self.rows[r], k)))
+                        .count()
+                });
             }
         }
-        Err(e) => broken.push((r, e)),
+        total
     }
 }
 
-/// A PVS of the portal file's cells in the .bsp's terms: per visible leaf (Quake 1 family)
-/// or per cluster (Quake 2), so it counts on the same basis as [`Stored::pvs`].
-pub fn in_bsp_terms(map: &LeafMap, pvs: &Pvs) -> BitMatrix {
-    if map.leaf_cell.is_empty() {
-        return pvs.first_cells(map.cells).bits;
-    }
-    let n = map.leaf_cell.len();
-    let cell_leafs = map.cell_leafs();
-    let mut m = BitMatrix::new(n);
-    for (j, &c) in map.leaf_cell.iter().enumerate() {
-        for v in pvs.visible(c).filter(|&v| v < map.cells) {
-            for &k in &cell_leafs[v] {
-                m.set(j, k);
-            }
+/// A PVS of `map`'s cells counted in the .bsp's terms: its visible ordered pairs of leafs
+/// (or clusters), and the pairs of `lower` it lacks.
+pub fn counted(map: &LeafMap, pvs: &Pvs, lower: &Pvs) -> (usize, usize) {
+    let units = map.cell_units();
+    let size = |c: usize| units.get(c).map_or(0, Vec::len);
+    let (mut pairs, mut missing) = (0, 0);
+    for c in 0..map.cells.min(pvs.cells()) {
+        pairs += size(c) * pvs.visible(c).map(size).sum::<usize>();
+        if c < lower.cells() {
+            let lacks = lower
+                .visible(c)
+                .filter(|&v| v >= pvs.cells() || !pvs.sees(c, v));
+            missing += size(c) * lacks.map(size).sum::<usize>();
         }
     }
-    m
-}
-
-/// Pairs of `lower` (in .bsp terms) that `m` lacks.
-pub fn missing(lower: &BitMatrix, m: &BitMatrix) -> usize {
-    (0..lower.len().min(m.len()))
-        .map(|r| {
-            lower
-                .row(r)
-                .iter()
-                .zip(m.row(r))
-                .map(|(a, b)| (a & !b).count_ones() as usize)
-                .sum::<usize>()
-        })
-        .sum()
+    (pairs, missing)
 }

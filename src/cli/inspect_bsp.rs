@@ -76,7 +76,7 @@ pub fn view(
         None
     };
     let mut compared = None;
-    let mut lower_bits = None;
+    let mut lower_pvs = None;
     if let Some(input) = &input {
         diags.extend(input.loaded.diagnostics.0.iter().cloned());
         let base = VisOptions {
@@ -90,32 +90,33 @@ pub fn view(
             flow_budget: pipeline::flow_budget(&input.loaded.config),
             ..Default::default()
         };
-        let lower = vis::compute(
-            &input.loaded.graph,
-            &VisOptions {
-                method: Method::Sampled,
-                ..base.clone()
-            },
-        );
-        let lower = job::in_bsp_terms(input, &lower);
+        let sampled = VisOptions {
+            method: Method::Sampled,
+            ..base.clone()
+        };
+        let lower = vis::compute(&input.loaded.graph, &sampled);
         let full = vis::compute(&input.loaded.graph, &base);
         let ours = job::side(input, &full, &lower)?;
         compared = Some(ComparedView {
             prt: input.prt_path.clone(),
-            lower_bound: lower.count(),
+            lower_bound: job::pairs_in_bsp_terms(input, &lower),
             samples: base.samples,
             full: ours.pairs,
             full_bytes: ours.vis_bytes,
         });
-        lower_bits = Some(lower);
+        lower_pvs = Some(lower);
     }
-    let visibility = job::stored_side(&bsp, lower_bits.as_ref()).map(|(s, side)| StoredView {
+    let against = input
+        .as_ref()
+        .zip(lower_pvs.as_ref())
+        .map(|(i, l)| (&i.map, l));
+    let visibility = job::stored_side(&bsp, against).map(|(s, side)| StoredView {
         pairs: side.pairs,
         bytes: side.vis_bytes,
-        hearable: s.phs.as_ref().map(|m| m.count()),
+        hearable: s.hearable,
         broken: s.broken.len(),
         without: s.without,
-        lower_bound_missing: lower_bits.as_ref().map(|_| side.missing),
+        lower_bound_missing: against.map(|_| side.missing),
     });
     let unit = if bsp.format.has_clusters() {
         "clusters"

@@ -12,7 +12,7 @@ use crate::diag::{Diagnostic, Diagnostics};
 use crate::export::output::{self, Output};
 use crate::export::Target;
 use crate::prt::PrtFile;
-use crate::vis::{self, Computed, VisOptions};
+use crate::vis::{self, Computed, Pvs, VisOptions};
 
 /// A .bsp with its portal file, matched.
 pub struct BspInput {
@@ -117,41 +117,34 @@ pub struct Side {
     pub vis_bytes: usize,
 }
 
-/// The lower bound `lower` (a PVS of the portal file's cells) in the .bsp's terms.
-pub fn in_bsp_terms(input: &BspInput, pvs: &crate::vis::Pvs) -> crate::format::bits::BitMatrix {
-    bsp::readback::in_bsp_terms(&input.map, pvs)
-}
-
-/// `pvs` (of the portal file's cells) as [`vis_bsp`] would write it, beside `lower` (from
-/// [`in_bsp_terms`]).
-pub fn side(
-    input: &BspInput,
-    pvs: &crate::vis::Pvs,
-    lower: &crate::format::bits::BitMatrix,
-) -> Result<Side, Diagnostic> {
+/// `pvs` (of the portal file's cells) as [`vis_bsp`] would write it, beside `lower` (the
+/// sampled lower bound, also of the cells).
+pub fn side(input: &BspInput, pvs: &Pvs, lower: &Pvs) -> Result<Side, Diagnostic> {
     let write = bsp::Options {
         ambient: Ambient::none(),
         noambient: Vec::new(),
     };
     let w = bsp::visited(&input.bsp, &input.map, pvs, &write)?;
-    let m = in_bsp_terms(input, pvs);
+    let (pairs, missing) = bsp::readback::counted(&input.map, pvs, lower);
     Ok(Side {
-        pairs: m.count(),
-        missing: bsp::readback::missing(lower, &m),
+        pairs,
+        missing,
         vis_bytes: w.stats.vis_bytes,
     })
 }
 
-/// What the .bsp already holds (another vis's work, or ours), beside `lower`; `None` when
-/// it holds no visibility.
-pub fn stored_side(
-    bsp: &Bsp,
-    lower: Option<&crate::format::bits::BitMatrix>,
-) -> Option<(bsp::Stored, Side)> {
+/// Visible pairs of `pvs` (of the portal file's cells) in the .bsp's terms.
+pub fn pairs_in_bsp_terms(input: &BspInput, pvs: &Pvs) -> usize {
+    bsp::readback::counted(&input.map, pvs, pvs).0
+}
+
+/// What the .bsp already holds (another vis's work, or ours), beside `lower` (a PVS of
+/// `map`'s cells) when given; `None` when it holds no visibility.
+pub fn stored_side(bsp: &Bsp, lower: Option<(&LeafMap, &Pvs)>) -> Option<(bsp::Stored, Side)> {
     let s = bsp::stored(bsp)?;
     let side = Side {
-        pairs: s.pvs.count(),
-        missing: lower.map_or(0, |l| bsp::readback::missing(l, &s.pvs)),
+        pairs: s.pairs(),
+        missing: lower.map_or(0, |(map, l)| s.missing(map, l)),
         vis_bytes: s.bytes,
     };
     Some((s, side))

@@ -167,7 +167,7 @@ fn report(a: &VisArgs, f: &Path, input: BspInput) -> Result<Vec<Diagnostic>, Dia
     };
     let lower_opts = options(a, &input.loaded, Method::Sampled);
     let (lower_pvs, lower_time) = vis::timed(&input.loaded.graph, &lower_opts);
-    let lower = job::in_bsp_terms(&input, &lower_pvs);
+    let lower = job::pairs_in_bsp_terms(&input, &lower_pvs);
     let name = f.file_name().unwrap_or_default().to_string_lossy();
     println!("| level | format | {unit}s | pvs | time | {unit} pairs | over lower bound | lower-bound pairs missing | visdata bytes |");
     println!("|---|---|---|---|---|---|---|---|---|");
@@ -177,12 +177,12 @@ fn report(a: &VisArgs, f: &Path, input: BspInput) -> Result<Vec<Diagnostic>, Dia
             input.bsp.format.name(),
             input.bsp.vis_units,
             s.pairs,
-            (s.pairs as f64 / lower.count().max(1) as f64 - 1.0) * 100.0,
+            (s.pairs as f64 / lower.max(1) as f64 - 1.0) * 100.0,
             s.missing,
             s.vis_bytes
         )
     };
-    match job::stored_side(&input.bsp, Some(&lower)) {
+    match job::stored_side(&input.bsp, Some((&input.map, &lower_pvs))) {
         Some((_, s)) => row("stored in the .bsp", "–".into(), &s),
         None => println!(
             "| {name} | {} | {} | stored in the .bsp: none (not vised) | – | – | – | – | 0 |",
@@ -196,7 +196,7 @@ fn report(a: &VisArgs, f: &Path, input: BspInput) -> Result<Vec<Diagnostic>, Dia
         } else {
             vis::timed(&input.loaded.graph, &options(a, &input.loaded, m))
         };
-        let s = job::side(&input, &pvs, &lower)?;
+        let s = job::side(&input, &pvs, &lower_pvs)?;
         row(m.name(), format!("{:.3} s", time.as_secs_f64()), &s);
     }
     Ok(input.loaded.diagnostics.0)
