@@ -291,7 +291,10 @@ mod tests {
                 let (prt, _) = crate::prt::parse(PRT, Path::new("x.prt")).unwrap();
                 if let Ok(map) = match_prt(&bsp, &prt, Path::new("x.prt")) {
                     let pvs = crate::vis::Pvs::identity(2);
-                    let _ = visited(&bsp, &map, &pvs, &Options::default());
+                    if let Ok(w) = visited(&bsp, &map, &pvs, &Options::default()) {
+                        let again = parse(w.bytes, Path::new("x.bsp")).unwrap();
+                        assert_eq!(stored(&again).unwrap().pairs(), 2, "byte {at}");
+                    }
                 }
                 let _ = stored(&bsp);
             }
