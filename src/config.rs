@@ -69,6 +69,9 @@ pub struct TagsConfig {
     pub case_sensitive: Option<bool>,
     /// Overrides the preset's wildcard character (see `RuleSetSpec::wildcard`).
     pub wildcard: Option<char>,
+    /// Overrides the preset's sky materials (see `RuleSetSpec::sky`): a pattern on material
+    /// names, or `""` for none.
+    pub sky: Option<String>,
     /// The `rules` replace the preset's rather than being tried before them.
     #[serde(default)]
     pub replace: bool,
@@ -306,6 +309,9 @@ pub fn rule_set(cfg: &Config, cli_preset: Option<&str>) -> Result<RuleSet, Diagn
     }
     if let Some(w) = cfg.tags.wildcard {
         spec.wildcard = Some(w);
+    }
+    if let Some(sky) = &cfg.tags.sky {
+        spec.sky = Some(sky.clone()).filter(|s| !s.is_empty());
     }
     if !cfg.tags.rules.is_empty() {
         if cfg.tags.replace {

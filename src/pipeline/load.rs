@@ -81,15 +81,20 @@ fn stored_preset(scene: &crate::scene::Scene) -> Option<String> {
 /// the cells and portals.
 fn settings_bytes(config: &Config, rules: &RuleSet) -> Vec<u8> {
     let specs: Vec<&crate::tags::rules::RuleSpec> = rules.rules.iter().map(|r| &r.spec).collect();
-    serde_json::to_vec(&serde_json::json!({
+    let mut settings = serde_json::json!({
         "rules": specs,
         "caseSensitive": rules.case_sensitive,
         "wildcard": rules.wildcard,
         "cells": config.cells,
         "portals": config.portals,
         "generate": rules.generate.then_some(&config.auto),
-    }))
-    .unwrap_or_default()
+    });
+    // Only when set, so the hash of a level whose rules name no sky is what it was before the
+    // rules could.
+    if let Some(sky) = &rules.sky {
+        settings["sky"] = serde_json::json!(sky.as_str());
+    }
+    serde_json::to_vec(&settings).unwrap_or_default()
 }
 
 /// Tags an imported level with `rules` (library callers that import themselves use this).

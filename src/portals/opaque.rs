@@ -245,7 +245,12 @@ pub fn blocking_triangles(scene: &Scene, tagging: &Tagging, props: &[NodeId]) ->
         let world = scene.nodes[n].world;
         let mesh = &scene.meshes[m];
         let winding = scene.winding(n);
-        out.extend(mesh.triangles.iter().filter_map(|&t| {
+        let sky = tagging.sky_triangles(mesh);
+        let open = |i: usize| sky.as_ref().is_some_and(|s| s[i]);
+        out.extend(mesh.triangles.iter().enumerate().filter_map(|(i, &t)| {
+            if open(i) {
+                return None;
+            }
             let p = winding.order(t).map(|i| {
                 mesh.positions
                     .get(i as usize)
@@ -280,10 +285,19 @@ impl Opaque {
             // corners), so the same mesh written in another triangle order gives the same
             // openings.
             let start = tris.len();
-            tris.extend(mesh.triangles.iter().map(|t| {
-                let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
-                [t[k], t[(k + 1) % 3], t[(k + 2) % 3]].map(|i| base + i)
-            }));
+            // The sky blocks no sight (`Tagging::sky`).
+            let sky = tagging.sky_triangles(mesh);
+            let open = |i: usize| sky.as_ref().is_some_and(|s| s[i]);
+            tris.extend(
+                mesh.triangles
+                    .iter()
+                    .enumerate()
+                    .filter(|&(i, _)| !open(i))
+                    .map(|(_, t)| {
+                        let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+                        [t[k], t[(k + 1) % 3], t[(k + 2) % 3]].map(|i| base + i)
+                    }),
+            );
             let mine = &mut tris[start..];
             if !mine.is_sorted() {
                 mine.sort_unstable();

@@ -188,6 +188,10 @@ pub struct Tagging {
     /// The rooms `--tags auto` generated, with its settings (`None`: none were asked for).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub generated: Option<Box<Generated>>,
+    /// Per material of the scene (its index), whether it is the open sky (the rules' `sky`):
+    /// its triangles bound rooms and are drawn but block no sight. Empty when none is.
+    #[serde(skip)]
+    pub sky: Vec<bool>,
     /// Rooms by name as the rules compare names (lower case unless case-sensitive), so a level
     /// of many rooms resolves names in constant time. Kept by `add_room`.
     #[serde(skip)]
@@ -195,6 +199,24 @@ pub struct Tagging {
 }
 
 impl Tagging {
+    /// Per triangle of `mesh`, whether it is of a sky material (see [`Tagging::sky`]); `None`
+    /// when the level has no sky.
+    pub fn sky_triangles(&self, mesh: &crate::scene::Mesh) -> Option<Vec<bool>> {
+        if self.sky.is_empty() {
+            return None;
+        }
+        let mut out = vec![false; mesh.triangles.len()];
+        for p in &mesh.primitives {
+            if p.material
+                .is_some_and(|m| self.sky.get(m).copied().unwrap_or(false))
+            {
+                let end = (p.first_triangle + p.triangle_count).min(out.len());
+                out[p.first_triangle.min(end)..end].fill(true);
+            }
+        }
+        Some(out)
+    }
+
     /// Every occupant: the player starts first (in scene order), then the other occupants.
     pub fn all_occupants(&self) -> impl Iterator<Item = &NodeRef> {
         self.player_starts.iter().chain(self.occupants.iter())
@@ -276,6 +298,22 @@ pub fn recognise(scene: &Scene, rules: &RuleSet) -> Tagging {
 /// What `recognise` carries from pass to pass: every node's classification, which room each
 /// node belongs to so far, and the tagging and diagnostics being built, so that each pass is
 /// one function over the same facts and the diagnostics keep the order the passes make them.
+/// Per material of the scene (its index), whether the rules' `sky` pattern names it; empty
+/// when none does, so a level without sky pays nothing per triangle.
+fn sky_materials(scene: &Scene, rules: &RuleSet) -> Vec<bool> {
+    let Some(sky) = &rules.sky else {
+        return Vec::new();
+    };
+    let marks: Vec<bool> = (scene.materials.iter())
+        .map(|m| m.name.as_deref().is_some_and(|n| sky.is_match(n)))
+        .collect();
+    if marks.contains(&true) {
+        marks
+    } else {
+        Vec::new()
+    }
+}
+
 /// Per material of the scene (its index), the near miss of a material rule, when no rule
 /// accepts the material: found once per material, not per node using it.
 fn material_misses(scene: &Scene, rules: &RuleSet) -> Vec<Option<near_miss::Miss>> {
@@ -368,6 +406,7 @@ impl<'a> Recognition<'a> {
             settings: Vec::new(),
             diagnostics: Diagnostics::default(),
             generated: None,
+            sky: sky_materials(scene, rules),
             room_index: Default::default(),
         };
         Recognition {

@@ -57,6 +57,9 @@ pub fn as_config(name: &str) -> Option<String> {
     if let Some(w) = spec.wildcard {
         tags.insert("wildcard".into(), toml::Value::String(w.to_string()));
     }
+    if let Some(sky) = &spec.sky {
+        tags.insert("sky".into(), toml::Value::String(sky.clone()));
+    }
     let rules = toml::Value::try_from(&spec.rules).ok()?;
     tags.insert("rule".into(), rules);
     let mut root = toml::Table::new();

@@ -189,6 +189,13 @@ pub struct RuleSetSpec {
     /// Rooms are also generated in the geometry no rule claims (`--tags auto`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub generate: bool,
+    /// Materials that are the open sky (a regular expression on the material's name): their
+    /// surfaces bound rooms and are drawn, but sight passes through them to the outside, as
+    /// Doom draws its sky flat (`F_SKY1`) as the sky, not as a ceiling. A renderer drawing such
+    /// a ceiling single-sided shows, from above, what lies under it; only an opening lets the
+    /// outside see in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sky: Option<String>,
 }
 
 /// A rule ready to match.
@@ -238,6 +245,8 @@ pub struct RuleSet {
     pub wildcard: Option<char>,
     /// As in [`RuleSetSpec::generate`].
     pub generate: bool,
+    /// As in [`RuleSetSpec::sky`], compiled.
+    pub sky: Option<Regex>,
     pub(crate) rules: Vec<Rule>,
     /// The literal prefixes and suffixes of the name rules, for near misses.
     pub(crate) affixes: Vec<Affix>,
@@ -262,6 +271,30 @@ pub(crate) fn numbered_duplicate_stem(text: &str) -> Option<&str> {
         .then_some(stem)
 }
 
+/// A rule's pattern compiled as the rule set compares names; an error names the rule (`rule`).
+fn pattern(p: &str, case_sensitive: bool, rule: &str) -> Result<Regex, RuleError> {
+    RegexBuilder::new(p)
+        .case_insensitive(!case_sensitive)
+        .size_limit(1 << 20)
+        .build()
+        .map_err(|e| {
+            // The regex error draws a caret under the pattern over several lines; a
+            // diagnostic is one line, so keep the pattern and the reason.
+            let text = e.to_string();
+            let why = text
+                .lines()
+                .rev()
+                .find_map(|l| l.strip_prefix("error: "))
+                .unwrap_or(text.as_str())
+                .to_string();
+            RuleError::BadPattern {
+                rule: rule.to_string(),
+                pattern: p.to_string(),
+                why,
+            }
+        })
+}
+
 impl RuleSet {
     /// Compiles a spec; an invalid pattern or a rule missing its pattern/key is an error
     /// naming the rule.
@@ -280,26 +313,7 @@ impl RuleSet {
                         rule: r.id.clone(),
                         on: r.on,
                     })?;
-                    let re = RegexBuilder::new(p)
-                        .case_insensitive(!spec.case_sensitive)
-                        .size_limit(1 << 20)
-                        .build()
-                        .map_err(|e| {
-                            // The regex error draws a caret under the pattern over several
-                            // lines; a diagnostic is one line, so keep the pattern and the reason.
-                            let text = e.to_string();
-                            let why = text
-                                .lines()
-                                .rev()
-                                .find_map(|l| l.strip_prefix("error: "))
-                                .unwrap_or(text.as_str())
-                                .to_string();
-                            RuleError::BadPattern {
-                                rule: r.id.clone(),
-                                pattern: p.to_string(),
-                                why,
-                            }
-                        })?;
+                    let re = pattern(p, spec.case_sensitive, &r.id)?;
                     Some(re)
                 }
             };
@@ -310,11 +324,15 @@ impl RuleSet {
         }
         let affixes = affixes(&rules);
         let material_words = material_words(&rules);
+        let sky = (spec.sky.as_deref())
+            .map(|p| pattern(p, spec.case_sensitive, "sky"))
+            .transpose()?;
         Ok(RuleSet {
             name: spec.name.clone(),
             case_sensitive: spec.case_sensitive,
             wildcard: spec.wildcard,
             generate: spec.generate,
+            sky,
             rules,
             affixes,
             material_words,
