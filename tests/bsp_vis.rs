@@ -645,6 +645,10 @@ fn inspect_reads_the_stored_visibility_back() {
     assert_eq!(b["visibility"]["pairs"], 24329);
     assert_eq!(b["visibility"]["lower_bound_missing"], 0);
     assert_eq!(b["compared"]["full"], 24329);
+    // Inspecting a vised .bsp replaces nothing, so it says nothing of replacing.
+    let o = portcullis(dir.path(), &["inspect", "m.bsp"]);
+    let all = format!("{}{}", text(&o.stdout), text(&o.stderr));
+    assert!(!all.contains("BSP_ALREADY_VISED"), "{all}");
     let o = portcullis(
         dir.path(),
         &["vis", "m.bsp", "--report", "--methods", "full"],

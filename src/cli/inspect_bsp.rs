@@ -78,7 +78,13 @@ pub fn view(
     let mut compared = None;
     let mut lower_pvs = None;
     if let Some(input) = &input {
-        diags.extend(input.loaded.diagnostics.0.iter().cloned());
+        // Inspecting replaces nothing: the stored visibility is the subject here, not news.
+        let notes = input.loaded.diagnostics.0.iter();
+        diags.extend(
+            notes
+                .filter(|d| d.code != portcullis::diag::Code::BSP_ALREADY_VISED)
+                .cloned(),
+        );
         let base = VisOptions {
             samples: input
                 .loaded
