@@ -10,6 +10,8 @@
 //! rows), sharing no code with `src/bsp`, so a mistake there cannot hide itself here. The
 //! whole file takes about 20 s in the test profile on two cores, retrojam1 most of it.
 
+mod common;
+
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -17,16 +19,7 @@ use std::time::Instant;
 
 /// The folder of maps, or `None` (with a message) when `../shared` is not beside the clone.
 fn shared_bsp() -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/bsp");
-    if p.is_dir() {
-        Some(p)
-    } else {
-        eprintln!(
-            "skipped: {} is missing (../shared is not beside the clone)",
-            p.display()
-        );
-        None
-    }
+    common::shared_path(Path::new("bsp"))
 }
 
 fn portcullis(dir: &Path, args: &[&str]) -> Output {

@@ -3,22 +3,10 @@
 //! every engine's `Mod_DecompressVis` reads: a nonzero byte is itself, a zero byte is followed
 //! by how many zero bytes it stands for (1 to 255).
 
-/// Appends `row` compressed to `out`. Runs stop at 255 zero bytes, the most one count says.
+/// Appends `row` compressed to `out`, as the extension's `zeroRun` rows are: runs stop at 255
+/// zero bytes, the most one count says.
 pub fn compress_row(row: &[u8], out: &mut Vec<u8>) {
-    let mut i = 0;
-    while i < row.len() {
-        if row[i] != 0 {
-            out.push(row[i]);
-            i += 1;
-            continue;
-        }
-        let mut run = 1;
-        while i + run < row.len() && row[i + run] == 0 && run < 255 {
-            run += 1;
-        }
-        out.extend([0, run as u8]);
-        i += run;
-    }
+    crate::format::visibility::zero_run_into(row, out);
 }
 
 /// Why a stored row cannot be read back.

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::graph::Loaded;
 use super::LoadOptions;
 use crate::bsp::{self, Ambient, Bsp, LeafMap};
-use crate::diag::{Diagnostic, Diagnostics};
+use crate::diag::Diagnostic;
 use crate::export::output::{self, Output};
 use crate::export::Target;
 use crate::prt::PrtFile;
@@ -49,16 +49,7 @@ pub fn load_bsp(
     let (file, mut diags) = crate::prt::read(&prt_path)?;
     let map = bsp::match_prt(&bsp, &file, &prt_path)?;
     diags.extend(bsp::already_vised(&bsp));
-    let loaded = Loaded {
-        graph: file.graph(None),
-        diagnostics: Diagnostics(diags),
-        transform_depth: config
-            .vis
-            .transform_depth
-            .unwrap_or(crate::vis::DEFAULT_TRANSFORM_DEPTH),
-        config,
-        level: None,
-    };
+    let loaded = Loaded::of_prt(&file, diags, config);
     Ok(BspInput {
         bsp,
         prt_path,

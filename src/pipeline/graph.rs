@@ -23,21 +23,30 @@ pub struct Loaded {
     pub level: Option<crate::level::Level>,
 }
 
+impl Loaded {
+    /// A portal file's graph, as read with `diags`, under `config`: no level behind it.
+    pub(crate) fn of_prt(
+        file: &crate::prt::PrtFile,
+        diags: Vec<Diagnostic>,
+        config: crate::config::Config,
+    ) -> Loaded {
+        Loaded {
+            graph: file.graph(None),
+            diagnostics: Diagnostics(diags),
+            transform_depth: (config.vis.transform_depth)
+                .unwrap_or(crate::vis::DEFAULT_TRANSFORM_DEPTH),
+            config,
+            level: None,
+        }
+    }
+}
+
 /// The portal graph of `path`, as `vis` reads it.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Loaded, Diagnostic> {
     if crate::export::Target::is_prt(path) {
         let config = super::config_for(path, opts)?;
         let (file, diags) = crate::prt::read(path)?;
-        return Ok(Loaded {
-            graph: file.graph(None),
-            diagnostics: Diagnostics(diags),
-            transform_depth: config
-                .vis
-                .transform_depth
-                .unwrap_or(crate::vis::DEFAULT_TRANSFORM_DEPTH),
-            config,
-            level: None,
-        });
+        return Ok(Loaded::of_prt(&file, diags, config));
     }
     let mut level = super::load(path, opts)?;
     Ok(Loaded {

@@ -346,7 +346,12 @@ pub fn levels_and_samples() -> Vec<(PathBuf, Option<&'static str>)> {
 /// A level of `../shared/levels` (`rel` below it), or `None` with a message when `../shared`
 /// is not beside the clone (the tests that need it skip).
 pub fn shared(rel: &str) -> Option<PathBuf> {
-    let p = root().join("../shared/levels").join(rel);
+    shared_path(&Path::new("levels").join(rel))
+}
+
+/// A file or folder of `../shared` (`rel` below it, e.g. `bsp`), or `None` with a message.
+pub fn shared_path(rel: &Path) -> Option<PathBuf> {
+    let p = root().join("../shared").join(rel);
     if p.exists() {
         Some(p)
     } else {

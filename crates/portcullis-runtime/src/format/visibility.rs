@@ -41,6 +41,14 @@ pub(crate) fn row_bytes(pvs: &Pvs, c: usize) -> Vec<u8> {
 /// `bytes` with runs of zero bytes compressed (Quake's PVS row encoding).
 pub(crate) fn zero_run(bytes: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
+    zero_run_into(bytes, &mut out);
+    out
+}
+
+/// Appends `bytes` compressed as Quake's `Mod_DecompressVis` reads a PVS row: a nonzero byte
+/// is itself, a zero byte is followed by how many zero bytes it stands for (1 to 255). The
+/// extension's `zeroRun` encoding and a .bsp's visibility lump are both written by it.
+pub fn zero_run_into(bytes: &[u8], out: &mut Vec<u8>) {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] != 0 {
@@ -56,7 +64,6 @@ pub(crate) fn zero_run(bytes: &[u8]) -> Vec<u8> {
         out.push(0);
         out.push(run as u8);
     }
-    out
 }
 
 /// Undoes `zero_run`; `None` if the data is cut short.
