@@ -10,12 +10,21 @@
 //! the geometry itself is always absorbed. Angles are judged separately (normals within
 //! `angle` radians are parallel) because a distance test alone over-trusts huge faces.
 
+use glam::DVec3;
 use serde::Serialize;
+
+use crate::geom::plane::Plane;
 
 /// Default cap on the distance tolerance, metres.
 pub(crate) const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
-/// Default angle tolerance, radians.
-pub(crate) const DEFAULT_ANGLE: f64 = 1e-5;
+/// Normals closer than this (radians) are parallel. The one angle every angle test reads,
+/// through [`Tolerance::parallel`], [`Tolerance::coplanar`] and their kin; `Tolerance::angle`
+/// reports it.
+pub const ANGLE: f64 = 1e-5;
+/// Two features each within the distance tolerance of one place are within twice it of each
+/// other: the multiple for "touching" (a face on a plane another face lies on, a point on a
+/// face of a cell built from other points).
+pub const TOUCH: f64 = 2.0;
 
 /// How close is "the same" for one level, from the precision its file stored.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -56,7 +65,7 @@ impl Tolerance {
         let capped = wanted > max_distance;
         Tolerance {
             distance: wanted.min(max_distance),
-            angle: DEFAULT_ANGLE,
+            angle: ANGLE,
             input_precision,
             capped,
         }
@@ -65,6 +74,33 @@ impl Tolerance {
     /// Volumes below this are empty: a slab of tolerance thickness over the extent squared.
     pub fn volume(&self, extent: f64) -> f64 {
         self.distance * extent.max(1e-9).powi(2)
+    }
+
+    /// The distance within which two features, each within `eps` of one place, touch.
+    pub fn touching(eps: f64) -> f64 {
+        TOUCH * eps
+    }
+
+    /// Unit normals `a` and `b` point the same way within [`ANGLE`] (the chord between them
+    /// is compared, not the dot product, whose rounding near 1 hides angles under 1e-8 rad).
+    pub fn parallel(a: DVec3, b: DVec3) -> bool {
+        (a - b).length_squared() <= ANGLE * ANGLE
+    }
+
+    /// Unit normals `a` and `b` lie on one line, either way, within [`ANGLE`].
+    pub fn aligned(a: DVec3, b: DVec3) -> bool {
+        Tolerance::parallel(a, b) || Tolerance::parallel(a, -b)
+    }
+
+    /// Unit normals `a` and `b` are square to each other within [`ANGLE`].
+    pub fn square(a: DVec3, b: DVec3) -> bool {
+        a.dot(b).abs() <= ANGLE
+    }
+
+    /// `p` and `q` are one plane, facing one way: normals within [`ANGLE`], offsets within
+    /// `dist` (a distance tolerance or a named multiple of it).
+    pub fn coplanar(p: &Plane, q: &Plane, dist: f64) -> bool {
+        p.same_as(q, dist, ANGLE)
     }
 }
 
