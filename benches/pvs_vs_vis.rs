@@ -361,7 +361,7 @@ fn compare(path: &Path, qbsp: &Path, vis: &Path) -> Result<String, String> {
     let ours_s = start.elapsed().as_secs_f64();
     let pvs_s = pvs_start.elapsed().as_secs_f64();
     // The blocking brushes that shape our cells: props (loose brushes) lie inside cells.
-    let props: std::collections::BTreeSet<usize> = c.props.iter().copied().collect();
+    let props: std::collections::BTreeSet<usize> = c.props.iter().map(|p| p.node).collect();
     let structure: Vec<&Solid> = (blocking.iter().zip(&blocking_nodes))
         .filter(|(_, n)| !props.contains(n))
         .map(|(s, _)| s)

@@ -176,7 +176,7 @@ fn structure_meshes(t: &Tagged, c: &CellSet) -> Vec<(usize, Vec<[DVec3; 3]>)> {
             let Some(m) = t.scene.nodes[n].mesh else {
                 continue;
             };
-            if c.props.contains(&n) || bounds.contains(&n) {
+            if c.is_prop(n) || bounds.contains(&n) {
                 continue;
             }
             let w = t.scene.world_positions(n);
@@ -270,7 +270,7 @@ fn check_sample(k: &Known, m: DMat4, what: &str) {
     let prop_names: Vec<String> = c
         .props
         .iter()
-        .filter_map(|&n| t.scene.nodes[n].name.clone())
+        .filter_map(|p| t.scene.nodes[p.node].name.clone())
         .collect();
     for name in k.props {
         assert!(

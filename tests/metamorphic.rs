@@ -279,7 +279,7 @@ fn apply(scene: &Scene, change: Change, props: &[usize], rng: &mut Rng) -> Scene
 
 /// Prop and detail nodes of a level: what `FlipProps` turns inside out.
 fn props(o: &Outcome) -> Vec<usize> {
-    let mut out = o.cells.props.clone();
+    let mut out = o.cells.prop_nodes();
     out.extend(o.tagged.tagging.detail.iter().map(|d| d.node));
     for r in &o.tagged.tagging.rooms {
         out.extend(r.detail.iter().copied());

@@ -82,7 +82,7 @@ fn prop_names(level: &Level) -> Vec<String> {
     let props = &level.cells.props;
     props
         .iter()
-        .filter_map(|&n| nodes[n].name.clone())
+        .filter_map(|p| nodes[p.node].name.clone())
         .collect()
 }
 

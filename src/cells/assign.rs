@@ -8,7 +8,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::{node_triangles, Cell, CellSet};
+use super::gather::node_triangles;
+use super::{Cell, CellSet};
 use crate::diag::{Code, Diagnostic, Location};
 use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
@@ -87,7 +88,7 @@ fn tris_bounds(tris: &[[DVec3; 3]]) -> Aabb {
 /// geometry in no cell, as a prop there would be.
 pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, reach: f64) {
     let eps = set.tolerance.distance;
-    let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();
+    let props: std::collections::HashSet<NodeId> = set.props.iter().map(|p| p.node).collect();
     let mut far: Vec<NodeId> = Vec::new();
     for (ri, room) in tagging.rooms.iter().enumerate() {
         let mine = &set.room_cells[ri];
@@ -353,7 +354,7 @@ pub(crate) fn find(
     let placer = Placer::new(scene, set, reach);
     let near = |b: &Aabb| placer.near(b);
     let place_prop = |n: NodeId, prefer: &[usize], out: &mut Placed| placer.prop(n, prefer, out);
-    let props: std::collections::HashSet<NodeId> = set.props.iter().copied().collect();
+    let props: std::collections::HashSet<NodeId> = set.props.iter().map(|p| p.node).collect();
     let rooms: Vec<Placed> = tagging
         .rooms
         .par_iter()

@@ -5,35 +5,33 @@
 //! unless that is one solid and nothing else (a room modelled as its own volume) and the
 //! solid is not tagged `solid`. A room whose blocks enclose no air keeps to the surface
 //! reading (a shell of quads around a pillar block), unless its blocks are tagged `solid`.
+//!
+//! This is the block-room half of [`RoomBuilder`]'s impl (the rest is in `rooms.rs`): what
+//! happens here happens once for the whole level, before any room is built, and hands each
+//! room its [`BlockCells`]; the builder only takes them.
+
+use std::collections::BTreeMap;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
 use super::blocks::{self, BlockRoom};
+use super::gather::{canonical_node_triangles, node_triangles};
+use super::rooms::{detect_props, extras_flag, BlockCells, RoomBuilder};
 use super::solids::{self, Solid};
-use super::{
-    canonical_node_triangles, detect_props, extras_flag, CellSource, Gate, PropReason, RoomBuilder,
-};
+use super::{CellSource, Gate, GateKind, Prop, PropReason};
 use crate::diag::{Code, Diagnostic, Diagnostics};
 use crate::geom::crack::ClosedGaps;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::NodeId;
 use crate::tags::{Room, Tagging};
 
-/// One room's cells from the level-wide reading.
-pub(super) struct BlockCells {
-    pub polys: Vec<(ConvexPolyhedron, Vec<Gate>)>,
-    pub source: CellSource,
-    pub props: Vec<(NodeId, PropReason)>,
-    pub diags: Vec<Diagnostic>,
-}
-
 /// A room's blocks and the rest of its structure, before the reading.
 struct Prep {
     solids: Vec<Solid>,
     surfaces: Vec<[DVec3; 3]>,
     /// Nodes with surfaces taken for props by the box rule.
-    boxed: Vec<(NodeId, PropReason)>,
+    boxed: Vec<Prop>,
     candidates: Vec<NodeId>,
     tagged: bool,
     gates: Vec<(Gate, ConvexPolyhedron)>,
@@ -113,12 +111,11 @@ impl RoomBuilder<'_> {
             }
             let room = &tagging.rooms[r];
             let mut props = p.boxed.clone();
-            props.extend(
-                reading.props[k]
-                    .iter()
-                    .map(|&n| (n, PropReason::LooseBlock)),
-            );
-            props.sort_unstable_by_key(|(n, _)| *n);
+            props.extend(reading.props[k].iter().map(|&node| Prop {
+                node,
+                reason: PropReason::LooseBlock,
+            }));
+            props.sort_unstable_by_key(|p| p.node);
             let mut d: Vec<Diagnostic> =
                 p.open.iter().map(|(n, g)| self.open_block(*n, g)).collect();
             if let Some((count, volume, at)) = reading.pockets[k] {
@@ -179,7 +176,7 @@ impl RoomBuilder<'_> {
             surfaces.iter().map(|(m, _)| *m).collect();
         let has_surface = |n: NodeId| with_surface.contains(&n);
         let detect = self.cfg.detect_props && room.structure.len() >= 2;
-        let mut boxed: Vec<(NodeId, PropReason)> = Vec::new();
+        let mut boxed: Vec<Prop> = Vec::new();
         if detect {
             boxed = detect_props(
                 scene,
@@ -190,7 +187,10 @@ impl RoomBuilder<'_> {
             )
             .into_iter()
             .filter(|&n| has_surface(n) && !extras_flag(scene, n, "structure"))
-            .map(|n| (n, PropReason::LooseInRoom))
+            .map(|node| Prop {
+                node,
+                reason: PropReason::LooseInRoom,
+            })
             .collect();
         }
         let candidates: Vec<NodeId> = if detect {
@@ -223,7 +223,7 @@ impl RoomBuilder<'_> {
         } else {
             Vec::new()
         };
-        let boxed_set: std::collections::HashSet<NodeId> = boxed.iter().map(|(m, _)| *m).collect();
+        let boxed_set: std::collections::HashSet<NodeId> = boxed.iter().map(|p| p.node).collect();
         let boxed_out = |n: &NodeId| boxed_set.contains(n);
         surfaces.retain(|(n, _)| !boxed_out(n));
         solids.retain(|s| !boxed_out(&s.node));
@@ -243,6 +243,42 @@ impl RoomBuilder<'_> {
             },
             open,
         })
+    }
+
+    /// A block room's gates: its detail and the nodes under it flagged `door` or `area_portal`
+    /// in extras, each with its convex hull (recentred), in node order.
+    fn gates(&self, room: &Room) -> (Vec<Gate>, Vec<ConvexPolyhedron>) {
+        let scene = self.scene;
+        let mut nodes: Vec<NodeId> = room.detail.clone();
+        nodes.extend((0..scene.nodes.len()).filter(|&n| scene.nodes[n].parent == Some(room.node)));
+        nodes.sort_unstable();
+        nodes.dedup();
+        let mut out = (Vec::new(), Vec::new());
+        // The first node of each entity (extras `entity`, a brush map's entity number).
+        let mut first: BTreeMap<String, NodeId> = BTreeMap::new();
+        for n in nodes {
+            let kind = if extras_flag(scene, n, "door") {
+                GateKind::Door
+            } else if extras_flag(scene, n, "area_portal") {
+                GateKind::AreaPortal
+            } else {
+                continue;
+            };
+            let pts: Vec<DVec3> = node_triangles(scene, &[n], self.origin)
+                .into_iter()
+                .flatten()
+                .collect();
+            if let Ok(h) = crate::geom::hull::hull(&pts, self.eps) {
+                let entity = scene.nodes[n].extras.as_ref().and_then(|e| e.get("entity"));
+                let node = match entity {
+                    Some(e) => *first.entry(format!("{kind:?} {e}")).or_insert(n),
+                    None => n,
+                };
+                out.0.push(Gate { node, kind });
+                out.1.push(h);
+            }
+        }
+        out
     }
 
     /// The closed parts of structure in no room whose box meets `near` (the rooms' blocks):

@@ -12,7 +12,8 @@ use glam::{DVec2, DVec3};
 use parry3d_f64::query::{Ray, RayCast};
 use parry3d_f64::shape::TriMesh;
 
-use super::{canonical_triangles, node_triangles, plan_pieces, Frame};
+use super::gather::{canonical_triangles, node_triangles};
+use super::plan::{plan_pieces, Frame};
 use crate::config::CellsConfig;
 use crate::geom::hull::{hull, HullError};
 use crate::geom::partition::PartitionError;

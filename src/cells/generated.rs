@@ -10,29 +10,12 @@
 
 use glam::DVec3;
 
-use crate::diag::Diagnostic;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::ConvexPolyhedron;
 use crate::scene::NodeId;
 use crate::tags::{Room, RoomId, Tagging};
 
-use super::{CellSource, PropReason, RoomBuilder};
-
-/// The generated rooms' cells (recentred) by generated room, and what reading the level found.
-pub(super) struct GeneratedCells {
-    pub(super) first_room: usize,
-    pub(super) per_room: Vec<Vec<(ConvexPolyhedron, CellSource)>>,
-    pub(super) props: Vec<(NodeId, PropReason)>,
-    pub(super) diags: Vec<Diagnostic>,
-}
-
-impl GeneratedCells {
-    /// Room `ri`'s cells, if the generator made the room.
-    pub(super) fn of(&self, ri: usize) -> Option<&[(ConvexPolyhedron, CellSource)]> {
-        let k = ri.checked_sub(self.first_room)?;
-        self.per_room.get(k).map(Vec::as_slice)
-    }
-}
+use super::rooms::{GeneratedCells, RoomBuilder};
 
 /// Reads every generated room's structure as one room and shares its cells out (`None` when
 /// nothing was generated). `tagged` are the tagged rooms' cells (recentred) with their rooms:

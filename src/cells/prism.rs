@@ -15,7 +15,7 @@
 
 use glam::{DVec2, DVec3};
 
-use super::{plan_pieces, Frame};
+use super::plan::{plan_pieces, Frame};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
 

@@ -8,7 +8,8 @@
 use glam::DVec3;
 use serde::Serialize;
 
-use super::{node_triangles, CellSet};
+use super::gather::node_triangles;
+use super::CellSet;
 use crate::geom::polyhedron::{clip_polygon, ConvexPolyhedron};
 use crate::scene::{NodeId, Scene};
 

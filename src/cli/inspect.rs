@@ -278,8 +278,7 @@ fn props_view(level: &Level) -> Vec<PropView> {
     let (t, set) = (&level.tagged, &level.cells);
     set.props
         .iter()
-        .zip(&set.prop_reasons)
-        .map(|(&n, &reason)| PropView {
+        .map(|&portcullis::cells::Prop { node: n, reason }| PropView {
             node: t.scene.node_path(n),
             room: t
                 .tagging

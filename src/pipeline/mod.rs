@@ -164,8 +164,11 @@ pub fn flow_budget(config: &crate::config::Config) -> u64 {
 /// `check --sightlines`: audits `pvs` against the level's triangles with `rays` rays per cell.
 pub fn audit(level: &Level, pvs: &Pvs, rays: usize) -> crate::check::sightlines::Audit {
     let subject = crate::check::Subject::built(level);
-    let triangles =
-        crate::portals::blocking_triangles(level.scene(), level.tagging(), &level.cells.props);
+    let triangles = crate::portals::blocking_triangles(
+        level.scene(),
+        level.tagging(),
+        &level.cells.prop_nodes(),
+    );
     crate::check::sightlines::audit(&subject, &triangles, pvs, rays, transform_depth(level))
 }
 

@@ -266,7 +266,7 @@ impl Opaque {
     /// `thick`: the thickest slab [`Opaque::shadows`] will be asked about (thicker ones are
     /// answered too, from every grid).
     pub fn new(scene: &Scene, tagging: &Tagging, cells: &CellSet, thick: f64) -> Opaque {
-        let blocking = blocking_nodes(scene, tagging, &cells.props);
+        let blocking = blocking_nodes(scene, tagging, &cells.prop_nodes());
         let meshes = || blocking.iter().map(|&(_, m)| &scene.meshes[m]);
         let mut verts = Vec::with_capacity(meshes().map(|m| m.positions.len()).sum());
         let mut tris = Vec::with_capacity(meshes().map(|m| m.triangles.len()).sum());

@@ -139,7 +139,7 @@ pub fn signed_volume(tris: &[[DVec3; 3]]) -> f64 {
 pub fn room_triangles(t: &Tagged, c: &CellSet, r: usize) -> Vec<[DVec3; 3]> {
     let mut out = Vec::new();
     for &n in &t.tagging.rooms[r].structure {
-        if c.props.contains(&n) {
+        if c.is_prop(n) {
             continue;
         }
         let Some(m) = t.scene.nodes[n].mesh else {
