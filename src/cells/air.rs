@@ -44,6 +44,64 @@ struct Link {
     joined: bool,
 }
 
+/// A face two air leaves share, as [`Air::new`] finds it, before it becomes a [`Link`].
+struct SharedFace {
+    /// The two leaves.
+    a: usize,
+    b: usize,
+    area: f64,
+    /// Wider than a crack and not covered by a surface: air flows through.
+    joined: bool,
+    /// The face of `a`, and of `b`, it lies on.
+    face_a: usize,
+    face_b: usize,
+    /// Open but narrower than a crack: the shared polygon and its normal, which may be a
+    /// sliver of a wide opening the BSP cut up.
+    narrow: Option<(Vec<DVec3>, DVec3)>,
+}
+
+impl SharedFace {
+    /// Every face two of `leaves` (`grid` over their boxes) share, pair by pair in the
+    /// grid's order.
+    fn find(leaves: &[Leaf], grid: &BoxGrid, crack: f64, eps: f64) -> Vec<SharedFace> {
+        use rayon::prelude::*;
+        let pairs = grid.pairs(2.0 * eps);
+        let found: Vec<Vec<SharedFace>> =
+            pairs
+                .par_iter()
+                .map(|&(i, j)| {
+                    let (a, b) = (&leaves[i], &leaves[j]);
+                    let mut out = Vec::new();
+                    for (common, normal) in shared_faces(&a.region, &b.region, eps) {
+                        let area = polygon_area(&common, normal);
+                        if area <= eps * eps {
+                            continue;
+                        }
+                        let covered = covered_by(&a.surfaces, &common, normal, eps)
+                            .max(covered_by(&b.surfaces, &common, -normal, eps));
+                        let open = covered < 0.5 * area
+                            && deeper_than(&a.region, &common, -normal, 2.0 * eps)
+                            && deeper_than(&b.region, &common, normal, 2.0 * eps);
+                        let joined = open && least_width(&common, normal) > crack;
+                        // A narrow face may be a sliver of a wide opening the BSP cut up.
+                        let narrow = (open && !joined).then(|| (common.clone(), normal));
+                        out.push(SharedFace {
+                            a: i,
+                            b: j,
+                            area,
+                            joined,
+                            face_a: face_of(&a.region, normal),
+                            face_b: face_of(&b.region, -normal),
+                            narrow,
+                        });
+                    }
+                    out
+                })
+                .collect();
+        found.into_iter().flatten().collect()
+    }
+}
+
 /// The air leaves and how they connect.
 pub(super) struct Air<'a> {
     pub leaves: Vec<Leaf>,
@@ -78,43 +136,8 @@ impl<'a> Air<'a> {
     ) -> Air<'a> {
         let n = leaves.len();
         let grid = BoxGrid::new(leaves.iter().map(|l| l.region.bounds()).collect());
-        let pairs = grid.pairs(2.0 * eps);
+        let found = SharedFace::find(&leaves, &grid, crack, eps);
         use rayon::prelude::*;
-        type Found = (
-            usize,
-            usize,
-            f64,
-            bool,
-            usize,
-            usize,
-            Option<(Vec<DVec3>, DVec3)>,
-        );
-        let found: Vec<Vec<Found>> =
-            pairs
-                .par_iter()
-                .map(|&(i, j)| {
-                    let (a, b) = (&leaves[i], &leaves[j]);
-                    let mut out = Vec::new();
-                    for (common, normal) in shared_faces(&a.region, &b.region, eps) {
-                        let area = polygon_area(&common, normal);
-                        if area <= eps * eps {
-                            continue;
-                        }
-                        let covered = covered_by(&a.surfaces, &common, normal, eps)
-                            .max(covered_by(&b.surfaces, &common, -normal, eps));
-                        let open = covered < 0.5 * area
-                            && deeper_than(&a.region, &common, -normal, 2.0 * eps)
-                            && deeper_than(&b.region, &common, normal, 2.0 * eps);
-                        let joined = open && least_width(&common, normal) > crack;
-                        let fa = face_of(&a.region, normal);
-                        let fb = face_of(&b.region, -normal);
-                        // A narrow face may be a sliver of a wide opening the BSP cut up.
-                        let narrow = (open && !joined).then(|| (common.clone(), normal));
-                        out.push((i, j, area, joined, fa, fb, narrow));
-                    }
-                    out
-                })
-                .collect();
         let mut rest: Vec<Vec<f64>> = leaves
             .iter()
             .map(|l| {
@@ -128,7 +151,16 @@ impl<'a> Air<'a> {
         let mut links = Vec::new();
         let mut by_leaf = vec![Vec::new(); n];
         let mut narrow: Vec<(usize, Vec<DVec3>, DVec3)> = Vec::new();
-        for (i, j, area, joined, fa, fb, thin) in found.into_iter().flatten() {
+        for shared in found {
+            let SharedFace {
+                a: i,
+                b: j,
+                area,
+                joined,
+                face_a: fa,
+                face_b: fb,
+                narrow: thin,
+            } = shared;
             if let Some((poly, normal)) = thin {
                 narrow.push((links.len(), poly, normal));
             }

@@ -94,14 +94,14 @@ impl RoomBuilder<'_> {
             })
             .collect();
         let points: Vec<DVec3> = occupants.iter().map(|(_, p)| *p).collect();
-        let how = blocks::How {
+        let rules = blocks::BlockRules {
             loose: self.cfg.detect_props,
             crack: self.crack,
             max_width: self.cfg.max_cell_width,
             eps: self.eps,
             up: self.frame.up,
         };
-        let reading = blocks::read(&rooms, &others, &gates, &points, &how);
+        let reading = blocks::read(&rooms, &others, &gates, &points, &rules);
         let mut out: Vec<Option<BlockCells>> = (0..preps.len()).map(|_| None).collect();
         for (k, &r) in read.iter().enumerate() {
             let Some(p) = &preps[r] else { continue };

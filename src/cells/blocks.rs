@@ -48,10 +48,10 @@ pub(super) struct BlockRoom {
     pub prop_candidates: Vec<NodeId>,
 }
 
-/// How to read: whether `others` may be props, the crack width, the widest cell, the
-/// tolerance and up.
+/// The settings the block reading follows: whether `others` may be props, the crack width,
+/// the widest cell, the tolerance and up.
 #[derive(Clone, Copy)]
-pub(super) struct How {
+pub(super) struct BlockRules {
     pub loose: bool,
     pub crack: f64,
     /// No cell is wider than this across any of its faces' directions (`[cells]
@@ -61,9 +61,9 @@ pub(super) struct How {
     pub up: DVec3,
 }
 
-/// What the reading found, room by room (in the order of the rooms given).
+/// What [`read`] found, room by room (in the order of the rooms given).
 #[derive(Default)]
-pub(super) struct Reading {
+pub(super) struct BlockReading {
     /// Each room's cells, each with the indices of the gates it lies in.
     pub cells: Vec<Vec<(ConvexPolyhedron, Vec<usize>)>>,
     /// Nodes whose blocks are props, by room.
@@ -79,20 +79,20 @@ pub(super) struct Reading {
 }
 
 /// Reads the air of the block rooms (see the module docs). `others` are solids of the level
-/// outside these rooms, which carve them too unless they are props (`how.loose`: they may
+/// outside these rooms, which carve them too unless they are props (`rules.loose`: they may
 /// be); `gates` the level's gates (convex volumes); `occupants` where the occupants stand;
-/// gaps narrower than `how.crack` are closed.
+/// gaps narrower than `rules.crack` are closed.
 pub(super) fn read(
     rooms: &[BlockRoom],
     others: &[Solid],
     gates: &[(Gate, ConvexPolyhedron)],
     occupants: &[DVec3],
-    how: &How,
-) -> Reading {
-    let How {
+    rules: &BlockRules,
+) -> BlockReading {
+    let BlockRules {
         loose, crack, eps, ..
-    } = *how;
-    let mut out = Reading {
+    } = *rules;
+    let mut out = BlockReading {
         cells: vec![Vec::new(); rooms.len()],
         props: vec![Vec::new(); rooms.len()],
         pockets: vec![None; rooms.len()],
@@ -116,7 +116,7 @@ pub(super) fn read(
     if loose {
         candidates.extend(others.iter().map(|s| s.node));
     }
-    let gone = find_props(rooms, &solids, &room_of, &candidates, how);
+    let gone = find_props(rooms, &solids, &room_of, &candidates, rules);
     for (r, room) in rooms.iter().enumerate() {
         let mut p: Vec<NodeId> = room
             .prop_candidates
@@ -147,16 +147,16 @@ pub(super) fn read(
         .filter(|(_, k)| *k)
         .map(|(x, _)| x)
         .unzip();
-    let Some(level) = Level::new(rooms, &solids, &room_of, crack, eps) else {
+    let Some(cut) = CutWorld::new(rooms, &solids, &room_of, crack, eps) else {
         return out;
     };
-    let air = &level.air;
+    let air = &cut.air;
     out.closed = air.closed;
     // Occupants, and what they reach.
     let mut seeds = Vec::new();
     for (k, &p) in occupants.iter().enumerate() {
         // On a block's face counts as in it, as qbsp prefers the sealing side.
-        if level.space.held(p) {
+        if cut.space.held(p) {
             out.buried.push(k);
             continue;
         }
@@ -167,8 +167,8 @@ pub(super) fn read(
         }
     }
     let reached = air.flood(&seeds);
-    let open = &level.open;
-    let owners = level.owners(&solids, &room_of);
+    let open = &cut.open;
+    let owners = cut.owners(&solids, &room_of);
     let mut owned: Vec<Vec<usize>> = vec![Vec::new(); rooms.len()];
     for (i, o) in owners.iter().enumerate() {
         if let Some(r) = o {
@@ -178,7 +178,7 @@ pub(super) fn read(
     let gate_index = GateIndex::new(gates);
     for (r, leaves) in owned.iter().enumerate() {
         let kept = decide(air, leaves, &reached, open, r, &mut out);
-        out.cells[r] = level.cells(&kept, gates, &gate_index, how);
+        out.cells[r] = cut.cells(&kept, gates, &gate_index, rules);
     }
     out
 }
@@ -190,7 +190,7 @@ fn decide(
     reached: &[bool],
     open: &[bool],
     r: usize,
-    out: &mut Reading,
+    out: &mut BlockReading,
 ) -> Vec<usize> {
     if leaves.iter().any(|&i| reached[i]) {
         let (kept, rest): (Vec<usize>, Vec<usize>) = leaves.iter().partition(|&&i| reached[i]);
@@ -232,9 +232,9 @@ fn find_props(
     solids: &[Solid],
     room_of: &[Option<usize>],
     candidates: &BTreeSet<NodeId>,
-    how: &How,
+    rules: &BlockRules,
 ) -> BTreeSet<NodeId> {
-    let (crack, eps, up) = (how.crack, how.eps, how.up);
+    let (crack, eps, up) = (rules.crack, rules.eps, rules.up);
     if candidates.is_empty() {
         return BTreeSet::new();
     }
@@ -242,13 +242,13 @@ fn find_props(
     let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
     nodes.sort_unstable();
     nodes.dedup();
-    let mut level: Option<Option<Level>> = None;
+    let mut cut: Option<Option<CutWorld>> = None;
     let mut separates = |clusters: &[Vec<NodeId>]| -> Vec<bool> {
-        let level = level.get_or_insert_with(|| Level::new(rooms, solids, room_of, crack, eps));
-        match level {
-            Some(level) => clusters
+        let cut = cut.get_or_insert_with(|| CutWorld::new(rooms, solids, room_of, crack, eps));
+        match cut {
+            Some(cut) => clusters
                 .iter()
-                .map(|c| separating(level, solids, c, crack, eps))
+                .map(|c| separating(cut, solids, c, crack, eps))
                 .collect(),
             None => vec![false; clusters.len()],
         }
@@ -264,17 +264,17 @@ fn find_props(
 /// one and the void around the world, or one and a crack), as a block plugging a hole in a
 /// wall does. A crate
 /// pushed through a wall touches the room and the void, but the wall parts its two pieces.
-fn separating(level: &Level, solids: &[Solid], cluster: &[NodeId], crack: f64, eps: f64) -> bool {
-    let air = &level.air;
+fn separating(cut: &CutWorld, solids: &[Solid], cluster: &[NodeId], crack: f64, eps: f64) -> bool {
+    let air = &cut.air;
     // Every region that reaches the world's boundary is the one void around it.
-    let region = |i: usize| if level.open[i] { VOID } else { air.region[i] };
+    let region = |i: usize| if cut.open[i] { VOID } else { air.region[i] };
     let mine: Vec<usize> = (0..solids.len())
         .filter(|&s| cluster.contains(&solids[s].node))
         .collect();
     // A quick look first: the regions the blocks' faces touch.
     let mut touched: BTreeSet<usize> = BTreeSet::new();
     for &s in &mine {
-        for i in level.leaf_grid.query(&solids[s].bounds, 2.0 * eps) {
+        for i in cut.leaf_grid.query(&solids[s].bounds, 2.0 * eps) {
             let leaf = &air.leaves[i];
             if !touching(leaf, solids, std::iter::once(s), eps).is_empty() {
                 touched.insert(region(i));
@@ -283,7 +283,7 @@ fn separating(level: &Level, solids: &[Solid], cluster: &[NodeId], crack: f64, e
     }
     if mine
         .iter()
-        .any(|&s| solids[s].hull.as_ref().is_some_and(|h| level.on_world(h)))
+        .any(|&s| solids[s].hull.as_ref().is_some_and(|h| cut.on_world(h)))
     {
         touched.insert(VOID);
     }
@@ -331,10 +331,10 @@ fn separating(level: &Level, solids: &[Solid], cluster: &[NodeId], crack: f64, e
     }
     let mut regions: BTreeMap<usize, BTreeSet<usize>> = BTreeMap::new();
     for (k, p) in pieces.iter().enumerate() {
-        if level.on_world(p) {
+        if cut.on_world(p) {
             regions.entry(parts.find(k)).or_default().insert(VOID);
         }
-        for i in level.leaf_grid.query(&p.bounds(), 2.0 * eps) {
+        for i in cut.leaf_grid.query(&p.bounds(), 2.0 * eps) {
             // A crack counts as a region of its own: its mouth, which the block covered, may
             // be wide where its depth is not, and the portal stage would see it open.
             let meets = if air.thin[i] {
@@ -373,8 +373,9 @@ impl GateIndex {
 /// The region id the world's boundary stands for (the void around it).
 const VOID: usize = usize::MAX;
 
-/// The level's space of solids, cut and read.
-struct Level<'a> {
+/// The world (the hull of every room's solids) cut into leaves by the BSP, and their air:
+/// the level's space of solids, read once for the props and again for the cells.
+struct CutWorld<'a> {
     /// The hull of every room's solids: outside it is the void.
     world: ConvexPolyhedron,
     space: Space<'a>,
@@ -388,7 +389,7 @@ struct Level<'a> {
     eps: f64,
 }
 
-impl<'a> Level<'a> {
+impl<'a> CutWorld<'a> {
     /// The leaves of the world (the hull of every room's solids) and their air; `None` when
     /// no room has a hull.
     fn new(
@@ -397,7 +398,7 @@ impl<'a> Level<'a> {
         room_of: &[Option<usize>],
         crack: f64,
         eps: f64,
-    ) -> Option<Level<'a>> {
+    ) -> Option<CutWorld<'a>> {
         // Each room's solids' vertices, gathered in one pass (not one pass per room).
         let mut points: Vec<Vec<DVec3>> = vec![Vec::new(); rooms.len()];
         for (s, o) in solids.iter().zip(room_of) {
@@ -460,7 +461,7 @@ impl<'a> Level<'a> {
             })
             .collect();
         let air = Air::new(leaves, &world, &world_surfaces, crack, eps);
-        Some(Level {
+        Some(CutWorld {
             world,
             leaf_grid: BoxGrid::new(air.leaves.iter().map(|l| l.region.bounds()).collect()),
             open: air.open_regions(),
@@ -518,16 +519,16 @@ impl<'a> Level<'a> {
         kept: &[usize],
         gates: &[(Gate, ConvexPolyhedron)],
         index: &GateIndex,
-        how: &How,
+        rules: &BlockRules,
     ) -> Vec<(ConvexPolyhedron, Vec<usize>)> {
         let GateIndex {
             grid: gate_grid,
             first,
         } = index;
-        let eps = how.eps;
+        let eps = rules.eps;
         let mut groups: BTreeMap<Vec<usize>, Vec<ConvexPolyhedron>> = BTreeMap::new();
         for &i in kept {
-            for region in carve(&self.air.leaves[i].region, gates, gate_grid, how) {
+            for region in carve(&self.air.leaves[i].region, gates, gate_grid, rules) {
                 let p = region.interior_point();
                 // One index per gate (a door of several blocks is one gate: its first block's).
                 let mut inside: Vec<usize> = gate_grid
@@ -545,7 +546,7 @@ impl<'a> Level<'a> {
             .into_iter()
             .flat_map(|(g, leaves)| merge(leaves, eps).into_iter().map(move |c| (c, g.clone())))
             .collect();
-        let mut out = halved(merged, how.max_width, eps);
+        let mut out = halved(merged, rules.max_width, eps);
         // The room's largest cell first (its main space before its door reveals), volumes
         // compared in millionths of the room's so near-equal ones keep the leaves' order.
         let total: f64 = out.iter().map(|(c, _)| c.volume()).sum();
@@ -565,9 +566,9 @@ fn carve(
     leaf: &ConvexPolyhedron,
     gates: &[(Gate, ConvexPolyhedron)],
     grid: &BoxGrid,
-    how: &How,
+    rules: &BlockRules,
 ) -> Vec<ConvexPolyhedron> {
-    let (crack, eps) = (how.crack, how.eps);
+    let (crack, eps) = (rules.crack, rules.eps);
     let mut near = grid.query(&leaf.bounds(), eps);
     near.sort_unstable();
     // The gates near, each as its blocks (in gate order).

@@ -16,7 +16,7 @@
 //!    Ties go to the plane that splits the fewest fragments, then to input order. Fragments on
 //!    the splitter become boundary of both children; the others are clipped to their side.
 //!    A leaf has no surface inside it, so it is wholly air or wholly solid. A whole level
-//!    read at once ([`Reading::Level`]) is cut by its walls first (see [`splitter`]).
+//!    read at once ([`Scope::Level`]) is cut by its walls first (see [`splitter`]).
 //! 3. **Inside or outside.** Surfaces face the air (the rendering convention: a floor faces up,
 //!    a wall block faces out of the block). A leaf is air when the surface on its faces, by
 //!    area, faces into it. A leaf that no surface touches is judged by the generalized winding
@@ -77,20 +77,21 @@ struct Surface {
     active: Vec<Frag>,
     /// +1 when the triangles face the air, -1 for a room modelled as a solid.
     sense: f64,
-    /// Triangles on planes too small to cut by ([`Reading::Level`]'s detail), and a grid
+    /// Triangles on planes too small to cut by ([`Scope::Level`]'s detail), and a grid
     /// over their boxes.
     detail: Vec<[DVec3; 3]>,
     detail_index: Option<BoxGrid>,
-    /// For [`Reading::Level`]: the level's triangles to cast rays at, and its own axes.
+    /// For [`Scope::Level`]: the level's triangles to cast rays at, and its own axes.
     rays: Option<(parry3d_f64::shape::TriMesh, [DVec3; 3])>,
-    /// For [`Reading::Level`]: which planes are walls (square to the level's first axis),
+    /// For [`Scope::Level`]: which planes are walls (square to the level's first axis),
     /// by plane index; empty for a tagged room.
     walls: Vec<bool>,
 }
 
-/// How a surface is read.
+/// What the surface read belongs to, one tagged room or a whole level nobody tagged: it decides
+/// which side of the surface is air and which planes cut.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum Reading {
+pub(crate) enum Scope {
     /// A tagged room: as rendered, or as a solid when its surface encloses most of its hull.
     Room,
     /// A whole level nobody tagged (`--tags auto`): only as rendered, facing the air, the
@@ -189,11 +190,11 @@ pub(crate) fn decompose(
     tris: &[[DVec3; 3]],
     hull: &ConvexPolyhedron,
     eps: f64,
-    reading: Reading,
+    scope: Scope,
 ) -> Vec<ConvexPolyhedron> {
-    let (as_rendered, detail_area) = match reading {
-        Reading::Room => (false, 0.0),
-        Reading::Level { detail_area, .. } => (true, detail_area),
+    let (as_rendered, detail_area) = match scope {
+        Scope::Room => (false, 0.0),
+        Scope::Level { detail_area, .. } => (true, detail_area),
     };
     // Which way the air lies (see the module docs): a room modelled as a solid encloses most
     // of its hull with its surface facing out; anything else is read as rendered, the air in
@@ -218,7 +219,7 @@ pub(crate) fn decompose(
         let Some(mut surface) = Surface::new(tris, hull, eps, sense, detail_area) else {
             return vec![hull.clone()];
         };
-        if let Reading::Level { axes, .. } = reading {
+        if let Scope::Level { axes, .. } = scope {
             surface.rays = crate::geom::ray_mesh::ray_mesh(tris).map(|m| (m, axes));
             surface.walls = (surface.planes.iter())
                 .map(|p| p.normal.dot(axes[0]).abs() <= WALL)
@@ -721,7 +722,7 @@ const WALL: f64 = 0.052_335_956_242_943_83;
 /// The plane to split a node by: the most reflex-edge length, then the fewest fragments cut,
 /// then the earliest plane. `None` when no active fragment is left (a leaf).
 ///
-/// A whole level read at once ([`Reading::Level`]) is cut by its walls first: while a wall
+/// A whole level read at once ([`Scope::Level`]) is cut by its walls first: while a wall
 /// (a plane square to the level's first axis, the direction its floors and ceilings face
 /// along) has a fragment in the node, only walls are candidates. A level's rooms stand on
 /// floors and end at walls, and its floors and ceilings lie at a few heights that many rooms
@@ -1055,7 +1056,7 @@ mod tests {
         let t = box_tris(DVec3::ZERO, DVec3::new(4.0, 3.0, 4.0));
         let pts: Vec<DVec3> = t.iter().flatten().copied().collect();
         let h = crate::geom::hull::hull(&pts, 1e-9).unwrap();
-        let cells = decompose(&t, &h, 1e-9, Reading::Room);
+        let cells = decompose(&t, &h, 1e-9, Scope::Room);
         assert_eq!(cells.len(), 1);
         assert!((cells[0].volume() - 48.0).abs() < 1e-9);
     }

@@ -341,12 +341,12 @@ pub fn build_reaching(scene: &Scene, tagging: &Tagging, cfg: &CellsConfig, reach
         crack,
         blocks: Vec::new(),
         generated: None,
-        reading: match tagging.generated.as_deref() {
-            Some(g) => interior::Reading::Level {
+        scope: match tagging.generated.as_deref() {
+            Some(g) => interior::Scope::Level {
                 detail_area: g.detail_area,
                 axes: g.axes.map(DVec3::from_array),
             },
-            None => interior::Reading::Room,
+            None => interior::Scope::Room,
         },
     };
     let (blocks, buried, gaps) = b.read_blocks(tagging, &mut diags);

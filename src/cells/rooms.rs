@@ -97,9 +97,9 @@ pub(super) struct RoomBuilder<'a> {
     pub(super) blocks: Vec<Option<BlockCells>>,
     /// The cells of the rooms `--tags auto` generated, read once for all of them.
     pub(super) generated: Option<GeneratedCells>,
-    /// How structure is read: when rooms were generated, the one room read from its structure
-    /// is the whole level (`interior::Reading::Level`).
-    pub(super) reading: interior::Reading,
+    /// What a room's structure is read as: when rooms were generated, the one room read from
+    /// its structure is the whole level (`interior::Scope::Level`).
+    pub(super) scope: interior::Scope,
 }
 
 /// One room's cells from the level-wide reading of solid blocks (`block_rooms.rs`).
@@ -358,7 +358,7 @@ impl RoomBuilder<'_> {
         match hull(&pts, eps) {
             Ok(h) => {
                 let cells = prism::cells(&tris, &h, eps, frame)
-                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps, self.reading));
+                    .unwrap_or_else(|| interior::decompose(&tris, &h, eps, self.scope));
                 let source = if cells.len() == 1 && cells[0] == h {
                     CellSource::Hull
                 } else {
