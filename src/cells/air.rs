@@ -34,6 +34,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::crack::ClosedGaps;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::{overlap, polygon_area, ConvexPolyhedron};
+use crate::geom::tolerance::Tolerance;
 
 /// Two air leaves sharing a face.
 struct Link {
@@ -65,7 +66,7 @@ impl SharedFace {
     /// grid's order.
     fn find(leaves: &[Leaf], grid: &BoxGrid, crack: f64, eps: f64) -> Vec<SharedFace> {
         use rayon::prelude::*;
-        let pairs = grid.pairs(2.0 * eps);
+        let pairs = grid.pairs(Tolerance::touching(eps));
         let found: Vec<Vec<SharedFace>> =
             pairs
                 .par_iter()
@@ -80,8 +81,8 @@ impl SharedFace {
                         let covered = covered_by(&a.surfaces, &common, normal, eps)
                             .max(covered_by(&b.surfaces, &common, -normal, eps));
                         let open = covered < 0.5 * area
-                            && deeper_than(&a.region, &common, -normal, 2.0 * eps)
-                            && deeper_than(&b.region, &common, normal, 2.0 * eps);
+                            && deeper_than(&a.region, &common, -normal, Tolerance::touching(eps))
+                            && deeper_than(&b.region, &common, normal, Tolerance::touching(eps));
                         let joined = open && least_width(&common, normal) > crack;
                         // A narrow face may be a sliver of a wide opening the BSP cut up.
                         let narrow = (open && !joined).then(|| (common.clone(), normal));
@@ -185,7 +186,7 @@ impl<'a> Air<'a> {
                         world
                             .faces
                             .iter()
-                            .any(|w| w.plane.same_as(&f.plane, 2.0 * eps, 1e-6))
+                            .any(|w| w.plane.same_as(&f.plane, Tolerance::touching(eps), 1e-6))
                             .then(|| covered_by(world_surfaces, &f.points, f.plane.normal, eps))
                     })
                     .collect()
@@ -501,7 +502,9 @@ fn join_fragments(
                 };
                 match planes.iter_mut().find(|(q, _)| {
                     q.normal.dot(pl.normal).abs() > 1.0 - 1e-6
-                        && poly.iter().all(|p| q.distance(*p).abs() <= 2.0 * eps)
+                        && poly
+                            .iter()
+                            .all(|p| q.distance(*p).abs() <= Tolerance::touching(eps))
                 }) {
                     Some((_, v)) => v.push(k),
                     None => planes.push((pl, vec![k])),
@@ -600,7 +603,7 @@ fn covered_by(surfaces: &[Frag], poly: &[DVec3], normal: DVec3, eps: f64) -> f64
             f.air.dot(normal).abs() > 1.0 - 1e-6
                 && f.pts
                     .iter()
-                    .all(|p| (*p - o).dot(normal).abs() <= 2.0 * eps)
+                    .all(|p| (*p - o).dot(normal).abs() <= Tolerance::touching(eps))
         })
         .map(|f| {
             let part = overlap(&f.pts, poly, normal);
@@ -623,7 +626,7 @@ pub(super) fn shared_faces<'a>(
     a.faces.iter().flat_map(move |f| {
         b.faces.iter().filter_map(move |g| {
             let facing = f.plane.normal.dot(g.plane.normal) < -0.999_999
-                && (f.plane.d + g.plane.d).abs() <= 2.0 * eps;
+                && (f.plane.d + g.plane.d).abs() <= Tolerance::touching(eps);
             let common = facing.then(|| overlap(&f.points, &g.points, g.plane.normal))?;
             (common.len() >= 3).then_some((common, f.plane.normal))
         })
@@ -666,7 +669,7 @@ pub(super) fn touching(
     let b = leaf.region.bounds();
     for s in near {
         let solid = &solids[s];
-        if !solid.bounds.grown(2.0 * eps).meets(&b) {
+        if !solid.bounds.grown(Tolerance::touching(eps)).meets(&b) {
             continue;
         }
         let mut area = 0.0;
@@ -677,7 +680,8 @@ pub(super) fn touching(
                     continue;
                 };
                 if tn.dot(f.plane.normal) > -1.0 + 1e-6
-                    || t.iter().any(|p| f.plane.distance(*p).abs() > 2.0 * eps)
+                    || t.iter()
+                        .any(|p| f.plane.distance(*p).abs() > Tolerance::touching(eps))
                 {
                     continue;
                 }

@@ -17,6 +17,7 @@ use super::{CellSet, GateKind};
 use crate::disjoint::DisjointSets;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::polygon_area;
+use crate::geom::tolerance::Tolerance;
 use crate::tags::{RoomId, Tagging};
 
 /// Splits every room its area portals divide into its areas (see the module docs).
@@ -39,7 +40,7 @@ pub fn split(tagging: &mut Tagging, cells: &mut CellSet) {
         let n = members.len();
         let mut parts = DisjointSets::new(n);
         let grid = BoxGrid::new(members.iter().map(|&c| cells.cells[c].bounds).collect());
-        let mut pairs = grid.pairs(2.0 * eps);
+        let mut pairs = grid.pairs(Tolerance::touching(eps));
         pairs.sort_unstable();
         // Touching pairs that cross a gate's boundary, kept to attach the gates' cells after.
         let mut crossings: Vec<(usize, usize)> = Vec::new();

@@ -64,8 +64,13 @@ fn triangle_in_cell(t: &[DVec3; 3], cell: &ConvexPolyhedron, eps: f64) -> bool {
             return false;
         }
     }
-    polygon_area(&poly, normal) > 1e-3 * area
+    polygon_area(&poly, normal) > IN_CELL_SHARE * area
 }
+
+/// The share of a triangle's area that must lie in a cell for the cell to render it: a
+/// triangle touching the cell only along a shared face or an edge, clipped with the
+/// tolerance, leaves a sliver a tolerance wide inside, a vanishing share of its area.
+const IN_CELL_SHARE: f64 = 1e-3;
 
 fn node_in_cell(tris: &[[DVec3; 3]], cell: &Cell, eps: f64) -> bool {
     let b = &cell.bounds;
@@ -129,8 +134,8 @@ pub fn drop_far_structure(scene: &Scene, tagging: &Tagging, set: &mut CellSet, r
 /// Whether geometry in no cell, facing none, is buried in solid and needs no cell: where every
 /// room is read as solid blocks (a brush map as qbsp reads one, or the same brushes in any
 /// format), everything but the air the outside fill leaves is solid, so a detail brush in no
-/// cell lies wholly in a wall or in the filled void, and nothing can see it (e3m4 reported
-/// 240 such brushes, a qbsp user's noise). Detail touching a cell's face is in that cell, and
+/// cell lies wholly in a wall or in the filled void, and nothing can see it (reported, such
+/// brushes are only noise to a qbsp user). Detail touching a cell's face is in that cell, and
 /// detail in a wall facing a cell through an opening is that cell's, so neither comes here.
 /// Around rooms read otherwise the space outside them is open, and geometry there (a crate
 /// left 30 m away) is reported.

@@ -35,6 +35,7 @@ use crate::geom::grid::BoxGrid;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
+use crate::geom::tolerance::Tolerance;
 use crate::scene::NodeId;
 
 /// One room of solid blocks, as the cells stage found it (recentred coordinates).
@@ -238,7 +239,7 @@ fn find_props(
     if candidates.is_empty() {
         return BTreeSet::new();
     }
-    let contacts = Contacts::new(solids, crack.max(2.0 * eps), up);
+    let contacts = Contacts::new(solids, crack.max(Tolerance::touching(eps)), up);
     let mut nodes: Vec<NodeId> = solids.iter().map(|s| s.node).collect();
     nodes.sort_unstable();
     nodes.dedup();
@@ -274,7 +275,10 @@ fn separating(cut: &CutWorld, solids: &[Solid], cluster: &[NodeId], crack: f64, 
     // A quick look first: the regions the blocks' faces touch.
     let mut touched: BTreeSet<usize> = BTreeSet::new();
     for &s in &mine {
-        for i in cut.leaf_grid.query(&solids[s].bounds, 2.0 * eps) {
+        for i in cut
+            .leaf_grid
+            .query(&solids[s].bounds, Tolerance::touching(eps))
+        {
             let leaf = &air.leaves[i];
             if !touching(leaf, solids, std::iter::once(s), eps).is_empty() {
                 touched.insert(region(i));
@@ -299,7 +303,7 @@ fn separating(cut: &CutWorld, solids: &[Solid], cluster: &[NodeId], crack: f64, 
         let s = &solids[si];
         let Some(h) = &s.hull else { continue };
         let local: Vec<Solid> = all
-            .query(&s.bounds, 2.0 * eps)
+            .query(&s.bounds, Tolerance::touching(eps))
             .into_iter()
             .filter(|&o| !cluster.contains(&solids[o].node))
             .map(|o| solids[o].clone())
@@ -318,13 +322,14 @@ fn separating(cut: &CutWorld, solids: &[Solid], cluster: &[NodeId], crack: f64, 
                 .into_iter()
                 .map(|l| l.region)
                 .filter(|r| {
-                    thickness(r) > 2.0 * eps && space.in_solid(r.interior_point()).is_none()
+                    thickness(r) > Tolerance::touching(eps)
+                        && space.in_solid(r.interior_point()).is_none()
                 }),
         );
     }
     let mut parts = DisjointSets::new(pieces.len());
     let pgrid = BoxGrid::new(pieces.iter().map(|p| p.bounds()).collect());
-    for (i, j) in pgrid.pairs(2.0 * eps) {
+    for (i, j) in pgrid.pairs(Tolerance::touching(eps)) {
         if wide(&pieces[i], &pieces[j]) {
             parts.union(i, j);
         }
@@ -334,7 +339,7 @@ fn separating(cut: &CutWorld, solids: &[Solid], cluster: &[NodeId], crack: f64, 
         if cut.on_world(p) {
             regions.entry(parts.find(k)).or_default().insert(VOID);
         }
-        for i in cut.leaf_grid.query(&p.bounds(), 2.0 * eps) {
+        for i in cut.leaf_grid.query(&p.bounds(), Tolerance::touching(eps)) {
             // A crack counts as a region of its own: its mouth, which the block covered, may
             // be wide where its depth is not, and the portal stage would see it open.
             let meets = if air.thin[i] {
@@ -456,7 +461,7 @@ impl<'a> CutWorld<'a> {
             .leaves(world.clone(), frags)
             .into_iter()
             .filter(|l| {
-                thickness(&l.region) > 2.0 * eps
+                thickness(&l.region) > Tolerance::touching(eps)
                     && space.in_solid(l.region.interior_point()).is_none()
             })
             .collect();
@@ -476,10 +481,10 @@ impl<'a> CutWorld<'a> {
     /// Whether a convex region has a face on the world's boundary (it touches the void).
     fn on_world(&self, p: &ConvexPolyhedron) -> bool {
         p.faces.iter().any(|f| {
-            self.world
-                .faces
-                .iter()
-                .any(|w| w.plane.same_as(&f.plane, 2.0 * self.eps, 1e-6))
+            self.world.faces.iter().any(|w| {
+                w.plane
+                    .same_as(&f.plane, Tolerance::touching(self.eps), 1e-6)
+            })
         })
     }
 
@@ -496,7 +501,9 @@ impl<'a> CutWorld<'a> {
         let eps = self.eps;
         let frame = |i: usize, r: u32| -> f64 {
             let leaf = &self.air.leaves[i];
-            let near = grid.query(&leaf.region.bounds(), 2.0 * eps).into_iter();
+            let near = grid
+                .query(&leaf.region.bounds(), Tolerance::touching(eps))
+                .into_iter();
             let blocks: f64 = touching(leaf, solids, near, eps)
                 .into_iter()
                 .filter(|(s, _)| room_of[*s] == Some(r as usize))
@@ -560,8 +567,8 @@ impl<'a> CutWorld<'a> {
 /// gate) whose blocks, made solid, would cut the leaf's air in two. A gate that does not
 /// (bars with gaps, a lift standing in a room, a door narrower than its hole) closes nothing
 /// here and leaves the leaf whole. Cutting only there, and only the leaf, keeps a door's planes
-/// out of the rest of the level: cut through the whole BSP they made LibreQuake e3m4 1,528
-/// cells where 900 hold the same air.
+/// out of the rest of the level: cut through the whole BSP, they split leaves far from any door
+/// and made a brush map's cells over half as many again for the same air.
 fn carve(
     leaf: &ConvexPolyhedron,
     gates: &[(Gate, ConvexPolyhedron)],
@@ -638,7 +645,7 @@ fn closed_by(
 /// face plane at a time before; the region whole unless they share a volume thicker than the
 /// tolerance.
 fn carve_one(region: ConvexPolyhedron, gate: &ConvexPolyhedron, eps: f64) -> Vec<ConvexPolyhedron> {
-    let solid = |p: &ConvexPolyhedron| thickness(p) > 2.0 * eps;
+    let solid = |p: &ConvexPolyhedron| thickness(p) > Tolerance::touching(eps);
     let mut inside = Some(region.clone());
     for f in &gate.faces {
         inside = inside.and_then(|r| r.clip(&f.plane, eps));
@@ -667,7 +674,8 @@ fn carve_one(region: ConvexPolyhedron, gate: &ConvexPolyhedron, eps: f64) -> Vec
 /// until none is wider than `max` or they are half as many again as they were: a from-region
 /// PVS is as loose as its widest cells (qbsp caps its leafs the same way, `-maxnodesize`), but
 /// in open terrain, where every cell sees every other, narrower cells buy nothing and each
-/// costs the PVS (q1_mountain: 358 cells became 7,653 and the full PVS ran past ten minutes).
+/// costs the PVS (halved without that budget, an open terrain map's cells grew twentyfold and
+/// its full PVS ran for minutes).
 fn halved<T: Clone>(
     cells: Vec<(ConvexPolyhedron, T)>,
     max: f64,

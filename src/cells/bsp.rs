@@ -22,6 +22,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, polygon_area, ConvexPolyhedron};
+use crate::geom::tolerance::Tolerance;
 
 /// What a fragment is a piece of.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,7 +78,7 @@ impl<'w> Faces<'w> {
     fn on_world(&self, pts: &[DVec3]) -> bool {
         self.world.faces.iter().any(|f| {
             pts.iter()
-                .all(|p| f.plane.distance(*p).abs() <= 2.0 * self.eps)
+                .all(|p| f.plane.distance(*p).abs() <= Tolerance::touching(self.eps))
         })
     }
 
@@ -319,11 +320,11 @@ impl<'a> Space<'a> {
     /// section through the node first (a wall, not the side of a door jamb carried across
     /// the room), then, as qbsp scores its planes, the one that cuts the fewest faces for the
     /// most it carries (pieces of faces, as triangles) and divides the rest most evenly; ties
-    /// by plane order. (Preferring the most covered plane outright cut E1M1 into cells whose
-    /// PVS was 5% looser; a wall with a doorway covers less than nine tenths of its section,
+    /// by plane order. (Preferring the most covered plane outright cut brush maps into cells
+    /// whose PVS was looser; a wall with a doorway covers less than nine tenths of its section,
     /// and passing it over ran strips through a grid's rooms; scoring the faces carried as
-    /// qbsp does, 5 a face against 5 a cut, cut fewer cell pairs on E1M1, e3m4 and retrojam1
-    /// but left E1M1's PVS 2% looser than vis's, 3 a face keeps it tighter.)
+    /// qbsp does, 5 a face against 5 a cut, cut fewer cell pairs but left the PVS looser than
+    /// vis's, and 3 a face keeps it tighter.)
     fn splitter(&self, region: &ConvexPolyhedron, active: &[Frag]) -> Option<u32> {
         let mut area: Vec<(u32, f64)> = active.iter().map(|f| (f.plane, f.area)).collect();
         area.sort_unstable_by_key(|(p, _)| *p);

@@ -35,6 +35,28 @@ pub(crate) enum FootprintError {
     Hull(HullError),
 }
 
+/// The ray that finds a footprint's ceiling starts this fraction of the height to the level's
+/// top above the footprint, so the footprint's own floor is not hit: a length of the level, so
+/// a level modelled in millimetres lifts as far, relatively, as one in metres.
+const RAY_LIFT: f64 = 1e-3;
+
+/// The ray also starts at least this many tolerances above the footprint, clear of the floor's
+/// own noise: its triangles, each good to the tolerance, meet within a touching distance, and
+/// twice that is clear of them.
+const LIFT_NOISE: f64 = 4.0;
+
+/// A level whose top is fewer than this many tolerances above its lowest footprint has no
+/// storey height of its own (it is flat to within its noise): its size stands for one.
+const LEAST_STOREY: f64 = 1e3;
+
+/// Footprint triangles on planes this many tolerances apart or less are one planar part: a
+/// floor of f32 tiles bends by a few tolerances across a room.
+const PLANE_SLACK: f64 = 10.0;
+
+/// The f64 rounding of a coordinate relative to the piece's size: the raised pieces' hull
+/// merges only what rounding split.
+const F64_ROUNDING: f64 = 1e-9;
+
 pub(crate) struct Context<'a> {
     scene: &'a Scene,
     origin: DVec3,
@@ -111,7 +133,7 @@ impl<'a> Context<'a> {
                 continue;
             }
             let c = (t[0] + t[1] + t[2]) / 3.0;
-            let lift = (1e-3 * (self.top - c.dot(up))).max(4.0 * self.eps);
+            let lift = (RAY_LIFT * (self.top - c.dot(up))).max(LIFT_NOISE * self.eps);
             if let Some(h) = self.clearance(c + up * lift) {
                 found.push(h + lift);
             }
@@ -121,10 +143,10 @@ impl<'a> Context<'a> {
             return found[(found.len() - 1) / 2];
         }
         let above = self.top - lowest;
-        if above > 1e3 * self.eps {
+        if above > LEAST_STOREY * self.eps {
             above
         } else {
-            bounds.size().length().max(1e3 * self.eps)
+            bounds.size().length().max(LEAST_STOREY * self.eps)
         }
     }
 
@@ -140,11 +162,9 @@ impl<'a> Context<'a> {
             return Some(h);
         }
         // The ray starts a little above the footprint, so the footprint's own floor is not
-        // hit: a thousandth of the height to the level's top (a length of the level, so a
-        // level modelled in millimetres lifts as far, relatively, as one in metres), and
-        // above the tolerance's noise.
+        // hit (`RAY_LIFT`, `LIFT_NOISE`).
         let up = self.frame.up;
-        let lift = (1e-3 * (self.top - p.dot(up))).max(4.0 * self.eps);
+        let lift = (RAY_LIFT * (self.top - p.dot(up))).max(LIFT_NOISE * self.eps);
         match self.clearance(p + up * lift) {
             Some(t) if t + lift > 0.1 * self.storey => Some(t + lift),
             Some(_) => None,
@@ -177,7 +197,7 @@ impl<'a> Context<'a> {
             let flat = t.map(|p| self.frame.plan(p));
             match groups
                 .iter_mut()
-                .find(|(g, _)| g.same_as(&pl, self.eps * 10.0, 1e-6))
+                .find(|(g, _)| g.same_as(&pl, PLANE_SLACK * self.eps, 1e-6))
             {
                 Some((_, v)) => v.push(flat),
                 None => groups.push((pl, vec![flat])),
@@ -207,13 +227,13 @@ impl<'a> Context<'a> {
                     pts.push(bottom + self.frame.up * h);
                 }
                 // The raised corners are computed, not read: a top that the geometry above
-                // bends by about the tolerance (panda3d's stair underside, 2.5e-5 m over a
-                // 0.9 m piece) kept one facet or two as rounding went, and which one. Only
-                // f64 rounding is flat here.
+                // bends by about the tolerance (a stair's underside) kept one facet or two as
+                // rounding went, and which one. Only f64 rounding is flat here.
                 let size = crate::geom::aabb::Aabb::from_points(pts.iter())
                     .size()
                     .length();
-                out.push(hull(&pts, (1e-9 * size).min(self.eps)).map_err(FootprintError::Hull)?);
+                let flat = (F64_ROUNDING * size).min(self.eps);
+                out.push(hull(&pts, flat).map_err(FootprintError::Hull)?);
             }
         }
         Ok(out)

@@ -58,9 +58,9 @@ pub(super) fn build(
     let index = BoxGrid::new(boxes.iter().map(|(_, p)| p.bounds()).collect());
     let mut per_room = vec![Vec::new(); rooms.len()];
     for (poly, source) in polys {
-        // A cell thinner than a crack is a closed crack (a wafer 0.7 mm thick under
-        // gi_zdm2's roof): it makes no cell, as in the solid reading. An eye there saw out
-        // along the wafer through faces the portal stage closes as cracks.
+        // A cell thinner than a crack is a closed crack (a wafer under a roof): it makes no
+        // cell, as in the solid reading. An eye there saw out along the wafer through faces
+        // the portal stage closes as cracks.
         if thinner_than(&poly, b.crack) {
             continue;
         }

@@ -49,6 +49,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::grid::BoxGrid;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{clip_polygon, overlap, polygon_area, ConvexPolyhedron};
+use crate::geom::tolerance::Tolerance;
 
 /// A piece of one room triangle.
 #[derive(Debug, Clone)]
@@ -126,12 +127,12 @@ impl Surface {
             &mut leaves,
         );
         // Leaves are judged on their own, in parallel (the order kept): the winding number,
-        // a pass over every triangle, is most of a level's reading (gi_zdm2, cut by its walls
-        // first: 34,346 leaves, over 10,000 winding numbers), and is found once a leaf.
+        // a pass over every triangle, is most of a large level's reading (tens of thousands
+        // of leaves), and is found once a leaf.
         leaves
             .into_par_iter()
             .filter(|(leaf, boundary)| {
-                if thickness(leaf) <= 2.0 * eps {
+                if thickness(leaf) <= Tolerance::touching(eps) {
                     return false;
                 }
                 let at = leaf.interior_point();
@@ -176,7 +177,7 @@ fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron,
         .filter(|(face, _)| {
             hull.faces
                 .iter()
-                .any(|h| face.plane.same_as(&h.plane, 2.0 * eps, 1e-6))
+                .any(|h| face.plane.same_as(&h.plane, Tolerance::touching(eps), 1e-6))
         })
         .map(|(face, c)| (polygon_area(&face.points, face.plane.normal) - c).max(0.0))
         .sum();
@@ -249,9 +250,10 @@ impl Surface {
         detail_area: f64,
     ) -> Option<Surface> {
         let on_hull = |t: &[DVec3; 3]| {
-            hull.faces
-                .iter()
-                .any(|f| t.iter().all(|p| f.plane.distance(*p).abs() <= 2.0 * eps))
+            hull.faces.iter().any(|f| {
+                t.iter()
+                    .all(|p| f.plane.distance(*p).abs() <= Tolerance::touching(eps))
+            })
         };
         if tris.iter().all(on_hull) {
             return None;
@@ -344,8 +346,8 @@ impl Surface {
 /// its back (`Some(false)`), or nothing is met. Surfaces within two tolerances of the first
 /// hit are one place, as a two-sided wall's two faces are, and the ray meets the face turned
 /// towards it, as the voxel air's lines do (`auto::air`): otherwise the rounding of a turned
-/// level picks either face (merged E3M3 turned 37° read a 53 m³ leaf as air and a 3 m³ one
-/// not, the other way round from as it is).
+/// level picks either face (a turned level read a large leaf as air and a small one not, the
+/// other way round from as it is).
 fn first_met(mesh: &parry3d_f64::shape::TriMesh, at: DVec3, dir: DVec3, eps: f64) -> Option<bool> {
     use parry3d_f64::bounding_volume::Aabb as ParryAabb;
     use parry3d_f64::query::{Ray, RayCast};
@@ -360,7 +362,7 @@ fn first_met(mesh: &parry3d_f64::shape::TriMesh, at: DVec3, dir: DVec3, eps: f64
     if faces(i) {
         return Some(true);
     }
-    let place = 2.0 * eps;
+    let place = Tolerance::touching(eps);
     let p = at + dir * hit.time_of_impact;
     let near = ParryAabb::new(p - DVec3::splat(place), p + DVec3::splat(place));
     let front_there = mesh.bvh().intersect_aabb(&near).any(|k| {
@@ -462,7 +464,7 @@ fn reflex_segments(s: &Surface, eps: f64) -> Vec<Seg> {
     // Triangles meet at shared corners: each corner's neighbours are found through a grid of
     // cells a few tolerances wide (a corner and its copy in the next triangle may differ by
     // the tolerance and straddle a cell boundary, so the 27 cells around are asked).
-    let cell = 4.0 * eps;
+    let cell = CORNER_CELL * eps;
     let key = |p: DVec3| {
         let q = (p / cell).floor();
         [q.x as i64, q.y as i64, q.z as i64]
@@ -712,6 +714,16 @@ fn split_node(
     ])
 }
 
+/// The width, in tolerances, of the grid cells the surface's corners are found in: a few
+/// tolerances, so a corner and its copy in the next triangle (up to a touching distance
+/// apart) lie in one cell or in neighbours.
+const CORNER_CELL: f64 = 4.0;
+
+/// Reflex lengths within this many tolerances of the best tie: a length is a sum of segments
+/// whose ends are each good to the tolerance, so a turned level's copy of the best length
+/// comes out a few tolerances off it, and must choose alike.
+const TIED_REFLEX: f64 = 4.0;
+
 /// Reflex segments no longer than this many tolerances do not score a plane.
 const SHORT_REFLEX: f64 = 64.0;
 
@@ -730,11 +742,11 @@ const WALL: f64 = 0.052_335_956_242_943_83;
 /// its height, so by length alone it came first, and its cut sliced the whole node into a
 /// slab at that height, through rooms far from any of its own triangles; the merge then
 /// joined slab pieces across doorways into cells of several rooms, each drawn whenever any
-/// of it is seen (merged MAP01: 799 cells, 1.36 times the designer's drawn share). Cut by the
-/// walls first, a node falls into columns over the level's plan, as the designer's sectors
-/// do, and each column is then cut at its own floors and ceilings only (439 cells, 1.07
-/// times). Walls are found from the level's own frame, so a level turned or moved is cut
-/// alike; a tagged room keeps the length rule alone.
+/// of it is seen (a merged Doom map drew about a third more than its designer's sectors).
+/// Cut by the walls first, a node falls into columns over the level's plan, as the designer's
+/// sectors do, and each column is then cut at its own floors and ceilings only (nearly the
+/// designer's share, in about half the cells). Walls are found from the level's own frame, so
+/// a level turned or moved is cut alike; a tagged room keeps the length rule alone.
 fn splitter(s: &Surface, active: &[Frag], segs: &[Seg], eps: f64) -> Option<u32> {
     let mut candidates: Vec<u32> = active.iter().map(|f| f.plane).collect();
     candidates.sort_unstable();
@@ -749,8 +761,8 @@ fn splitter(s: &Surface, active: &[Frag], segs: &[Seg], eps: f64) -> Option<u32>
     for g in segs {
         let len = g.a.distance(g.b);
         // A remnant a few tolerances long is rounding, not an edge: scored, it chose the
-        // plane by noise (merged MAP01 turned 37° split a 35 m³ node by another plane, for
-        // a reflex length of a micrometre, and its PVS changed 1%).
+        // plane by noise (a turned level was split by another plane for a reflex length of a
+        // micrometre, and its PVS changed).
         if len <= SHORT_REFLEX * eps {
             continue;
         }
@@ -760,12 +772,13 @@ fn splitter(s: &Surface, active: &[Frag], segs: &[Seg], eps: f64) -> Option<u32>
             }
         }
     }
-    // Lengths within the tolerance of the best are equal (a turned level must choose alike).
+    // Lengths within `TIED_REFLEX` tolerances of the best are equal (a turned level must choose
+    // alike).
     let best = reflex.iter().copied().fold(0.0, f64::max);
     let tied: Vec<u32> = candidates
         .iter()
         .zip(&reflex)
-        .filter(|(_, r)| **r >= best - 4.0 * eps)
+        .filter(|(_, r)| **r >= best - TIED_REFLEX * eps)
         .map(|(p, _)| *p)
         .collect();
     if tied.len() == 1 {
@@ -954,7 +967,7 @@ fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<
         .iter()
         .map(|f| polygon_area(&f.points, f.plane.normal))
         .sum();
-    if u.volume() > a.volume() + b.volume() + 2.0 * eps * area {
+    if u.volume() > a.volume() + b.volume() + Tolerance::touching(eps) * area {
         return None;
     }
     // Every face of the union lies on faces of the two: a wedge missing between them (a
@@ -978,7 +991,7 @@ fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<
         let perimeter: f64 = (0..f.points.len())
             .map(|k| f.points[k].distance(f.points[(k + 1) % f.points.len()]))
             .sum();
-        polygon_area(&f.points, f.plane.normal) - covered > 2.0 * eps * perimeter
+        polygon_area(&f.points, f.plane.normal) - covered > Tolerance::touching(eps) * perimeter
     });
     (!bare).then_some(u)
 }

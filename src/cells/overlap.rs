@@ -2,8 +2,8 @@
 //!
 //! Where two rooms' cells share space (a nested room of higher `priority`, or a Doom sector
 //! drawn over another one), a ray could pass from one into the other without crossing a face,
-//! so no portal joins them and the PVS left the pair out (Freedoom E3M3: two small sectors
-//! standing in a courtyard's air, 122 missed sightlines). The shared space is given to one
+//! so no portal joins them and the PVS left the pair out (small sectors standing in a
+//! courtyard's air missed sightlines). The shared space is given to one
 //! cell, the *winner*: the higher priority, then the smaller cell (the nested one, as the
 //! runtime's `locate` decides), then the room earlier by name. The other cell is cut into the
 //! convex pieces of itself minus the winner; their faces on the winner's planes abut it, and
@@ -65,16 +65,20 @@ fn find(tagging: &Tagging, cfg: &CellsConfig, set: &CellSet) -> Vec<Found> {
     found
 }
 
+/// Volumes within this fraction of each other are equal: a moved or turned level's copy of one
+/// cell differs from it by f64 rounding, far less, and must be ranked alike.
+const SAME_VOLUME: f64 = 1e-9;
+
 /// Whether cell `a` keeps the space it shares with cell `b`: the higher priority, then the
-/// smaller (equal within a billionth, as a moved level's volumes are), then the room earlier
-/// by name, then by number.
+/// smaller (equal within [`SAME_VOLUME`], as a moved level's volumes are), then the room
+/// earlier by name, then by number.
 fn wins(tagging: &Tagging, set: &CellSet, a: usize, b: usize) -> bool {
     let (ca, cb) = (&set.cells[a], &set.cells[b]);
     let (ra, rb) = (&tagging.rooms[ca.room], &tagging.rooms[cb.room]);
     if ra.priority != rb.priority {
         return ra.priority > rb.priority;
     }
-    if (ca.volume - cb.volume).abs() > 1e-9 * ca.volume.max(cb.volume) {
+    if (ca.volume - cb.volume).abs() > SAME_VOLUME * ca.volume.max(cb.volume) {
         return ca.volume < cb.volume;
     }
     (ra.name.as_str(), ca.room, a) < (rb.name.as_str(), cb.room, b)

@@ -10,6 +10,10 @@ use crate::geom::partition::{
 };
 use crate::geom::plane::Plane;
 
+/// An up this close to +Y is +Y but for rounding (`[0, 1, 0]` normalised), which keeps the
+/// usual plan's (x, z) exact; anything further is a turned frame.
+const ROUNDED_Y: f64 = 1e-12;
+
 /// The up direction and a ground-plane basis: plans are coordinates on (u, v).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Frame {
@@ -21,7 +25,7 @@ pub(crate) struct Frame {
 impl Frame {
     pub fn new(up: [f64; 3]) -> Frame {
         let up = DVec3::from_array(up).try_normalize().unwrap_or(DVec3::Y);
-        if (up - DVec3::Y).length() < 1e-12 {
+        if (up - DVec3::Y).length() < ROUNDED_Y {
             // Keep (x, z) exactly for the usual case.
             return Frame {
                 up,
@@ -47,7 +51,7 @@ impl Frame {
 ///
 /// Everything is done in a frame fixed to the triangles themselves, so a level that was moved,
 /// turned or scaled gets the same pieces: origin at their area centroid, first axis along
-/// their longest edge (ties within 1e-9 to the earliest, by input order, a triangle's edge
+/// their longest edge (ties within [`LENGTH_TIE`] to the earliest, by input order, a triangle's edge
 /// opposite its first corner before the other two). The union snaps to
 /// the grid of that frame, where a turned rectangle's corners are exactly cocircular again.
 /// Each polygon of the union is then written in the one of its eight symmetries (quarter turns, mirrored or not) on that
@@ -58,8 +62,8 @@ impl Frame {
 ///
 /// The grid is the plan's own (2^-20 of its extent), not the tolerance's: a grid that moved
 /// with the tolerance rounded the same plan to other integers, and a Doom sector's equal
-/// lengths, tied on one grid, were settled by rounding on another (E1M2 was cut into other
-/// pieces at half or twice the tolerance). What the tolerance decides is decided with it:
+/// lengths, tied on one grid, were settled by rounding on another (the same map was cut into
+/// other pieces at half or twice the tolerance). What the tolerance decides is decided with it:
 /// which vertices are on a straight edge, which T-junctions split an edge, which slivers and
 /// cracks are noise.
 pub(crate) fn plan_pieces(
@@ -80,7 +84,7 @@ pub(crate) fn plan_pieces(
         for (i, j) in [(1, 2), (0, 1), (2, 0)] {
             let e = t[j] - t[i];
             let len = e.length();
-            if len > 0.0 && longest.is_none_or(|(l, _)| len > l * (1.0 + 1e-9)) {
+            if len > 0.0 && longest.is_none_or(|(l, _)| len > l * (1.0 + LENGTH_TIE)) {
                 longest = Some((len, e / len));
             }
         }
@@ -107,7 +111,7 @@ pub(crate) fn plan_pieces(
     // symmetries (see `canonical_turn`); a triangle's centroid does not depend on which
     // corner a mirroring node lists first.
     let marks: Vec<DVec2> = local.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-    let local = weld(local, 0.5 * eps);
+    let local = weld(local, PLAN_NOISE * eps);
     let mut bounds = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
     for p in local.iter().flatten() {
         bounds = (bounds.0.min(*p), bounds.1.max(*p));
@@ -117,9 +121,7 @@ pub(crate) fn plan_pieces(
         return Ok(Vec::new());
     }
     let exact = ExactVertices::new(flat.iter().flatten().copied(), grid);
-    // Thinner than half the tolerance on average is noise (what the union's own grid dropped
-    // when it was the tolerance's).
-    let noise = |r: &[DVec2]| ring_mean_width(r) < 0.5 * eps;
+    let noise = |r: &[DVec2]| ring_mean_width(r) < PLAN_NOISE * eps;
     let mut pieces = Vec::new();
     for mut poly in union_triangles(&split_t_junctions(&local, eps.max(grid)), grid) {
         if noise(&poly.outer) {
@@ -129,9 +131,8 @@ pub(crate) fn plan_pieces(
         let (turn, canonical) = canonical_turn(&poly, grid, &marks);
         // The union snapped every vertex to the grid: a vertex on a straight edge can come
         // back up to half a step off it along each axis, and so can the two it is judged
-        // against (an L turned by (1.47, -0.52, -0.04) rad kept such a vertex on its long
-        // edge at exactly eps + 1e-10; an L whose frame follows a tile's diagonal kept its
-        // T-junction 1.0 steps off, tests/cells_props.rs). Within the tolerance plus two
+        // against, a step in all (turned L-shaped rooms whose vertices came back just past the
+        // tolerance, or a full step off, tests/cells_props.rs). Within the tolerance plus two
         // steps is straight.
         let straight = (eps + 2.0 * grid) / grid;
         let outer = simplify_ring(&canonical.outer, straight);
@@ -174,6 +175,15 @@ pub(crate) fn plan_pieces(
     }
     Ok(pieces)
 }
+
+/// Edge lengths within this fraction of each other are equal: the same edge of a moved or
+/// turned plan differs by f64 rounding, far less, and must be picked alike.
+const LENGTH_TIE: f64 = 1e-9;
+
+/// Plan vertices within this many tolerances of each other are one (f32 noise between the
+/// corners of neighbouring tiles, [`weld`]), and a ring thinner than this on average is noise:
+/// what the union's own grid dropped when it was the tolerance's, half a tolerance.
+const PLAN_NOISE: f64 = 0.5;
 
 /// The plan partition's grid step, relative to the plan's extent: integer coordinates up to
 /// 2^20, whose squared distances and cross products stay exact in f64.

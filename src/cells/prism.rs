@@ -128,13 +128,17 @@ fn plan_area(ts: &[[DVec2; 3]]) -> f64 {
         .sum()
 }
 
+/// The f64 rounding of a sum of triangle areas, relative to it: two areas of one region, summed
+/// from other triangles, differ by this much besides what the tolerance moves their edges.
+const AREA_ROUNDING: f64 = 1e-9;
+
 /// Whether the plan triangles `ts` fill the hull's face facing `dir`: then that face is the
 /// room's floor or ceiling whole, and the hull needs no cutting there.
 fn fills_hull_face(hull: &ConvexPolyhedron, ts: &[[DVec2; 3]], dir: DVec3, eps: f64) -> bool {
     hull.faces.iter().any(|f| {
         f.plane.normal.dot(dir) > 1.0 - 1e-9 && {
             let face = polygon_area(&f.points, f.plane.normal);
-            (plan_area(ts) - face).abs() <= 1e-9 * face + eps * face.sqrt()
+            (plan_area(ts) - face).abs() <= AREA_ROUNDING * face + eps * face.sqrt()
         }
     })
 }
@@ -148,7 +152,8 @@ fn ceiling_covers_floor(
     eps: f64,
 ) -> bool {
     let floor_area = plan_area(plan);
-    let slack = eps * plan.iter().map(|t| t[0].distance(t[1])).sum::<f64>() + 1e-9 * floor_area;
+    let slack =
+        eps * plan.iter().map(|t| t[0].distance(t[1])).sum::<f64>() + AREA_ROUNDING * floor_area;
     let inside = |q: DVec2| {
         pieces.iter().any(|piece| {
             piece.iter().enumerate().all(|(i, a)| {

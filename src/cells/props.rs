@@ -28,6 +28,7 @@ use glam::DVec3;
 use super::solids::Solid;
 use crate::geom::grid::BoxGrid;
 use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::geom::tolerance::Tolerance;
 use crate::scene::NodeId;
 
 /// Where one node's blocks touch another's: the direction from the first towards the second.
@@ -55,7 +56,7 @@ impl Contacts {
         let grid = BoxGrid::new(solids.iter().map(|s| s.bounds).collect());
         let mut by_node: BTreeMap<NodeId, Vec<Contact>> = BTreeMap::new();
         let mut touching = BTreeSet::new();
-        for (i, j) in grid.pairs(2.0 * eps) {
+        for (i, j) in grid.pairs(Tolerance::touching(eps)) {
             let (a, b) = (&solids[i], &solids[j]);
             if a.node == b.node {
                 continue;

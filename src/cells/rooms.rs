@@ -208,7 +208,7 @@ impl RoomBuilder<'_> {
                 Ok(h) => {
                     if let Some(bad) = tris
                         .iter()
-                        .position(|t| !on_hull_boundary(&h, t, eps * 10.0))
+                        .position(|t| !on_hull_boundary(&h, t, BOUND_SLACK * eps))
                     {
                         let c = (tris[bad][0] + tris[bad][1] + tris[bad][2]) / 3.0 + origin;
                         diags.push(
@@ -480,12 +480,26 @@ fn walls_of_no_height(tris: &[[DVec3; 3]], eps: f64) -> bool {
         .any(|(e, (count, len))| *count == 1 && *len > eps && flat.contains(e))
 }
 
+/// How far, in tolerances, a bound mesh's triangle may lie off its hull's face and still be on
+/// it: the hull's planes are fitted through points each good to the tolerance, so a large face
+/// tilts by a few tolerances across its width, and a bound off by that much is convex as drawn.
+const BOUND_SLACK: f64 = 10.0;
+
 /// Whether a triangle lies on one face of the hull.
 fn on_hull_boundary(h: &ConvexPolyhedron, t: &[DVec3; 3], eps: f64) -> bool {
     h.faces
         .iter()
         .any(|f| t.iter().all(|p| f.plane.distance(*p).abs() <= eps))
 }
+
+/// A mesh within this fraction of the level's diagonal of a side of the box around the rest
+/// of its room touches that side: a wall modelled a hair short of the floor still stands on it,
+/// whatever the level's unit.
+const PROP_TOUCH: f64 = 1e-4;
+
+/// The least diagonal [`PROP_TOUCH`] is a fraction of (a millimetre in metres), so a level of
+/// no size still has a touching distance.
+const LEAST_EXTENT: f64 = 1e-3;
 
 /// Room meshes that touch fewer than two sides of the box around the rest of the room: a
 /// crate on the floor touches one, a lamp none, a wall at least two.
@@ -512,7 +526,7 @@ pub(super) fn detect_props(
             b
         })
         .collect();
-    let touch = 1e-4 * extent.max(1e-3);
+    let touch = PROP_TOUCH * extent.max(LEAST_EXTENT);
     // The union of every box but one, from the unions before and after it (linear, not all
     // pairs: a brush map's one room has thousands of nodes).
     let mut after = vec![Aabb::EMPTY; boxes.len() + 1];

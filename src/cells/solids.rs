@@ -20,6 +20,7 @@ use crate::geom::aabb::Aabb;
 use crate::geom::hull::hull;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::geom::tolerance::Tolerance;
 use crate::scene::NodeId;
 
 /// One closed, outward-facing part of a node's mesh.
@@ -218,7 +219,8 @@ pub(crate) fn on_hull_faces(s: &Solid, hull: &ConvexPolyhedron, eps: f64) -> usi
         .iter()
         .filter(|f| {
             s.tris.iter().any(|t| {
-                t.iter().all(|p| f.plane.distance(*p).abs() <= 2.0 * eps)
+                t.iter()
+                    .all(|p| f.plane.distance(*p).abs() <= Tolerance::touching(eps))
                     && (t[1] - t[0]).cross(t[2] - t[0]).dot(f.plane.normal) > 0.0
             })
         })
