@@ -186,7 +186,9 @@ impl<'a> Air<'a> {
                         world
                             .faces
                             .iter()
-                            .any(|w| w.plane.same_as(&f.plane, Tolerance::touching(eps), 1e-6))
+                            .any(|w| {
+                                Tolerance::coplanar(&w.plane, &f.plane, Tolerance::touching(eps))
+                            })
                             .then(|| covered_by(world_surfaces, &f.points, f.plane.normal, eps))
                     })
                     .collect()
@@ -501,7 +503,7 @@ fn join_fragments(
                     d: n.dot(poly[0]),
                 };
                 match planes.iter_mut().find(|(q, _)| {
-                    q.normal.dot(pl.normal).abs() > 1.0 - 1e-6
+                    Tolerance::aligned(q.normal, pl.normal)
                         && poly
                             .iter()
                             .all(|p| q.distance(*p).abs() <= Tolerance::touching(eps))
@@ -561,7 +563,7 @@ fn deeper_than(region: &ConvexPolyhedron, poly: &[DVec3], into: DVec3, depth: f6
         let exit = region
             .faces
             .iter()
-            .filter(|f| f.plane.normal.dot(into) > 1e-9)
+            .filter(|f| f.plane.normal.dot(into) > 0.0 && !Tolerance::square(f.plane.normal, into))
             .map(|f| -f.plane.distance(v) / f.plane.normal.dot(into))
             .fold(f64::INFINITY, f64::min);
         exit > depth
@@ -600,7 +602,7 @@ fn covered_by(surfaces: &[Frag], poly: &[DVec3], normal: DVec3, eps: f64) -> f64
     surfaces
         .iter()
         .filter(|f| {
-            f.air.dot(normal).abs() > 1.0 - 1e-6
+            Tolerance::aligned(f.air, normal)
                 && f.pts
                     .iter()
                     .all(|p| (*p - o).dot(normal).abs() <= Tolerance::touching(eps))
@@ -625,7 +627,7 @@ pub(super) fn shared_faces<'a>(
 ) -> impl Iterator<Item = (Vec<DVec3>, DVec3)> + 'a {
     a.faces.iter().flat_map(move |f| {
         b.faces.iter().filter_map(move |g| {
-            let facing = f.plane.normal.dot(g.plane.normal) < -0.999_999
+            let facing = Tolerance::parallel(f.plane.normal, -g.plane.normal)
                 && (f.plane.d + g.plane.d).abs() <= Tolerance::touching(eps);
             let common = facing.then(|| overlap(&f.points, &g.points, g.plane.normal))?;
             (common.len() >= 3).then_some((common, f.plane.normal))
@@ -679,7 +681,7 @@ pub(super) fn touching(
                 let Some(tn) = tn.try_normalize() else {
                     continue;
                 };
-                if tn.dot(f.plane.normal) > -1.0 + 1e-6
+                if !Tolerance::parallel(tn, -f.plane.normal)
                     || t.iter()
                         .any(|p| f.plane.distance(*p).abs() > Tolerance::touching(eps))
                 {

@@ -481,10 +481,10 @@ impl<'a> CutWorld<'a> {
     /// Whether a convex region has a face on the world's boundary (it touches the void).
     fn on_world(&self, p: &ConvexPolyhedron) -> bool {
         p.faces.iter().any(|f| {
-            self.world.faces.iter().any(|w| {
-                w.plane
-                    .same_as(&f.plane, Tolerance::touching(self.eps), 1e-6)
-            })
+            self.world
+                .faces
+                .iter()
+                .any(|w| Tolerance::coplanar(&w.plane, &f.plane, Tolerance::touching(self.eps)))
         })
     }
 

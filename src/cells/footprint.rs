@@ -19,6 +19,7 @@ use crate::geom::hull::{hull, HullError};
 use crate::geom::partition::PartitionError;
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::ConvexPolyhedron;
+use crate::geom::tolerance::Tolerance;
 use crate::scene::{NodeId, Scene};
 
 /// Why a footprint node gives no cells; the text follows the node's and room's names.
@@ -197,7 +198,7 @@ impl<'a> Context<'a> {
             let flat = t.map(|p| self.frame.plan(p));
             match groups
                 .iter_mut()
-                .find(|(g, _)| g.same_as(&pl, PLANE_SLACK * self.eps, 1e-6))
+                .find(|(g, _)| Tolerance::coplanar(g, &pl, PLANE_SLACK * self.eps))
             {
                 Some((_, v)) => v.push(flat),
                 None => groups.push((pl, vec![flat])),

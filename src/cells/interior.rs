@@ -177,7 +177,7 @@ fn enclosed(leaf: &ConvexPolyhedron, boundary: &[Frag], hull: &ConvexPolyhedron,
         .filter(|(face, _)| {
             hull.faces
                 .iter()
-                .any(|h| face.plane.same_as(&h.plane, Tolerance::touching(eps), 1e-6))
+                .any(|h| Tolerance::coplanar(&face.plane, &h.plane, Tolerance::touching(eps)))
         })
         .map(|(face, c)| (polygon_area(&face.points, face.plane.normal) - c).max(0.0))
         .sum();
@@ -955,7 +955,7 @@ fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<
     let mut planes: Vec<Plane> = Vec::new();
     for f in a.faces.iter().chain(b.faces.iter()) {
         if verts.iter().all(|v| f.plane.distance(*v) <= eps)
-            && !planes.iter().any(|p| p.same_as(&f.plane, eps, 1e-9))
+            && !planes.iter().any(|p| Tolerance::coplanar(p, &f.plane, eps))
         {
             planes.push(f.plane);
         }
@@ -978,7 +978,7 @@ fn convex_union(a: &ConvexPolyhedron, b: &ConvexPolyhedron, eps: f64) -> Option<
             .faces
             .iter()
             .chain(b.faces.iter())
-            .filter(|g| g.plane.same_as(&f.plane, eps, 1e-9))
+            .filter(|g| Tolerance::coplanar(&g.plane, &f.plane, eps))
             .map(|g| {
                 let part = overlap(&g.points, &f.points, f.plane.normal);
                 if part.len() >= 3 {

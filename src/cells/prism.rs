@@ -18,6 +18,7 @@ use glam::{DVec2, DVec3};
 use super::plan::{plan_pieces, Frame};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{polygon_area, ConvexPolyhedron};
+use crate::geom::tolerance::Tolerance;
 
 /// The cells of a room that is a prism along `frame.up`, or `None` when it is not one (or its
 /// plan cannot be partitioned): then the 3D decomposition decides.
@@ -136,7 +137,7 @@ const AREA_ROUNDING: f64 = 1e-9;
 /// room's floor or ceiling whole, and the hull needs no cutting there.
 fn fills_hull_face(hull: &ConvexPolyhedron, ts: &[[DVec2; 3]], dir: DVec3, eps: f64) -> bool {
     hull.faces.iter().any(|f| {
-        f.plane.normal.dot(dir) > 1.0 - 1e-9 && {
+        Tolerance::parallel(f.plane.normal, dir) && {
             let face = polygon_area(&f.points, f.plane.normal);
             (plan_area(ts) - face).abs() <= AREA_ROUNDING * face + eps * face.sqrt()
         }
