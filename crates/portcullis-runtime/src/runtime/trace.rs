@@ -216,6 +216,11 @@ pub struct Visible {
 
 const NONE: u32 = u32::MAX;
 
+/// Two draw transforms are one when every entry agrees within this share of their size (one
+/// plus the largest translation): the same path of portals composed in another order differs
+/// by a few ulps, about 1e-16 of it, and two different placements by far more.
+const SAME_TRANSFORM: f64 = 1e-9;
+
 /// The view of one path into a visible cell (its screen polygon and 3D clip planes),
 /// chained per cell.
 #[derive(Debug, Clone)]
@@ -361,7 +366,7 @@ impl Trace {
             Some((d, _)) => self.visible.iter().position(|v| {
                 v.cell == f.cell
                     && v.transform.is_some_and(|t| {
-                        t.abs_diff_eq(*d, 1e-9 * (1.0 + d.w_axis.abs().max_element()))
+                        t.abs_diff_eq(*d, SAME_TRANSFORM * (1.0 + d.w_axis.abs().max_element()))
                     })
             }),
         };
@@ -879,6 +884,8 @@ impl Level {
         g: &'s mut Vec<[f64; 2]>,
         out: &Trace,
     ) -> Option<(&'s [[f64; 2]], [f64; 4])> {
+        /// The slack (NDC units) of the rectangle tests and clips: a hair, for the rounding of
+        /// a projection, a millionth of a pixel on any screen.
         const EPS: f64 = 1e-9;
         let p = frame.rect;
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -906,11 +913,11 @@ impl Level {
         }
         // A view pinched to a line or a point sees nothing. Each clip keeps a hair (EPS) of
         // slack, so a pinched view is a sliver some hairs wide, not an empty one: an eye on
-        // the plane through aligned portal edges saw through a chain of 11 portals along it
-        // (Freedoom E1M2, cells the stored PVS rightly leaves out). The threshold sits far
-        // above what the slack can add up to (a hair per clip) and far below a pixel (10^6
-        // hairs), so rounding never decides it: at four hairs, turning the level and the
-        // camera together by 30 degrees showed or hid such slivers (Freedoom MAP01).
+        // the plane through aligned portal edges saw through a chain of portals along it
+        // (into cells the stored PVS rightly leaves out). The threshold sits far above what
+        // the slack can add up to (a hair per clip) and far below a pixel (10^6 hairs), so
+        // rounding never decides it: at four hairs, turning the level and the camera together
+        // showed or hid such slivers.
         const PINCH: f64 = 1e-6;
         if clip::area2(f) <= PINCH * clip::perimeter2(f) {
             return None;
