@@ -31,13 +31,34 @@ pub struct View {
     near: f64,
 }
 
-/// Why a camera cannot be used.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ViewError(pub String);
+/// Why a camera cannot be used: which of [`View::new`]'s arguments is unusable. The messages
+/// are the JavaScript port's (`ViewError` in js/portcullis-three/runtime.js), word for word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewError {
+    /// The eye has a coordinate that is infinite or not a number.
+    EyeNotFinite,
+    /// The look direction is zero (or not finite).
+    NoLook,
+    /// The up direction is zero, along the look direction, or not finite.
+    UpAlongLook,
+    /// The vertical field of view is not strictly between 0 and 180 degrees.
+    FovOutOfRange,
+    /// The aspect ratio is not a positive finite width / height.
+    AspectNotPositive,
+    /// The near plane's distance is not a positive finite distance.
+    NearNotPositive,
+}
 
 impl std::fmt::Display for ViewError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+        f.write_str(match self {
+            ViewError::EyeNotFinite => "eye is not a finite point",
+            ViewError::NoLook => "look has no direction",
+            ViewError::UpAlongLook => "up has no direction across look (parallel or zero)",
+            ViewError::FovOutOfRange => "fov_y must lie strictly between 0 and 180 degrees",
+            ViewError::AspectNotPositive => "aspect must be a positive width / height",
+            ViewError::NearNotPositive => "near must be a positive distance",
+        })
     }
 }
 
@@ -54,25 +75,24 @@ impl View {
         aspect: f64,
         near: f64,
     ) -> Result<View, ViewError> {
-        let err = |m: &str| Err(ViewError(m.to_string()));
         let eye = DVec3::from(eye);
         if !eye.is_finite() {
-            return err("eye is not a finite point");
+            return Err(ViewError::EyeNotFinite);
         }
         let Some(forward) = DVec3::from(look).try_normalize() else {
-            return err("look has no direction");
+            return Err(ViewError::NoLook);
         };
         let Some(right) = forward.cross(DVec3::from(up)).try_normalize() else {
-            return err("up has no direction across look (parallel or zero)");
+            return Err(ViewError::UpAlongLook);
         };
         if !(fov_y_degrees > 0.0 && fov_y_degrees < 180.0) {
-            return err("fov_y must lie strictly between 0 and 180 degrees");
+            return Err(ViewError::FovOutOfRange);
         }
         if !(aspect.is_finite() && aspect > 0.0) {
-            return err("aspect must be a positive width / height");
+            return Err(ViewError::AspectNotPositive);
         }
         if !(near.is_finite() && near > 0.0) {
-            return err("near must be a positive distance");
+            return Err(ViewError::NearNotPositive);
         }
         let tan_y = (fov_y_degrees.to_radians() / 2.0).tan();
         Ok(View {
