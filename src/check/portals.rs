@@ -14,6 +14,19 @@ use crate::geom::polyhedron::{usable_polygon, ConvexPolyhedron};
 use crate::portals::Portal;
 use crate::tags::rules::PortalKind;
 
+/// The cosine (of 2.6 degrees) above which a face of a portal's cell is parallel enough to
+/// the portal for it to lie on that face ([`on_face`], [`nearest_face`]). Not the angle
+/// tolerance: the portals checked are read from a file or drawn by hand (a mirror's quad is a
+/// few degrees off its wall and still on it), and their planes are measured from their stored
+/// points; which face a portal lies on is settled by the distance, within the wall's reach.
+const ON_FACE_COS: f64 = 0.999;
+
+/// Two portals between the same cells are compared for overlap when their planes are within
+/// this (radians) and ten tolerances of each other. Not the angle tolerance: each plane is
+/// measured from a portal's stored points, each within the distance tolerance (up to a
+/// millimetre), so across a portal a metre or two wide it is only good to about this.
+const DUPLICATE_ANGLE: f64 = 1e-3;
+
 /// Distinct points of a polygon, within `eps`.
 fn distinct(poly: &[DVec3], eps: f64) -> Vec<DVec3> {
     let mut out: Vec<DVec3> = Vec::new();
@@ -60,7 +73,7 @@ fn outside(poly: &ConvexPolyhedron, p: DVec3) -> f64 {
 /// Whether `plane` lies on a face of `poly`, within `reach` across it.
 fn on_face(poly: &ConvexPolyhedron, plane: &Plane, c: DVec3, reach: f64) -> bool {
     poly.planes()
-        .any(|f| f.normal.dot(plane.normal).abs() > 0.999 && f.distance(c).abs() <= reach)
+        .any(|f| f.normal.dot(plane.normal).abs() > ON_FACE_COS && f.distance(c).abs() <= reach)
 }
 
 pub(super) fn check(s: &Subject, out: &mut Diagnostics) {
@@ -200,7 +213,7 @@ fn boundary(s: &Subject, i: usize, p: &Portal, plane: &Plane, c: DVec3, out: &mu
 /// Distance from `c` to the nearest face of `poly` parallel to `plane` (infinite if none).
 fn nearest_face(poly: &ConvexPolyhedron, plane: &Plane, c: DVec3) -> f64 {
     poly.planes()
-        .filter(|f| f.normal.dot(plane.normal).abs() > 0.999)
+        .filter(|f| f.normal.dot(plane.normal).abs() > ON_FACE_COS)
         .map(|f| f.distance(c).abs())
         .fold(f64::INFINITY, f64::min)
 }
@@ -296,7 +309,7 @@ fn duplicates(s: &Subject, shapes: &[Option<Plane>], out: &mut Diagnostics) {
             let (Some(a), Some(b)) = (&shapes[i], &shapes[j]) else {
                 continue;
             };
-            if !a.same_as(b, 10.0 * s.eps, 1e-3) {
+            if !a.same_as(b, 10.0 * s.eps, DUPLICATE_ANGLE) {
                 continue;
             }
             let shared: f64 =

@@ -103,11 +103,14 @@ pub(crate) fn write_to_with<'s>(
 ) -> Result<(), Diagnostic> {
     let out_dir = out_dir(out);
     let failed = |e: std::io::Error| super::atomic::failed(out, e);
-    match super::rewrite::write(src, members, &mut ann, format, out_dir, sink) {
+    let streamed = match super::rewrite::write(src, members, &mut ann, format, out_dir, sink) {
         Ok(()) => return Ok(()),
         Err(Failed::Io(e)) => return Err(failed(e)),
-        Err(Failed::Declined) => sink.reset().map_err(failed)?,
-    }
+        Err(Failed::Declined(why)) => {
+            sink.reset().map_err(failed)?;
+            why
+        }
+    };
     let text =
         serde_json::to_string(&src.document().map_err(failed)?).map_err(|e| failed(e.into()))?;
     let buffers = src.buffer_data().map_err(failed)?.into_owned();
@@ -115,9 +118,11 @@ pub(crate) fn write_to_with<'s>(
     match super::rewrite::write(&parsed, None, &mut ann, format, out_dir, sink) {
         Ok(()) => Ok(()),
         Err(Failed::Io(e)) => Err(failed(e)),
-        Err(Failed::Declined) => Err(Diagnostic::new(
+        Err(Failed::Declined(why)) => Err(Diagnostic::new(
             Code::OUTPUT_FAILED,
-            "cannot write the glTF: its JSON could not be rewritten",
+            format!(
+                "cannot write the glTF: its JSON could not be rewritten ({why}; streamed, it was declined: {streamed})"
+            ),
             Location::file(out),
         )
         .hint("re-export the level from its tool, so its JSON has no repeated keys")),

@@ -35,23 +35,34 @@ pub(crate) type Members<'s> = Vec<(String, &'s str)>;
 
 /// Why the streamed rewrite did not write a document: it declines it (a key repeated where it
 /// must read the member; `gltf_out` then rewrites the parsed document), or the output failed.
+#[derive(Debug)]
 pub(crate) enum Failed {
-    Declined,
+    /// The document cannot be streamed; why, in words (the parser's or serializer's message,
+    /// or what was not as the rewrite needs it), for the report that the parsed document
+    /// could not be written either.
+    Declined(String),
     Io(std::io::Error),
 }
 
-impl<E: std::error::Error> From<E> for Failed {
-    fn from(_: E) -> Self {
-        Failed::Declined
+impl From<serde_json::Error> for Failed {
+    /// A parser's or serializer's error: the output's (an I/O error), or a document it
+    /// cannot stream, with the parser's message.
+    fn from(e: serde_json::Error) -> Self {
+        match e.io_error_kind() {
+            Some(kind) => Failed::Io(std::io::Error::new(kind, e)),
+            None => Failed::Declined(e.to_string()),
+        }
     }
+}
+
+/// A declined document, for `what` the rewrite found not as it needs it.
+fn declined(what: impl Into<String>) -> Failed {
+    Failed::Declined(what.into())
 }
 
 /// A serializer's error: the output's, or a document it cannot stream.
 fn written(r: serde_json::Result<()>) -> Result<(), Failed> {
-    r.map_err(|e| match e.io_error_kind() {
-        Some(kind) => Failed::Io(std::io::Error::new(kind, e)),
-        None => Failed::Declined,
-    })
+    r.map_err(Failed::from)
 }
 
 /// Writes the output file into `sink` (from where it stands), or says why it did not; on
@@ -74,7 +85,8 @@ pub(crate) fn write<'s>(
     } = ann;
     let members = match members {
         Some(m) => m,
-        None => src.members().map_err(Failed::Io)?.ok_or(Failed::Declined)?,
+        None => (src.members().map_err(Failed::Io)?)
+            .ok_or_else(|| declined("the document's root is not a JSON object"))?,
     };
     let lens = src.buffer_lens();
     let mut root = Root(
@@ -458,7 +470,10 @@ impl<'a> Root<'a> {
     /// How many elements the array `key` has (0 if absent or not an array: a push makes it
     /// hold only what is pushed).
     fn len(&self, key: &str) -> Result<usize, Failed> {
-        let count = |t: &str| json_text::array_len(t).ok_or(Failed::Declined);
+        let count = |t: &str| {
+            json_text::array_len(t)
+                .ok_or_else(|| declined(format!("`{key}` is no array it can count")))
+        };
         match self.find(key).map(|i| &self.0[i].1) {
             Some(Slot::Text(t)) if json_text::is_array(t) => count(t),
             Some(Slot::Parsed(Value::Array(a))) => Ok(a.len()),
@@ -520,7 +535,8 @@ impl<'a> Root<'a> {
         if self.find(key).is_none() {
             self.0.push((key.to_string(), Slot::Parsed(default)));
         }
-        self.parsed(key)?.ok_or(Failed::Declined)
+        self.parsed(key)?
+            .ok_or_else(|| declined(format!("`{key}` is streamed, where it must be read")))
     }
 
     /// Streams the member through `edit` if it is an array still in text.
@@ -548,7 +564,8 @@ impl<'a> Root<'a> {
         };
         match &mut self.0[i].1 {
             Slot::Stream { text, extra, .. } => {
-                let n = json_text::array_len(text).ok_or(Failed::Declined)?;
+                let n = json_text::array_len(text)
+                    .ok_or_else(|| declined(format!("`{key}` is no array it can count")))?;
                 extra.push(value);
                 Ok(n + extra.len() - 1)
             }

@@ -19,6 +19,10 @@ use glam::DVec2;
 /// More pieces than this and the caller falls back to the boolean.
 const MAX_PIECES: usize = 256;
 
+/// A cover grown by `grow` reaches at most `grow`·√2 past its bounds (at a corner); pieces
+/// further than this many `grow`s from them are not looked at.
+const GROWN_REACH: f64 = 2.0;
+
 /// One convex piece: its points in the shared buffer, with its bounds and area kept.
 #[derive(Clone, Copy)]
 struct Piece {
@@ -123,8 +127,8 @@ impl Remainder {
         }
         let (lo, hi) = bounds(c);
         let (lo, hi) = (
-            lo - DVec2::splat(2.0 * self.grow),
-            hi + DVec2::splat(2.0 * self.grow),
+            lo - DVec2::splat(GROWN_REACH * self.grow),
+            hi + DVec2::splat(GROWN_REACH * self.grow),
         );
         let apart = |p: &Piece| p.hi.x < lo.x || p.hi.y < lo.y || p.lo.x > hi.x || p.lo.y > hi.y;
         if self.pieces.list.iter().all(apart) {

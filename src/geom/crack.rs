@@ -1,7 +1,7 @@
 //! Cracks: the parts of an opening narrower than the crack width (`[cells] crack_width`).
 //!
-//! Modelling leaves hairline gaps where pieces should meet (a stair's side 1.4e-5 m short of a
-//! window's jamb, running 1.5 m down from its sill, on panda3d). Such a gap is a crack whether
+//! Modelling leaves hairline gaps where pieces should meet (a stair's side a hair short of a
+//! window's jamb, running down from its sill). Such a gap is a crack whether
 //! it stands alone or joins a real opening, and whether a tolerance-sized rule keeps it
 //! depends on the tolerance. Here a ring loses each corner whose triangle with its two
 //! neighbours is thinner than the crack width (its inscribed circle narrower) and whose angle
@@ -17,6 +17,7 @@ use glam::DVec2;
 use robust::{orient2d, Coord};
 
 use super::partition::{ring_mean_width, Polygon2};
+use super::tolerance::Tolerance;
 
 /// The gaps narrower than the crack width that a stage closed: how many, and the widest with
 /// where it is, so that a level at the wrong scale (or a crack width set too wide) shows in
@@ -37,7 +38,7 @@ const GAP_FLOOR: f64 = 0.1;
 /// Whether a gap `width` wide that a crack width of `crack` closed is counted (see
 /// [`GAP_FLOOR`]); never one within two tolerances.
 pub(crate) fn counts_as_gap(width: f64, crack: f64, eps: f64) -> bool {
-    width > (GAP_FLOOR * crack).max(2.0 * eps)
+    width > (GAP_FLOOR * crack).max(Tolerance::touching(eps))
 }
 
 impl ClosedGaps {
@@ -180,9 +181,9 @@ mod tests {
         }
     }
 
-    /// A disc fits where the shape is wide enough somewhere, however thin on average: the
-    /// wedge beside gi_zdm2's pipe flange (10 cm by 12.5 mm, 11.7 mm across inside) holds an
-    /// 8 mm disc, a wedge half as tall does not; a 1 cm square does, a 5 mm strip never; a
+    /// A disc fits where the shape is wide enough somewhere, however thin on average: a
+    /// wedge 10 cm by 12.5 mm (11.7 mm across inside) holds an 8 mm disc, a wedge half as
+    /// tall does not; a 1 cm square does, a 5 mm strip never; a
     /// ring 6 mm wide round a hole does not, though its outline alone would.
     #[test]
     fn a_disc_fits_where_the_shape_is_wide_enough_somewhere() {

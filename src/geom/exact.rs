@@ -10,6 +10,8 @@ use std::collections::HashMap;
 
 use glam::DVec2;
 
+use super::tolerance::Tolerance;
+
 /// The input vertices (and, if given, edges) the pieces of a boolean are made of.
 pub(crate) struct ExactVertices {
     grid: f64,
@@ -96,11 +98,11 @@ impl ExactVertices {
         for (i, &&(a, b)) in near.iter().enumerate() {
             for &&(c, d) in &near[i + 1..] {
                 let (u, v) = (b - a, d - c);
-                let den = u.perp_dot(v);
-                // Parallel (or nearly): the same wall twice, no corner.
-                if den.abs() <= 1e-12 * u.length() * v.length() {
+                // Parallel within the angle tolerance: the same wall twice, no corner.
+                if Tolerance::along(u, v) {
                     continue;
                 }
+                let den = u.perp_dot(v);
                 let x = a + u * ((c - a).perp_dot(v) / den);
                 let dist = x.distance(p);
                 if dist <= reach && best.is_none_or(|(bd, _)| dist < bd) {

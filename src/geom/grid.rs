@@ -7,6 +7,13 @@ use glam::DVec3;
 
 use super::aabb::Aabb;
 
+/// The smallest side (m) the grid gives the boxes' bounds, so a flat or empty extent still
+/// divides into buckets: a grid size, not a tolerance.
+const SMALLEST_EXTENT: f64 = 1e-9;
+/// The finest bucket as a share of the extent: a million a side at most, so a level of many
+/// tiny boxes and one far away does not ask for more buckets than memory holds.
+const FINEST_CELL: f64 = 1e-6;
+
 pub(crate) struct BoxGrid {
     boxes: Vec<Aabb>,
     origin: DVec3,
@@ -52,7 +59,7 @@ impl BoxGrid {
                 buckets: vec![Vec::new()],
             };
         }
-        let extent = all.size().max(DVec3::splat(1e-9));
+        let extent = all.size().max(DVec3::splat(SMALLEST_EXTENT));
         // About two buckets per box, but no smaller than a typical box, so most boxes sit in
         // a handful of buckets.
         let n = sizes.len().max(1) as f64;
@@ -63,7 +70,7 @@ impl BoxGrid {
         } else {
             *sizes.select_nth_unstable_by(mid, f64::total_cmp).1
         };
-        let mut cell = by_count.max(median).max(extent.max_element() * 1e-6);
+        let mut cell = by_count.max(median).max(extent.max_element() * FINEST_CELL);
         let dims_for = |cell: f64| {
             [0, 1, 2].map(|k| ((extent[k] / cell).floor() as usize + 1).clamp(1, 1 << 20))
         };

@@ -13,6 +13,7 @@ use glam::DVec3;
 use super::aabb::Aabb;
 use super::plane::Plane;
 use super::polyhedron::ConvexPolyhedron;
+use super::tolerance::Tolerance;
 
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum HullError {
@@ -123,7 +124,7 @@ pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
             normal: n,
             d: n.dot(a),
         };
-        if planes.iter().any(|q| q.same_as(&guess, eps, 1e-9)) {
+        if planes.iter().any(|q| Tolerance::recomputed(q, &guess, eps)) {
             continue;
         }
         let d = points
@@ -131,7 +132,7 @@ pub fn hull(points: &[DVec3], eps: f64) -> Result<ConvexPolyhedron, HullError> {
             .map(|p| n.dot(*p))
             .fold(f64::NEG_INFINITY, f64::max);
         let pl = Plane { normal: n, d };
-        if !planes.iter().any(|q| q.same_as(&pl, eps, 1e-9)) {
+        if !planes.iter().any(|q| Tolerance::recomputed(q, &pl, eps)) {
             planes.push(pl);
         }
     }

@@ -61,10 +61,10 @@ impl Plane {
 
     /// Same plane and orientation: normals within `angle` radians, offsets within `dist`.
     /// (The chord between unit normals is compared, not the dot product, whose rounding near
-    /// 1 would make tiny angles meaningless.)
+    /// 1 would make tiny angles meaningless.) The geometry reaches it through the tolerance's
+    /// rules, [`crate::geom::tolerance::Tolerance::coplanar`] and its kin.
     pub(crate) fn same_as(&self, o: &Plane, dist: f64, angle: f64) -> bool {
-        let chord = angle.max(1e-12);
-        (self.normal - o.normal).length_squared() <= chord * chord && (self.d - o.d).abs() <= dist
+        (self.normal - o.normal).length_squared() <= angle * angle && (self.d - o.d).abs() <= dist
     }
 
     /// The reflection in this plane, as an affine transform (mirrors).

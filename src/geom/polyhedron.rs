@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use super::aabb::Aabb;
 use super::plane::Plane;
+use super::tolerance::Tolerance;
 
 /// One face of a convex polyhedron.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -27,6 +28,12 @@ pub struct ConvexPolyhedron {
     /// The boundary: the solid is the points behind every face's plane.
     pub faces: Vec<Face>,
 }
+
+/// On a cell of many faces, [`ConvexPolyhedron::simplified`] tries only the faces whose area
+/// is under this many tolerances times their perimeter (a strip about two hundred tolerances
+/// wide at most): only so thin a face can go (dropping its plane must move no vertex more than
+/// a tolerance), and trying each of a big cell's faces costs a rebuild each.
+const SLIVER: f64 = 100.0;
 
 impl ConvexPolyhedron {
     /// The box as a polyhedron (six faces).
@@ -116,10 +123,11 @@ impl ConvexPolyhedron {
             p = p.clip(pl, eps)?;
         }
         // Faces of the padding box that survived mean the planes did not close the volume.
-        let bounded = p
-            .faces
-            .iter()
-            .all(|f| planes.iter().any(|q| q.same_as(&f.plane, eps, 1e-9)));
+        let bounded = p.faces.iter().all(|f| {
+            planes
+                .iter()
+                .any(|q| Tolerance::recomputed(q, &f.plane, eps))
+        });
         bounded.then_some(p)
     }
 
@@ -240,7 +248,11 @@ impl ConvexPolyhedron {
             }
         }
         let ring = convex_ring_on_plane(&cap, plane, eps);
-        if ring.len() >= 3 && !faces.iter().any(|f| f.plane.same_as(plane, eps, 1e-9)) {
+        if ring.len() >= 3
+            && !faces
+                .iter()
+                .any(|f| Tolerance::recomputed(&f.plane, plane, eps))
+        {
             faces.push(Face {
                 plane: *plane,
                 points: ring,
@@ -267,7 +279,7 @@ impl ConvexPolyhedron {
                         .map(|k| f.points[k].distance(f.points[(k + 1) % f.points.len()]))
                         .sum();
                     // Every face is tried on small cells; big ones only try slivers.
-                    (current.faces.len() <= 64 || area <= 100.0 * eps * perimeter)
+                    (current.faces.len() <= 64 || area <= SLIVER * eps * perimeter)
                         .then_some((area, i))
                 })
                 .collect();

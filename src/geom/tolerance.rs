@@ -9,18 +9,58 @@
 //! with a safety factor, and a floor of 1e-9 of the level's extent so f64 arithmetic noise of
 //! the geometry itself is always absorbed. Angles are judged separately (normals within
 //! `angle` radians are parallel) because a distance test alone over-trusts huge faces.
+//!
+//! The rules, each a function here so no module spells a threshold of its own:
+//! - two features each within the tolerance of one place [touch](Tolerance::touching) within
+//!   twice it ([`TOUCH`]);
+//! - unit normals within [`ANGLE`] (1e-5 rad, compared as the chord between them) are
+//!   [parallel](Tolerance::parallel), [aligned](Tolerance::aligned) either way, or
+//!   [facing](Tolerance::facing) each other; a face's direction is [square](Tolerance::square)
+//!   to another's within it; two edges in a plane lie [along](Tolerance::along) one line when
+//!   their sine is under it; two planes are [coplanar](Tolerance::coplanar) when their normals
+//!   are parallel and their offsets within a distance. The angle does not scale with the
+//!   level: two walls that meet at a door and differ by half of it face each other and the door
+//!   is found; by twice it they do not, and it is not, even where every point of one is within
+//!   the distance tolerance of the other (tests/angle_tolerance.rs).
+//! - one exception, [`RECOMPUTED`] (1e-9 rad, [`Tolerance::recomputed`]): where one of two
+//!   planes is dropped for the other across a whole cell, only rounding may part them.
+//! - any other small number in the geometry is a named constant saying why it is not a
+//!   tolerance (a grid size, a budget, a margin over f64 rounding).
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use serde::Serialize;
 
 use crate::geom::plane::Plane;
 
 /// Default cap on the distance tolerance, metres.
 pub(crate) const DEFAULT_MAX_DISTANCE: f64 = 1e-3;
+/// The floor of the distance tolerance as a share of the level's extent: f64 arithmetic on
+/// the geometry itself (a plane through three points, a point turned by the world matrix)
+/// loses a few ulps of the coordinates, about 1e-15 of them, and a factor of a million over
+/// that is still far under any precision a file stores.
+const NOISE_FLOOR: f64 = 1e-9;
+/// How many epsilons of the largest world coordinate its f64 rounding may move a point (see
+/// [`Tolerance::derive`]).
+const WORLD_ULPS: f64 = 64.0;
+/// The smallest distance tolerance, metres, for a level of no extent (one point): a zero
+/// tolerance would make every comparison exact, and no two computations of one point agree
+/// to the bit.
+const SMALLEST_DISTANCE: f64 = 1e-12;
+/// The extent (m) [`Tolerance::volume`] measures a level of no extent by, so its threshold
+/// is never zero.
+const SMALLEST_EXTENT: f64 = 1e-9;
 /// Normals closer than this (radians) are parallel. The one angle every angle test reads,
 /// through [`Tolerance::parallel`], [`Tolerance::coplanar`] and their kin; `Tolerance::angle`
 /// reports it.
 pub const ANGLE: f64 = 1e-5;
+/// Normals closer than this (radians) are one plane computed twice (from other points of it,
+/// or copied), which differ by rounding only. Not the angle tolerance: where one of two planes
+/// is dropped for the other (a hull's face triangles, a cut's cap against a face already
+/// there), planes [`ANGLE`] apart would leave or add a wedge `ANGLE` times the cell's size
+/// thick, more than the distance tolerance on a cell tens of metres across, and the cells of
+/// generated levels moved (issue 71). [`ANGLE`] judges whether faces are parallel (they face
+/// each other, they pair), not whether one plane may stand for another across a whole cell.
+pub const RECOMPUTED: f64 = 1e-9;
 /// Two features each within the distance tolerance of one place are within twice it of each
 /// other: the multiple for "touching" (a face on a plane another face lies on, a point on a
 /// face of a cell built from other points).
@@ -49,8 +89,8 @@ impl Tolerance {
     /// f64 rounding is the last bound: 64 epsilons of it (32 to 64 ulps), as a point turned,
     /// scaled and moved far out, then measured against a plane as far out, comes within a few
     /// ulps of where it should, and two copies of one vertex must not fall either side of a
-    /// plane (at four, a 0.13 m L-shaped room 1.9e5 m out lost a corner of a face and 11% of
-    /// a cell's volume; tests/cells_props.rs).
+    /// plane (at four, a small room far out lost a corner of a face and part of a cell's
+    /// volume; tests/cells_props.rs).
     pub(crate) fn derive(
         extent: f64,
         spacing: f64,
@@ -59,9 +99,9 @@ impl Tolerance {
         max_distance: f64,
     ) -> Tolerance {
         let input_precision =
-            (steps * spacing.max(0.0)).max(64.0 * f64::EPSILON * world_abs.max(0.0));
-        let floor = 1e-9 * extent.max(0.0);
-        let wanted = input_precision.max(floor).max(1e-12);
+            (steps * spacing.max(0.0)).max(WORLD_ULPS * f64::EPSILON * world_abs.max(0.0));
+        let floor = NOISE_FLOOR * extent.max(0.0);
+        let wanted = input_precision.max(floor).max(SMALLEST_DISTANCE);
         let capped = wanted > max_distance;
         Tolerance {
             distance: wanted.min(max_distance),
@@ -73,7 +113,7 @@ impl Tolerance {
 
     /// Volumes below this are empty: a slab of tolerance thickness over the extent squared.
     pub fn volume(&self, extent: f64) -> f64 {
-        self.distance * extent.max(1e-9).powi(2)
+        self.distance * extent.max(SMALLEST_EXTENT).powi(2)
     }
 
     /// The distance within which two features, each within `eps` of one place, touch.
@@ -87,6 +127,12 @@ impl Tolerance {
         (a - b).length_squared() <= ANGLE * ANGLE
     }
 
+    /// Unit normals `a` and `b` point opposite ways within [`ANGLE`]: two faces that face each
+    /// other (the two sides of a wall, of a portal).
+    pub fn facing(a: DVec3, b: DVec3) -> bool {
+        Tolerance::parallel(a, -b)
+    }
+
     /// Unit normals `a` and `b` lie on one line, either way, within [`ANGLE`].
     pub fn aligned(a: DVec3, b: DVec3) -> bool {
         Tolerance::parallel(a, b) || Tolerance::parallel(a, -b)
@@ -95,6 +141,19 @@ impl Tolerance {
     /// Unit normals `a` and `b` are square to each other within [`ANGLE`].
     pub fn square(a: DVec3, b: DVec3) -> bool {
         a.dot(b).abs() <= ANGLE
+    }
+
+    /// `p` and `q` are one plane computed twice, facing one way: normals within
+    /// [`RECOMPUTED`], offsets within `dist`. For dropping one plane for the other.
+    pub fn recomputed(p: &Plane, q: &Plane, dist: f64) -> bool {
+        p.same_as(q, dist, RECOMPUTED)
+    }
+
+    /// Directions `u` and `v` in a plane (any length, not zero) lie along one line, either way,
+    /// within [`ANGLE`]: two edges along one wall, which cross nowhere that means anything.
+    /// Their sine is compared, which (unlike the cosine) keeps its precision near 0.
+    pub fn along(u: DVec2, v: DVec2) -> bool {
+        u.perp_dot(v).abs() <= ANGLE * u.length() * v.length()
     }
 
     /// `p` and `q` are one plane, facing one way: normals within [`ANGLE`], offsets within

@@ -24,6 +24,30 @@ use crate::scene::{NodeId, Scene};
 use crate::tags::rules::{Facing, PortalKind};
 use crate::tags::{AuthoredPortal, Tagging};
 
+/// How far (radians) an authored portal may be turned off the derived portals it stands for:
+/// not the angle tolerance, as a portal is drawn by hand, and a few degrees off the wall still
+/// means that wall (which derived portals it covers is settled by distance and overlap).
+pub(crate) const HAND_DRAWN: f64 = 0.05;
+
+/// How many tolerances a derived portal may lie off an authored quad's plane beyond the wall
+/// thickness and still be the one it covers: the derived portal is on a cell's face, within
+/// a tolerance of the wall's side, and the quad's centre is measured from its own points.
+const QUAD_REACH: f64 = 10.0;
+
+/// How many tolerances off its own plane a vertex of an authored portal may lie before the
+/// flattening is reported, with [`FLAT_ENOUGH`] as the floor: exporters write a quad to a
+/// few digits, and one off by less was drawn flat.
+const OFF_PLANE: f64 = 10.0;
+
+/// The floor (m) of the tolerance that report scales: a drawn quad less than a millimetre
+/// ([`OFF_PLANE`] of these) off its plane is flat, however fine the level's tolerance.
+const FLAT_ENOUGH: f64 = 1e-4;
+
+/// How many tolerances (at least) in front of and behind an unmatched quad are probed for
+/// the cells it lies between, when half the wall thickness is less: far enough off the
+/// quad's plane that the probe falls in the cell, not on its face.
+const PROBE: f64 = 100.0;
+
 /// An authored portal's geometry: centroid, unit normal (from its winding), convex outline.
 struct Quad {
     centre: DVec3,
@@ -179,7 +203,7 @@ pub(crate) fn link(
     set: &mut PortalSet,
 ) {
     let eps = cells.tolerance.distance;
-    let probe = (cfg.max_wall_thickness * 0.5).max(100.0 * eps);
+    let probe = (cfg.max_wall_thickness * 0.5).max(PROBE * eps);
     let l = Linking {
         scene,
         tagging,
@@ -221,7 +245,7 @@ fn prepare_quads(
     eps: f64,
 ) -> Vec<(Option<Quad>, Vec<usize>)> {
     // Authored portals are drawn by hand: a few degrees off the wall still means that wall.
-    let cos_tol = (0.05f64).cos();
+    let cos_tol = HAND_DRAWN.cos();
     // The derived portals, by their bounds: an authored quad is compared with those near it.
     let near = BoxGrid::new(
         set.portals
@@ -235,9 +259,13 @@ fn prepare_quads(
         .map(|ap| {
             let q = quad(scene, ap.node, eps);
             let candidates = match &q {
-                Some(q) if ap.kind == PortalKind::Plain => {
-                    overlapping(q, set, &near, cfg.max_wall_thickness + 10.0 * eps, cos_tol)
-                }
+                Some(q) if ap.kind == PortalKind::Plain => overlapping(
+                    q,
+                    set,
+                    &near,
+                    cfg.max_wall_thickness + QUAD_REACH * eps,
+                    cos_tol,
+                ),
                 _ => Vec::new(),
             };
             (q, candidates)
@@ -287,7 +315,7 @@ impl Linking<'_> {
                 .hint("split it into convex portals, one per opening, or make it convex"),
             );
         }
-        if q.max_off_plane > 10.0 * eps.max(1e-4) {
+        if q.max_off_plane > OFF_PLANE * eps.max(FLAT_ENOUGH) {
             set.diagnostics.push(
                 Diagnostic::new(
                     Code::PORTAL_NOT_PLANAR,

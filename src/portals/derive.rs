@@ -9,7 +9,7 @@
 //! its size) unless `geom/cover.rs` shows them covered (most shared walls, floors and ceilings; an
 //! opening the boolean would keep leaves at least 28·eps² uncovered, so skipping changes no
 //! portal). Cracks narrower than the crack width (`[cells] crack_width`, the cell stage's, one
-//! absolute width) are cut from what is left (`geom/crack.rs`: a stair 1.4e-5 m short of a
+//! absolute width) are cut from what is left (`geom/crack.rs`: a stair a hair short of a
 //! jamb), and openings thinner on average than that or ten tolerances are dropped; each
 //! opening is partitioned into convex pieces (or hulled), and the pieces (and the claims) get the
 //! exact input coordinates back, a corner where two input edges cross on their crossing
@@ -43,6 +43,7 @@ use crate::geom::grid::BoxGrid;
 use crate::geom::partition::{convex_partition, Polygon2};
 use crate::geom::plane::Plane;
 use crate::geom::polyhedron::{convex_ring_on_plane, polygon_area, usable_polygon};
+use crate::geom::tolerance::Tolerance;
 use crate::scene::Scene;
 use crate::tags::Tagging;
 
@@ -83,13 +84,40 @@ fn diagonal((lo, hi): (DVec2, DVec2)) -> f64 {
 
 /// The booleans' grid on a face: 2^-24 of its size, so that where a face's openings are cut
 /// depends on the face alone, not on the tolerance (on a grid of half the tolerance, a door
-/// jamb 5e-6 m off plumb was cut at its top corner or at its bottom one as the tolerance
-/// went; panda3d). Finer than f32 coordinates on the face; i_overlay's i32 engine holds it.
+/// jamb a fraction of a tolerance off plumb was cut at its top corner or at its bottom one as
+/// the tolerance went). Finer than f32 coordinates on the face; i_overlay's i32 engine holds it.
 fn face_grid(ring: &[DVec2]) -> f64 {
     (diagonal(ring_bounds(ring.iter())) * FACE_GRID).max(f64::MIN_POSITIVE)
 }
 
 const FACE_GRID: f64 = 1.0 / (1u64 << 24) as f64;
+
+/// An opening (or a face region nothing blocks) narrower on average than this many
+/// tolerances is float noise, not a way through: what snapping and the grown covers can leave
+/// of a closed wall is a few tolerances wide (see [`Limits::closed`]).
+pub(crate) const NOISE_WIDTH: f64 = 10.0;
+
+/// Pieces smaller than this share of a tolerance squared are dropped as a region is cut:
+/// leftovers of cutting along edges that meet within a tolerance.
+const SLIVER_SHARE: f64 = 1.0 / 64.0;
+
+/// The thickest slab the blockers are asked about, beyond the wall reach, in tolerances: a
+/// slab spans the gap (at most the reach) and a tolerance either side, and one more allows
+/// for the rounding of the gap.
+const SLAB_MARGIN: f64 = 3.0;
+
+/// The tilt (radians: metres per metre of the two cells' size) the face pairs' prefilter
+/// allows for: a face whose plane is further from the other cell's box than the reach, plus
+/// this times both cells' size, faces nothing of it. A hundred times [`ANGLE`], so a face
+/// tilted within the angle tolerance is never filtered out, whatever the lever.
+///
+/// [`ANGLE`]: crate::geom::tolerance::ANGLE
+const TILT_PAD: f64 = 1e-3;
+
+/// The cells in the gap between two faces are looked for only in a gap wider than this many
+/// tolerances: a cell must reach into it by more than a tolerance past each face's own
+/// tolerance to stand between them.
+const ROOM_BETWEEN: f64 = 4.0;
 
 /// A ring without the vertices that lie within `tol` of the chord between their neighbours
 /// (and between them along it). The booleans snap to a grid: on a level turned off its axes, a
@@ -137,10 +165,10 @@ pub(crate) fn name_rank(cells: &CellSet, tagging: &Tagging) -> Vec<u32> {
 /// (`geom/crack.rs`), if that is at least `min_width` wide on average, or, with `disc` (between
 /// generated cells), holds a disc as wide as a crack somewhere: what a ray as thick as a crack
 /// passes. Tagged levels keep the average alone, so their verdicts stay what they were (a
-/// wedge beside a panda3d stair, 10.75 mm at its widest, stays a crack there). A region nothing
-/// blocks (`clear`: a face two cells of the same air share, on one plane) is no gap between
-/// blockers: it is kept whole however narrow (a sliver cell's face), unless it is float noise
-/// (under ten tolerances wide on average).
+/// wedge beside a stair, a little wider than a crack at its widest, stays a crack there). A
+/// region nothing blocks (`clear`: a face two cells of the same air share, on one plane) is
+/// no gap between blockers: it is kept whole however narrow (a sliver cell's face), unless it
+/// is float noise (under ten tolerances wide on average).
 fn opening(o: &Polygon2, k: &Limits, clear: bool, disc: bool) -> Option<Polygon2> {
     let straight = Polygon2 {
         outer: drop_near_collinear(&o.outer, k.eps),
@@ -151,10 +179,10 @@ fn opening(o: &Polygon2, k: &Limits, clear: bool, disc: bool) -> Option<Polygon2
             .collect(),
     };
     if clear {
-        return Some(straight).filter(|o| o.mean_width() >= 10.0 * k.eps);
+        return Some(straight).filter(|o| o.mean_width() >= NOISE_WIDTH * k.eps);
     }
     // Wide enough on average, or wide enough somewhere: a wedge a crack-thick ray passes
-    // (11.7 mm across, 5.9 mm on average, beside a pipe's flange on gi_zdm2) is an opening.
+    // (wider than a crack across, half that on average) is an opening.
     without_cracks(&straight, k.crack).filter(|o| {
         o.mean_width() >= k.min_width || (disc && k.crack > 0.0 && holds_disc(o, 0.98 * k.crack))
     })
@@ -197,7 +225,7 @@ pub(crate) fn derive(
     let reach = k.reach;
     // The blockers' index and the cell pairs are built side by side (each is one pass).
     let (opaque, (near_cells, pairs)) = rayon::join(
-        || Opaque::new(scene, tagging, cells, reach + 3.0 * k.eps),
+        || Opaque::new(scene, tagging, cells, reach + SLAB_MARGIN * k.eps),
         || cells.pairs_in_order(reach),
     );
     k.crack = cells.crack;
@@ -217,7 +245,7 @@ pub(crate) fn derive(
     // Generated cells tile the air the reading found: what lies between two of them is a
     // solid's inside or air it left out, never a wall to bridge. Bridging it (sight only
     // straight through, along the normal) lost the rays that cross such a gap slantwise and
-    // leave it sideways (gi_zdm2: a 40 cm gap between slabs of air).
+    // leave it sideways (a gap between slabs of air of a generated reading).
     let generated = |c: usize| {
         (tagging.generated.as_deref()).is_some_and(|g| g.boxes_of(cells.cells[c].room).is_some())
     };
@@ -522,12 +550,12 @@ impl Limits {
     fn new(eps: f64, cfg: &PortalsConfig) -> Limits {
         Limits {
             eps,
-            min_width: 10.0 * eps,
+            min_width: NOISE_WIDTH * eps,
             crack: 0.0,
             reach: cfg.max_wall_thickness + eps,
             closed: eps * eps,
             grow: eps,
-            sliver: eps * eps / 64.0,
+            sliver: SLIVER_SHARE * eps * eps,
         }
     }
 }
@@ -579,16 +607,16 @@ struct PairContext<'a> {
 
 fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) -> PairOpenings {
     let (eps, reach) = (cx.k.eps, cx.k.reach);
-    // Faces this close to opposite are treated as facing each other.
-    let cos_tol = (1e-4f64).cos();
     let mut out = PairOpenings::default();
     let ca = &cx.cells.cells[a];
     let cb = &cx.cells.cells[b];
     // Two faces that share a region are nearer each other than the wall reach, plus what a
-    // tilt within the angle tolerance (1e-4 rad) can add across either cell, plus snapping;
+    // tilt within the angle tolerance can add across either cell, plus snapping;
     // a face whose plane is further than that from the other cell's box is not looked at (a
     // cell pair meets along one or two faces of each, out of six or more).
-    let pad = reach + 2.0 * eps + 1e-3 * (ca.bounds.size().length() + cb.bounds.size().length());
+    let pad = reach
+        + Tolerance::touching(eps)
+        + TILT_PAD * (ca.bounds.size().length() + cb.bounds.size().length());
     let near = |faces: &[crate::geom::polyhedron::Face], other: &Aabb| -> Vec<usize> {
         (0..faces.len())
             .filter(|&i| plane_meets_box(&faces[i].plane, other, pad))
@@ -609,7 +637,8 @@ fn pair_openings(a: usize, b: usize, cx: &PairContext, shadows: &mut Shadows) ->
         for (ib, box_b) in &near_b {
             let (ib, fb) = (*ib, &cb.poly.faces[*ib]);
             let na = fa.plane.normal;
-            if na.dot(fb.plane.normal) > -cos_tol || !box_a.meets(box_b) {
+            // Faces within the angle tolerance of opposite face each other.
+            if !Tolerance::facing(na, fb.plane.normal) || !box_a.meets(box_b) {
                 continue;
             }
             // How far fb is in front of fa, measured at the two faces themselves (each face's
@@ -752,7 +781,7 @@ impl<'f> FacePair<'f> {
         }
         let (lo, hi) = (self.fa.plane.d - eps, self.fa.plane.d + gap + eps);
         let (slo, shi, bb, beside) = self.cast_shadows(cx, lo, hi, shadows);
-        let between = if gap > 4.0 * eps {
+        let between = if gap > ROOM_BETWEEN * eps {
             cells_between(
                 self.a,
                 self.b,
@@ -809,7 +838,7 @@ impl<'f> FacePair<'f> {
         let (slo, shi) = ring_bounds(self.shared.iter().flat_map(|s| s.outer.iter()));
         let thin = gap <= eps;
         let beside = NEAR * diagonal((slo, shi));
-        let reach = 2.0 * eps;
+        let reach = Tolerance::touching(eps);
         let (slo, shi) = (slo - DVec2::splat(reach), shi + DVec2::splat(reach));
         let mut near = Aabb::EMPTY;
         for t in [-eps - beside, gap + eps + beside] {
@@ -920,8 +949,8 @@ impl<'f> FacePair<'f> {
     ) {
         let (eps, k, gap, grid) = (cx.k.eps, cx.k, self.gap, self.grid);
         let sides = [
-            (self.a, lo - beside, lo + 2.0 * eps + beside),
-            (self.b, hi - 2.0 * eps - beside, hi + beside),
+            (self.a, lo - beside, lo + Tolerance::touching(eps) + beside),
+            (self.b, hi - Tolerance::touching(eps) - beside, hi + beside),
         ];
         for (cell, from, to) in sides {
             let mut cover: Vec<&[DVec2]> = shadows
@@ -991,8 +1020,8 @@ fn cells_between(
     // Only a cell whose box reaches into the gap by more than the tolerance can lie in it; the
     // cells beside the two (the rooms along the same wall) only touch its edges.
     let (lo, hi) = (
-        bb.min + DVec3::splat(2.0 * eps),
-        bb.max - DVec3::splat(2.0 * eps),
+        bb.min + DVec3::splat(Tolerance::touching(eps)),
+        bb.max - DVec3::splat(Tolerance::touching(eps)),
     );
     for k in near_cells.query(bb, 0.0) {
         let kb = &cells.cells[k].bounds;

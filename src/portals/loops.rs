@@ -25,6 +25,13 @@ use super::{Portal, PortalSet};
 /// Rounds of a loop allowed before its images are far enough away to stop, when they never
 /// get farther than the level is wide (a loop that turns instead of drifting).
 const MAX_ROUNDS: usize = 8;
+/// A transform composed round a loop is the identity when every entry is within this of
+/// it: composing a few f64 transforms loses about 1e-15, a million times less.
+const BACK_HOME: f64 = 1e-9;
+/// The distance tolerance of following sightlines through transformed portals, as a share
+/// of the level's extent (at least a metre): the floor of f64 noise the geometry's own
+/// tolerance has too ([`crate::geom::tolerance`]), as the portals carry no tolerance here.
+const FOLLOW_NOISE: f64 = 1e-9;
 /// No run-time recursion deeper than this is ever recommended.
 pub(crate) const MAX_DEPTH: usize = 64;
 
@@ -123,7 +130,7 @@ fn rounds(m: DMat4, point: DVec3, extent: f64) -> usize {
     let mut acc = m;
     for k in 1..=MAX_ROUNDS {
         let moved = (acc.transform_point3(point) - point).length();
-        let back = acc.abs_diff_eq(DMat4::IDENTITY, 1e-9);
+        let back = acc.abs_diff_eq(DMat4::IDENTITY, BACK_HOME);
         if moved > extent || back {
             return k;
         }
@@ -135,7 +142,7 @@ fn rounds(m: DMat4, point: DVec3, extent: f64) -> usize {
 /// Every cycle of sightlines through at least one transformed portal, each once (shortest
 /// first, then by portal index).
 pub fn find_loops(set: &PortalSet, extent: f64) -> Vec<TransformLoop> {
-    let eps = 1e-9 * extent.max(1.0);
+    let eps = FOLLOW_NOISE * extent.max(1.0);
     let graph = follow_graph(set, eps);
     let mut found: Vec<TransformLoop> = Vec::new();
     let mut keys: Vec<Vec<usize>> = Vec::new();

@@ -158,7 +158,7 @@ fn cracks_closed(scene: &Scene, cells: &CellSet, set: &PortalSet) -> Option<Diag
             Code::CRACKS_CLOSED,
             format!(
                 "the crack width ({}) closed {} gap(s) narrower than it ({} among solid blocks, {} between the blockers of openings); the widest, {} across, is here",
-                crack_named(cells.crack, 10.0 * cells.tolerance.distance, mm),
+                crack_named(cells.crack, derive::NOISE_WIDTH * cells.tolerance.distance, mm),
                 all.count,
                 cells.closed.count,
                 set.closed.count,

@@ -104,7 +104,7 @@ impl Frame2 {
             let e = pts[(i + 1) % pts.len()] - pts[i];
             let e = e - n * e.dot(n);
             let len = e.length();
-            if len > 0.0 && best.is_none_or(|(l, _)| len > l * (1.0 + 1e-9)) {
+            if len > 0.0 && best.is_none_or(|(l, _)| len > l * (1.0 + LONGER)) {
                 best = Some((len, e / len));
             }
         }
@@ -143,8 +143,8 @@ pub(crate) struct Slab<'a> {
     /// the tolerance. A triangle wholly on or in front of one lies outside that cell, and the
     /// face, a part of the cell's boundary, meets it along a line at most: it casts no shadow.
     /// A sliver cell's own side walls lie within a degree of the face it shares with its
-    /// neighbour and touch it at the tip; cast whole, they covered all but 0.79 m of a 4.7 m
-    /// face (Freedoom E3M3, a 4 cm wedge).
+    /// neighbour and touch it at the tip; cast whole, they covered most of the face (a Doom
+    /// sector's thin wedge).
     pub beyond: &'a [crate::geom::plane::Plane],
 }
 
@@ -316,7 +316,7 @@ impl Opaque {
     /// Indexes triangles (indices into `verts`, world space).
     fn from_triangles(verts: Vec<DVec3>, tris: Vec<[u32; 3]>, thick: f64) -> Opaque {
         // Margin over the rounding of a slab's thickness and of a triangle's extent.
-        let wide = thick * (1.0 + 1e-9);
+        let wide = thick * (1.0 + ROUNDING);
         let group: Vec<u8> = tris
             .par_iter()
             .map(|t| skippable_by(&t.map(|v| verts[v as usize]), wide))
@@ -403,6 +403,15 @@ fn outside_either(t: &[DVec3; 3], planes: &[crate::geom::plane::Plane]) -> bool 
 /// it: its shadow is then at most 1e-12 of the slab's thickness wide, so it blocks nothing.
 const STANDING: f64 = 1e-12;
 
+/// An edge is longer than another (to pick a face's frame) only by more than this share:
+/// edges of one length to rounding keep the first, so the frame does not hang on the last
+/// bits of a turned level.
+const LONGER: f64 = 1e-9;
+
+/// The margin, as a share, over the rounding of a slab's thickness and of a triangle's
+/// extent: an f64 sum loses about 1e-16 of it, far under this and far over nothing.
+const ROUNDING: f64 = 1e-9;
+
 /// A triangle tilted further than this (its normal's cosine to the slab's) from a slab's
 /// planes stands across it; within it, the triangle lies on them. Standing across a thin
 /// slab, its part inside (a strip along the line where it meets the plane, the slab's
@@ -415,9 +424,10 @@ const TILTED: f64 = 0.999_847_695_156_391_2;
 /// How far a triangle within a degree of a thin slab's plane may lie beside the slab and still
 /// lie on the face, as a share of the face's size: a sightline through the gap between them
 /// is within a twentieth of a degree of grazing the face. Modelled levels are that far off
-/// their own footprints (panda3d's walls 1.4e-5 m off a cell's side, 0.2 mm under a stair),
-/// further than their coordinates' precision, so no tolerance from the precision closes the
-/// gap at every factor, and whether it was closed moved with the tolerance.
+/// their own footprints (walls a few tolerances off a cell's side, a fraction of a millimetre
+/// under a stair), further than their coordinates' precision, so no tolerance from the
+/// precision closes the gap at every factor, and whether it was closed moved with the
+/// tolerance.
 pub(crate) const NEAR: f64 = 1e-3;
 
 /// The axis `n` lies on exactly (its other two components zero), if any: then `n·p` is
@@ -481,17 +491,16 @@ fn slab_shadow(t: &[DVec3; 3], slab: &Slab, out: &mut Vec<DVec2>) -> bool {
             // Lying within a degree of the slab's planes, across one of them or beside it
             // within `near`: a wall or floor on the face, modelled a little off it or bent,
             // and all of it covers. Its part within the slab would be a strip as wide as the
-            // distance to the plane over the sine of the angle, so it moved with both:
-            // panda3d's floor rising 4 mm over half a metre left the rest of a cell's bottom
-            // open to the exterior at one tolerance and closed at another.
+            // distance to the plane over the sine of the angle, so it moved with both: a floor
+            // rising a few millimetres over half a metre left the rest of a cell's bottom open
+            // to the exterior at one tolerance and closed at another.
             out.extend(t.iter().map(|p| slab.frame.to2(*p)));
         } else if beside || slab.thin {
             // Beside the slab, a tilted triangle is not on the face. Through a thin slab
             // (a wall meeting the face at an angle) its part inside is a strip along the line
             // where it meets the plane: an edge, not a cover. Kept, it ate a strip of a few
-            // tolerances off the side of an L room's diagonal portal (at 30 degrees and more)
-            // and of Doom sectors' slanted portals (at 23 and 9.6 degrees, E1M2), and so the
-            // portal's area moved with the tolerance.
+            // tolerances off the side of an L room's diagonal portal and of Doom sectors'
+            // slanted portals, and so the portal's area moved with the tolerance.
             return false;
         } else {
             // A triangle clipped by two planes has at most five corners.

@@ -43,10 +43,10 @@ pub use graph::{VisGraph, VisPortal};
 /// Default sightlines per directed portal for `sampled`.
 pub const DEFAULT_SAMPLES: usize = 2000;
 
-/// Default portal tests the `full` flow may make in all (about a minute of one core at the
-/// 1.8 µs a test costs on gi_zdm2's cells): no shipped or shared level of rooms comes near
-/// half of it, while open levels of thousands of small cells (an arena, a town) would
-/// otherwise take hours. See `full.rs`.
+/// Default portal tests the `full` flow may make in all (about a minute of one core at a
+/// couple of microseconds a test): no shipped or shared level of rooms comes near half of it,
+/// while open levels of thousands of small cells (an arena, a town) would otherwise take
+/// hours. See `full.rs`.
 pub const DEFAULT_FLOW_BUDGET: u64 = 1 << 25;
 
 /// How to compute a PVS.

@@ -9,6 +9,16 @@ use glam::DVec3;
 
 use crate::geom::plane::Plane;
 
+/// The margin, as a share, a bounding sphere's radius gets over the rounding of the distances
+/// it was measured from (about 1e-16 of them), so every corner is inside it.
+const RADIUS_MARGIN: f64 = 1e-12;
+
+/// A separating plane's normal, the cross product of an edge and the direction to a corner,
+/// shorter than 1e-10 of their lengths (this is its square) is rounding's, not a plane: its
+/// direction would be off by a millionth of a radian or more. Not the angle tolerance: a
+/// plane through a corner nearly on the edge's line, but clearly off it, still separates.
+const DEGENERATE2: f64 = 1e-20;
+
 /// What a chop left.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Chop {
@@ -155,7 +165,7 @@ pub fn sphere(poly: &[DVec3]) -> (DVec3, f64) {
         .iter()
         .map(|v| v.distance_squared(c))
         .fold(0.0, f64::max);
-    (c, r2.sqrt() * (1.0 + 1e-12))
+    (c, r2.sqrt() * (1.0 + RADIUS_MARGIN))
 }
 
 /// The planes that separate `source` from `pass` (through an edge of `source` and a corner of
@@ -254,7 +264,7 @@ fn separating(
     let pj = pass[j];
     let len2 = n.length_squared();
     // Degenerate edge/corner triples make no plane.
-    if len2 < 1e-20 * v1l2 * (pj - a).length_squared() {
+    if len2 < DEGENERATE2 * v1l2 * (pj - a).length_squared() {
         return None;
     }
     let len = len2.sqrt();

@@ -69,6 +69,12 @@ use crate::format::Annotated;
 use crate::format::Pvs;
 use clip::Half;
 
+/// A portal's transform whose determinant is smaller than this (in magnitude) squashes space
+/// flat, or nearly: its inverse, which places what is seen through it, is not to be trusted.
+/// (A level's transforms are rigid or mirror motions, of determinant ±1, or scale by a factor
+/// in the tens at most.)
+const SINGULAR: f64 = 1e-12;
+
 /// What kind of opening a portal is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
@@ -328,7 +334,7 @@ impl Level {
             Some(m) => {
                 let m = DMat4::from_cols_array(&m);
                 let det = m.determinant();
-                if !(det.is_finite() && det.abs() > 1e-12) {
+                if !(det.is_finite() && det.abs() > SINGULAR) {
                     return Err(LevelError::Singular(i));
                 }
                 self.transforms.push((m, m.inverse()));

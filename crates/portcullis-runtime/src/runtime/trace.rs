@@ -31,13 +31,34 @@ pub struct View {
     near: f64,
 }
 
-/// Why a camera cannot be used.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ViewError(pub String);
+/// Why a camera cannot be used: which of [`View::new`]'s arguments is unusable. The messages
+/// are the JavaScript port's (`ViewError` in js/portcullis-three/runtime.js), word for word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewError {
+    /// The eye has a coordinate that is infinite or not a number.
+    EyeNotFinite,
+    /// The look direction is zero (or not finite).
+    NoLook,
+    /// The up direction is zero, along the look direction, or not finite.
+    UpAlongLook,
+    /// The vertical field of view is not strictly between 0 and 180 degrees.
+    FovOutOfRange,
+    /// The aspect ratio is not a positive finite width / height.
+    AspectNotPositive,
+    /// The near plane's distance is not a positive finite distance.
+    NearNotPositive,
+}
 
 impl std::fmt::Display for ViewError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+        f.write_str(match self {
+            ViewError::EyeNotFinite => "eye is not a finite point",
+            ViewError::NoLook => "look has no direction",
+            ViewError::UpAlongLook => "up has no direction across look (parallel or zero)",
+            ViewError::FovOutOfRange => "fov_y must lie strictly between 0 and 180 degrees",
+            ViewError::AspectNotPositive => "aspect must be a positive width / height",
+            ViewError::NearNotPositive => "near must be a positive distance",
+        })
     }
 }
 
@@ -54,25 +75,24 @@ impl View {
         aspect: f64,
         near: f64,
     ) -> Result<View, ViewError> {
-        let err = |m: &str| Err(ViewError(m.to_string()));
         let eye = DVec3::from(eye);
         if !eye.is_finite() {
-            return err("eye is not a finite point");
+            return Err(ViewError::EyeNotFinite);
         }
         let Some(forward) = DVec3::from(look).try_normalize() else {
-            return err("look has no direction");
+            return Err(ViewError::NoLook);
         };
         let Some(right) = forward.cross(DVec3::from(up)).try_normalize() else {
-            return err("up has no direction across look (parallel or zero)");
+            return Err(ViewError::UpAlongLook);
         };
         if !(fov_y_degrees > 0.0 && fov_y_degrees < 180.0) {
-            return err("fov_y must lie strictly between 0 and 180 degrees");
+            return Err(ViewError::FovOutOfRange);
         }
         if !(aspect.is_finite() && aspect > 0.0) {
-            return err("aspect must be a positive width / height");
+            return Err(ViewError::AspectNotPositive);
         }
         if !(near.is_finite() && near > 0.0) {
-            return err("near must be a positive distance");
+            return Err(ViewError::NearNotPositive);
         }
         let tan_y = (fov_y_degrees.to_radians() / 2.0).tan();
         Ok(View {
@@ -215,6 +235,11 @@ pub struct Visible {
 }
 
 const NONE: u32 = u32::MAX;
+
+/// Two draw transforms are one when every entry agrees within this share of their size (one
+/// plus the largest translation): the same path of portals composed in another order differs
+/// by a few ulps, about 1e-16 of it, and two different placements by far more.
+const SAME_TRANSFORM: f64 = 1e-9;
 
 /// The view of one path into a visible cell (its screen polygon and 3D clip planes),
 /// chained per cell.
@@ -361,7 +386,7 @@ impl Trace {
             Some((d, _)) => self.visible.iter().position(|v| {
                 v.cell == f.cell
                     && v.transform.is_some_and(|t| {
-                        t.abs_diff_eq(*d, 1e-9 * (1.0 + d.w_axis.abs().max_element()))
+                        t.abs_diff_eq(*d, SAME_TRANSFORM * (1.0 + d.w_axis.abs().max_element()))
                     })
             }),
         };
@@ -879,6 +904,8 @@ impl Level {
         g: &'s mut Vec<[f64; 2]>,
         out: &Trace,
     ) -> Option<(&'s [[f64; 2]], [f64; 4])> {
+        /// The slack (NDC units) of the rectangle tests and clips: a hair, for the rounding of
+        /// a projection, a millionth of a pixel on any screen.
         const EPS: f64 = 1e-9;
         let p = frame.rect;
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -906,11 +933,11 @@ impl Level {
         }
         // A view pinched to a line or a point sees nothing. Each clip keeps a hair (EPS) of
         // slack, so a pinched view is a sliver some hairs wide, not an empty one: an eye on
-        // the plane through aligned portal edges saw through a chain of 11 portals along it
-        // (Freedoom E1M2, cells the stored PVS rightly leaves out). The threshold sits far
-        // above what the slack can add up to (a hair per clip) and far below a pixel (10^6
-        // hairs), so rounding never decides it: at four hairs, turning the level and the
-        // camera together by 30 degrees showed or hid such slivers (Freedoom MAP01).
+        // the plane through aligned portal edges saw through a chain of portals along it
+        // (into cells the stored PVS rightly leaves out). The threshold sits far above what
+        // the slack can add up to (a hair per clip) and far below a pixel (10^6 hairs), so
+        // rounding never decides it: at four hairs, turning the level and the camera together
+        // showed or hid such slivers.
         const PINCH: f64 = 1e-6;
         if clip::area2(f) <= PINCH * clip::perimeter2(f) {
             return None;
