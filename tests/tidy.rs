@@ -1617,3 +1617,157 @@ fn the_figure_checker_sees_a_table_without_its_command() {
             .map(|(a, b)| (a.to_string(), b.to_string()))
     );
 }
+
+/// The modules whose distance and angle tests go through the tolerance (ARCHITECTURE.md,
+/// "Invariants"): a threshold there is the level's tolerance, a named multiple of it, or a
+/// named `const` with its reason, never a bare number, so that one change of policy reaches
+/// every test and a reader can tell a tolerance from a budget.
+const TOLERANCE_MODULES: &[(&str, &str)] = &[
+    ("src", "geom"),
+    ("src", "cells"),
+    ("src", "portals"),
+    ("src", "vis"),
+    ("crates/portcullis-runtime/src", "runtime"),
+];
+
+/// The smallest float literal allowed bare: 1/100 is a fraction (a hundredth of a width, a
+/// percent), anything finer a tolerance that must be named.
+const SMALLEST_BARE: f64 = 1e-2;
+
+/// The float literals below [`SMALLEST_BARE`] in `text` outside `const` and `static` items and
+/// test items: (line, literal).
+fn bare_thresholds(text: &str) -> Vec<(usize, String)> {
+    let code = code_lines(&without_test_items(text));
+    let mut out = Vec::new();
+    let mut in_const = false;
+    for (i, line) in code.iter().enumerate() {
+        let t = line.trim_start();
+        let t = t
+            .strip_prefix("pub(crate) ")
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .or_else(|| t.strip_prefix("pub "))
+            .unwrap_or(t);
+        if t.starts_with("const ") || t.starts_with("static ") {
+            in_const = true;
+        }
+        if !in_const {
+            for lit in float_literals(line) {
+                let v: f64 = lit
+                    .trim_end_matches("f64")
+                    .trim_end_matches("f32")
+                    .trim_end_matches('_')
+                    .replace('_', "")
+                    .parse()
+                    .unwrap_or(0.0);
+                if v > 0.0 && v < SMALLEST_BARE {
+                    out.push((i + 1, lit));
+                }
+            }
+        }
+        if in_const && line.contains(';') {
+            in_const = false;
+        }
+    }
+    out
+}
+
+/// The float literals of one line of code (a `.`, an exponent or an `f32`/`f64` suffix; not a
+/// tuple field `x.0`, a range `0..3` or an integer).
+fn float_literals(line: &str) -> Vec<String> {
+    let b = line.as_bytes();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = b[i].is_ascii_digit()
+            && (i == 0
+                || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_' || b[i - 1] == b'.'));
+        if !starts {
+            i += 1;
+            continue;
+        }
+        let from = i;
+        let digits = |i: &mut usize| {
+            while *i < b.len() && (b[*i].is_ascii_digit() || b[*i] == b'_') {
+                *i += 1;
+            }
+        };
+        digits(&mut i);
+        let mut float = false;
+        if i + 1 < b.len() && b[i] == b'.' && b[i + 1].is_ascii_digit() {
+            float = true;
+            i += 1;
+            digits(&mut i);
+        } else if i < b.len()
+            && b[i] == b'.'
+            && !(i + 1 < b.len()
+                && (b[i + 1] == b'.' || b[i + 1].is_ascii_alphabetic() || b[i + 1] == b'_'))
+        {
+            float = true; // `1.`
+            i += 1;
+        }
+        if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+            let mut j = i + 1;
+            if j < b.len() && (b[j] == b'-' || b[j] == b'+') {
+                j += 1;
+            }
+            if j < b.len() && b[j].is_ascii_digit() {
+                float = true;
+                i = j;
+                digits(&mut i);
+            }
+        }
+        let rest = &line[i..];
+        if rest.starts_with("f64") || rest.starts_with("f32") {
+            float = true;
+            i += 3;
+        } else if rest.starts_with("_f64") || rest.starts_with("_f32") {
+            float = true;
+            i += 4;
+        }
+        if float {
+            out.push(line[from..i].to_string());
+        }
+    }
+    out
+}
+
+#[test]
+fn no_bare_threshold_in_the_geometry_modules() {
+    let mut bare = Vec::new();
+    for &(root, module) in TOLERANCE_MODULES {
+        for (rel, text) in production_sources(root) {
+            if module_of(&rel).as_deref() != Some(module) {
+                continue;
+            }
+            for (line, lit) in bare_thresholds(&text) {
+                bare.push(format!("{root}/{}:{line}: `{lit}`", rel.display()));
+            }
+        }
+    }
+    assert!(
+        bare.is_empty(),
+        "bare thresholds below {SMALLEST_BARE} (use the tolerance's rules, geom::tolerance, or a named const with its reason):\n{}",
+        bare.join("\n")
+    );
+}
+
+#[test]
+fn the_threshold_finder_sees_a_bare_literal_and_passes_a_named_one() {
+    let named = "/// Why.\nconst SLIVER: f64 = 1e-9;\npub(crate) const LONG: f64 =\n    0.001;\n\
+                 fn f(x: f64, eps: f64) -> bool {\n    x < 2.0 * eps && x.0 > 0.5 && (0..3).len() > 1\n}\n\
+                 #[cfg(test)]\nmod tests {\n    fn g() -> f64 { 1e-12 }\n}\n";
+    assert_eq!(bare_thresholds(named), vec![]);
+    let added = named.replace("x < 2.0 * eps", "x < 1e-9 && y < 0.001_f64 && z < 5e-3");
+    assert_eq!(
+        bare_thresholds(&added),
+        vec![
+            (6, "1e-9".to_string()),
+            (6, "0.001_f64".to_string()),
+            (6, "5e-3".to_string())
+        ]
+    );
+    assert_eq!(
+        float_literals("a.0 + 1.5e+3 + 2. + 7u8 + 0..2 + x.max(1.0)"),
+        vec!["1.5e+3", "2.", "1.0"]
+    );
+}
