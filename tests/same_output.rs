@@ -74,16 +74,7 @@ fn cases(heavy: bool, scratch: &Path) -> (Vec<Case>, Vec<String>) {
         }
         return (out, missing);
     }
-    let mut samples: Vec<PathBuf> = std::fs::read_dir(common::root().join("samples"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.extension()
-                .is_some_and(|x| ["gltf", "glb", "obj", "map"].iter().any(|e| x == *e))
-        })
-        .collect();
-    samples.sort();
+    let samples = common::sample_levels();
     for s in samples {
         let name = format!("sample {}", s.file_name().unwrap().to_string_lossy());
         out.push(convert(&name, &s, &[]));

@@ -109,16 +109,7 @@ fn every_shared_brush_map_converted_keeps_its_verdict() {
 
 #[test]
 fn every_sample_converted_keeps_its_verdict() {
-    let mut all: Vec<PathBuf> = std::fs::read_dir(common::root().join("samples"))
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .filter(|p| {
-            p.extension()
-                .is_some_and(|x| ["gltf", "glb", "obj", "map"].iter().any(|e| x == *e))
-        })
-        .collect();
-    all.sort();
+    let all = common::sample_levels();
     let (judged, differ) = judge(&all);
     eprintln!("{judged} samples judged, {} differ", differ.len());
     assert!(judged >= 30, "only {judged} samples read");

@@ -343,6 +343,21 @@ pub fn levels_and_samples() -> Vec<(PathBuf, Option<&'static str>)> {
     levels
 }
 
+/// Every sample level (`samples/*.gltf`, `.glb`, `.obj`, `.map`; not `samples/broken`), sorted.
+pub fn sample_levels() -> Vec<PathBuf> {
+    let mut all: Vec<PathBuf> = std::fs::read_dir(root().join("samples"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|x| ["gltf", "glb", "obj", "map"].iter().any(|e| x == *e))
+        })
+        .collect();
+    all.sort();
+    all
+}
+
 /// A level of `../shared/levels` (`rel` below it), or `None` with a message when `../shared`
 /// is not beside the clone (the tests that need it skip).
 pub fn shared(rel: &str) -> Option<PathBuf> {
